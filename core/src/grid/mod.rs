@@ -1,0 +1,50 @@
+//! Layered grid maps: one [`GridGeometry`], many flat row-major layers ([`Grid<T>`]).
+
+mod geometry;
+mod inflate;
+mod occupancy;
+
+pub use geometry::{Cell, GridGeometry};
+pub use inflate::inflate_lethal;
+pub use occupancy::{CellClass, OccupancyGrid, FREE, LETHAL, LETHAL_THRESHOLD, UNKNOWN};
+
+use serde::{Deserialize, Serialize};
+
+/// One layer: a value per cell on flat row-major storage (`data.len() == geometry.len()`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Grid<T> {
+    pub geometry: GridGeometry,
+    pub data: Vec<T>,
+}
+
+impl<T: Clone> Grid<T> {
+    /// A layer filled with `value`.
+    pub fn filled(geometry: GridGeometry, value: T) -> Self {
+        Self { data: vec![value; geometry.len()], geometry }
+    }
+}
+
+impl<T> Grid<T> {
+    /// Wraps `data`; `None` if its length does not match the geometry.
+    pub fn from_vec(geometry: GridGeometry, data: Vec<T>) -> Option<Self> {
+        (data.len() == geometry.len()).then_some(Self { geometry, data })
+    }
+
+    /// The value at `cell`, if inside.
+    #[inline]
+    pub fn get(&self, cell: Cell) -> Option<&T> {
+        self.geometry.index(cell).map(|i| &self.data[i])
+    }
+
+    /// Mutable value at `cell`, if inside.
+    #[inline]
+    pub fn get_mut(&mut self, cell: Cell) -> Option<&mut T> {
+        self.geometry.index(cell).map(|i| &mut self.data[i])
+    }
+
+    /// The value under world point (x, y), if inside.
+    #[inline]
+    pub fn at_world(&self, x_m: f64, y_m: f64) -> Option<&T> {
+        self.geometry.cell_of(x_m, y_m).and_then(|c| self.get(c))
+    }
+}

@@ -1,0 +1,34 @@
+//! # fitslam-core
+//!
+//! FIT-SLAM (Fisher Information and Traversability estimation-based Active SLAM) for ground
+//! robots: every algorithm of the method, pure and deterministic, compiling natively and to
+//! `wasm32-unknown-unknown`. No files, clocks, threads, printing, GUI or ROS here: loaders take
+//! bytes, randomness takes a seeded RNG. The equations are specified in
+//! `docs/fitslam-paper-notes.md` (referred to as "notes §N").
+//!
+//! | module | what |
+//! |---|---|
+//! | [`grid`] | one geometry, flat layers, ROS occupancy convention, inflation |
+//! | [`io`] | map_server YAML + PGM, PNG, PCD, PLY, CSV, LAS: bytes in, typed errors out |
+//! | [`traversability`] | per-cell slope / step / roughness from 3D points (notes §2) |
+//! | [`frontier`] | WFD frontiers, clusters, candidates, blacklist (notes §3) |
+//! | [`path`] | A* and one Dijkstra (notes §4) |
+//! | [`utility`] | u1 (entropy rays, Θ*) and u2 (bearing FIM along the path) (notes §5–6) |
+//! | [`select`] | goal selectors: FIT-SLAM, greedy, random, u1-only, with the whole ranking (notes §7) |
+//! | [`params`] | every parameter with the paper's defaults |
+
+pub mod cloud;
+pub mod frontier;
+pub mod grid;
+pub mod io;
+pub mod params;
+pub mod path;
+pub mod pose;
+pub mod select;
+pub mod traversability;
+pub mod utility;
+
+pub use cloud::PointCloud;
+pub use grid::{Cell, Grid, GridGeometry, OccupancyGrid};
+pub use params::Params;
+pub use pose::Pose2;

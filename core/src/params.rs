@@ -1,0 +1,400 @@
+//! Every tunable of the planner in one typed struct, with the paper's defaults.
+//!
+//! Read from TOML or YAML; unknown keys are rejected so that a typo never silently falls back to
+//! a default. The studio exports exactly this struct and the robot node reads exactly this struct.
+//! Angles are radians, lengths metres (suffixes say so).
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// All planner parameters. `Params::default()` holds the paper's values (notes §8).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    pub grid: GridParams,
+    pub robot: RobotParams,
+    pub camera: CameraParams,
+    pub traversability: TraversabilityParams,
+    pub frontier: FrontierParams,
+    pub planner: PlannerParams,
+    pub u1: U1Params,
+    pub u2: U2Params,
+    pub selector: SelectorParams,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            grid: GridParams::default(),
+            robot: RobotParams::default(),
+            camera: CameraParams::default(),
+            traversability: TraversabilityParams::default(),
+            frontier: FrontierParams::default(),
+            planner: PlannerParams::default(),
+            u1: U1Params::default(),
+            u2: U2Params::default(),
+            selector: SelectorParams::default(),
+        }
+    }
+}
+
+/// Map geometry.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GridParams {
+    /// Traversability cell size, metres (about a wheel). Default 0.05 (paper).
+    pub resolution_m: f64,
+}
+
+impl Default for GridParams {
+    fn default() -> Self {
+        Self { resolution_m: 0.05 }
+    }
+}
+
+/// The robot (LeoRover: 0.447 × 0.433 m footprint, ~0.4 m/s).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotParams {
+    /// Radius lethal cells are inflated by for planning, metres. Default 0.25 (LeoRover
+    /// half-width 0.22 m plus a 3 cm margin).
+    pub radius_m: f64,
+    /// Height of the camera's optical centre above the ground, metres. Default 0.2.
+    pub camera_height_m: f64,
+}
+
+impl Default for RobotParams {
+    fn default() -> Self {
+        Self { radius_m: 0.25, camera_height_m: 0.2 }
+    }
+}
+
+/// The depth camera (Intel RealSense D435).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraParams {
+    /// Horizontal field of view Φ, radians. Default 87° (D435 depth).
+    pub hfov_rad: f64,
+    /// Vertical field of view Φ_v, radians. Default 58° (D435 depth).
+    pub vfov_rad: f64,
+    /// Minimum depth, metres. Default 0.3 (D435 minimum at full resolution ≈ 0.28 m).
+    pub min_depth_m: f64,
+    /// Maximum useful depth d_max, metres: ray length in u1, waypoint spacing in u2. Default 3.0.
+    pub max_depth_m: f64,
+}
+
+impl Default for CameraParams {
+    fn default() -> Self {
+        Self { hfov_rad: 87f64.to_radians(), vfov_rad: 58f64.to_radians(), min_depth_m: 0.3, max_depth_m: 3.0 }
+    }
+}
+
+/// Traversability estimation from 3D points (notes §2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TraversabilityParams {
+    /// Radius of the disc whose points are fused per cell, metres. Default 0.15.
+    pub disc_radius_m: f64,
+    /// Slope at which hazard reaches 1, radians. Default 30°.
+    pub max_slope_rad: f64,
+    /// Height difference within the disc at which hazard reaches 1, metres. Default 0.2.
+    pub max_step_m: f64,
+    /// Roughness (RMS distance to the plane) at which hazard reaches 1, metres. Default 0.05.
+    pub max_roughness_m: f64,
+    /// Fewer points than this in the disc: the cell is unknown. Default 5.
+    pub min_points: u32,
+    /// Risk acceptance τ: score ≥ τ is free, below is lethal. Default 0.5.
+    pub tau: f64,
+}
+
+impl Default for TraversabilityParams {
+    fn default() -> Self {
+        Self {
+            disc_radius_m: 0.15,
+            max_slope_rad: 30f64.to_radians(),
+            max_step_m: 0.2,
+            max_roughness_m: 0.05,
+            min_points: 5,
+            tau: 0.5,
+        }
+    }
+}
+
+/// Frontier detection and clustering (notes §3).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FrontierParams {
+    /// Clusters smaller than this are dropped, cells. Default 5 (0.25 m at 0.05 m).
+    pub min_cluster_cells: usize,
+    /// Linked chains are split into clusters of at most this many cells. Default 40 (2 m).
+    pub max_cluster_cells: usize,
+    /// Two goals closer than this are the same goal for the blacklist, metres. Default 0.5.
+    pub blacklist_radius_m: f64,
+}
+
+impl Default for FrontierParams {
+    fn default() -> Self {
+        Self { min_cluster_cells: 5, max_cluster_cells: 40, blacklist_radius_m: 0.5 }
+    }
+}
+
+/// Path planning (notes §4).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlannerParams {
+    /// Whether unknown cells may be crossed. Default false (paper).
+    pub allow_unknown: bool,
+}
+
+impl Default for PlannerParams {
+    fn default() -> Self {
+        Self { allow_unknown: false }
+    }
+}
+
+/// First-level utility u1 (notes §5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct U1Params {
+    /// α: weight of the path-length term; 1 − α weights the entropy term. Default 0.35 (paper).
+    pub alpha: f64,
+    /// Δθ: angle between rays, radians. Default 8.5° (paper).
+    pub delta_theta_rad: f64,
+    /// γ: per-cell visibility degradation along a ray, in (0, 1]. Default 0.99 at 0.05 m.
+    pub gamma: f64,
+}
+
+impl Default for U1Params {
+    fn default() -> Self {
+        Self { alpha: 0.35, delta_theta_rad: 8.5f64.to_radians(), gamma: 0.99 }
+    }
+}
+
+/// How I_p is normalised over the N candidates (notes §6, eq. 12).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InfoNormalisation {
+    /// Divide by the largest path information among the candidates (paper).
+    Max,
+    /// Divide by the mean path information among the candidates.
+    Mean,
+}
+
+/// Second-level utility u2 (notes §6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct U2Params {
+    /// β: weight of u1 in u2; 1 − β weights the path information. Default 0.4 (paper).
+    pub beta: f64,
+    /// N: how many of the best candidates by u1 are re-ranked. Default 7 (paper).
+    pub top_n: usize,
+    /// Landmark voxel edge, metres. Default 0.25 (paper).
+    pub voxel_m: f64,
+    /// Waypoint spacing along a path, metres; `None` uses the camera's max depth (paper).
+    pub waypoint_spacing_m: Option<f64>,
+    /// Bearing noise σ_b, radians. Default 0.01.
+    pub sigma_bearing_rad: f64,
+    /// Landmark position noise σ_l used when a landmark has no covariance, metres. Default 0.05.
+    pub sigma_landmark_m: f64,
+    /// Normalisation of I_p. Default `max` (paper).
+    pub normalisation: InfoNormalisation,
+}
+
+impl Default for U2Params {
+    fn default() -> Self {
+        Self {
+            beta: 0.4,
+            top_n: 7,
+            voxel_m: 0.25,
+            waypoint_spacing_m: None,
+            sigma_bearing_rad: 0.01,
+            sigma_landmark_m: 0.05,
+            normalisation: InfoNormalisation::Max,
+        }
+    }
+}
+
+/// Which goal selector runs (notes §7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Strategy {
+    /// FIT-SLAM: u1 then u2.
+    Fit,
+    /// Nearest reachable candidate by path length.
+    Greedy,
+    /// Uniform among reachable candidates (seeded).
+    Random,
+    /// Ablation: u1 only (β = 1).
+    U1,
+}
+
+/// Selector choice.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SelectorParams {
+    /// Strategy. Default `fit`.
+    pub strategy: Strategy,
+    /// Seed for the random selector.
+    pub seed: u64,
+}
+
+impl Default for SelectorParams {
+    fn default() -> Self {
+        Self { strategy: Strategy::Fit, seed: 0 }
+    }
+}
+
+/// A parameter file that could not be read.
+#[derive(Debug, Error)]
+pub enum ParamsError {
+    #[error("{source_name}: invalid TOML: {message}")]
+    Toml { source_name: String, message: String },
+    #[error("{source_name}: invalid YAML: {message}")]
+    Yaml { source_name: String, message: String },
+    #[error("{source_name}: {message}")]
+    Invalid { source_name: String, message: String },
+}
+
+impl Params {
+    /// Parses TOML text; `source_name` (usually the file name) is quoted in errors.
+    pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
+        let p: Params = toml::from_str(text)
+            .map_err(|e| ParamsError::Toml { source_name: source_name.into(), message: e.to_string().trim().into() })?;
+        p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
+        Ok(p)
+    }
+
+    /// Parses YAML text; `source_name` is quoted in errors.
+    pub fn from_yaml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
+        let p: Params = serde_yaml::from_str(text)
+            .map_err(|e| ParamsError::Yaml { source_name: source_name.into(), message: e.to_string() })?;
+        p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
+        Ok(p)
+    }
+
+    /// Parses TOML or YAML by the file name's extension (`.toml`, `.yaml`/`.yml`).
+    pub fn from_bytes(bytes: &[u8], source_name: &str) -> Result<Self, ParamsError> {
+        let text = std::str::from_utf8(bytes)
+            .map_err(|_| ParamsError::Invalid { source_name: source_name.into(), message: "not UTF-8 text".into() })?;
+        let lower = source_name.to_ascii_lowercase();
+        if lower.ends_with(".yaml") || lower.ends_with(".yml") {
+            Self::from_yaml(text, source_name)
+        } else {
+            Self::from_toml(text, source_name)
+        }
+    }
+
+    /// TOML text of these parameters.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// YAML text of these parameters (the robot node's parameter file).
+    pub fn to_yaml(&self) -> String {
+        serde_yaml::to_string(self).unwrap_or_default()
+    }
+
+    /// Checks ranges; returns a message naming the first bad field.
+    pub fn validate(&self) -> Result<(), String> {
+        fn pos(name: &str, v: f64) -> Result<(), String> {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number > 0 (got {v})")) }
+        }
+        fn unit(name: &str, v: f64) -> Result<(), String> {
+            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} must be in [0, 1] (got {v})")) }
+        }
+        pos("grid.resolution_m", self.grid.resolution_m)?;
+        if !(self.robot.radius_m >= 0.0 && self.robot.radius_m.is_finite()) {
+            return Err(format!("robot.radius_m must be ≥ 0 (got {})", self.robot.radius_m));
+        }
+        if !self.robot.camera_height_m.is_finite() {
+            return Err("robot.camera_height_m must be finite".into());
+        }
+        pos("camera.hfov_rad", self.camera.hfov_rad)?;
+        pos("camera.vfov_rad", self.camera.vfov_rad)?;
+        if self.camera.hfov_rad > std::f64::consts::TAU || self.camera.vfov_rad >= std::f64::consts::PI {
+            return Err("camera.hfov_rad must be ≤ 2π and camera.vfov_rad < π".into());
+        }
+        pos("camera.max_depth_m", self.camera.max_depth_m)?;
+        if !(self.camera.min_depth_m >= 0.0 && self.camera.min_depth_m < self.camera.max_depth_m) {
+            return Err("camera.min_depth_m must be in [0, camera.max_depth_m)".into());
+        }
+        pos("traversability.disc_radius_m", self.traversability.disc_radius_m)?;
+        pos("traversability.max_slope_rad", self.traversability.max_slope_rad)?;
+        pos("traversability.max_step_m", self.traversability.max_step_m)?;
+        pos("traversability.max_roughness_m", self.traversability.max_roughness_m)?;
+        unit("traversability.tau", self.traversability.tau)?;
+        if self.frontier.max_cluster_cells == 0 || self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
+            return Err("frontier: need 0 < min_cluster_cells ≤ max_cluster_cells".into());
+        }
+        if !(self.frontier.blacklist_radius_m >= 0.0 && self.frontier.blacklist_radius_m.is_finite()) {
+            return Err("frontier.blacklist_radius_m must be ≥ 0".into());
+        }
+        unit("u1.alpha", self.u1.alpha)?;
+        pos("u1.delta_theta_rad", self.u1.delta_theta_rad)?;
+        if self.u1.delta_theta_rad > std::f64::consts::TAU {
+            return Err("u1.delta_theta_rad must be ≤ 2π".into());
+        }
+        if !(self.u1.gamma > 0.0 && self.u1.gamma <= 1.0) {
+            return Err(format!("u1.gamma must be in (0, 1] (got {})", self.u1.gamma));
+        }
+        unit("u2.beta", self.u2.beta)?;
+        if self.u2.top_n == 0 {
+            return Err("u2.top_n must be ≥ 1".into());
+        }
+        pos("u2.voxel_m", self.u2.voxel_m)?;
+        if let Some(s) = self.u2.waypoint_spacing_m {
+            pos("u2.waypoint_spacing_m", s)?;
+        }
+        pos("u2.sigma_bearing_rad", self.u2.sigma_bearing_rad)?;
+        if !(self.u2.sigma_landmark_m >= 0.0 && self.u2.sigma_landmark_m.is_finite()) {
+            return Err("u2.sigma_landmark_m must be ≥ 0".into());
+        }
+        Ok(())
+    }
+
+    /// Waypoint spacing d_max actually used by u2.
+    pub fn waypoint_spacing_m(&self) -> f64 {
+        self.u2.waypoint_spacing_m.unwrap_or(self.camera.max_depth_m)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_papers() {
+        let p = Params::default();
+        assert_eq!(p.u1.alpha, 0.35);
+        assert_eq!(p.u2.beta, 0.4);
+        assert!((p.u1.delta_theta_rad.to_degrees() - 8.5).abs() < 1e-12);
+        assert_eq!(p.u2.top_n, 7);
+        assert_eq!(p.grid.resolution_m, 0.05);
+        assert_eq!(p.u2.voxel_m, 0.25);
+        assert!((p.camera.hfov_rad.to_degrees() - 87.0).abs() < 1e-12);
+        assert!(p.validate().is_ok());
+    }
+
+    #[test]
+    fn toml_and_yaml_round_trip() {
+        let mut p = Params::default();
+        p.u1.alpha = 0.5;
+        p.selector.strategy = Strategy::Greedy;
+        p.u2.waypoint_spacing_m = Some(2.0);
+        assert_eq!(Params::from_toml(&p.to_toml(), "t.toml").unwrap(), p);
+        assert_eq!(Params::from_yaml(&p.to_yaml(), "t.yaml").unwrap(), p);
+    }
+
+    #[test]
+    fn partial_files_keep_defaults_and_unknown_keys_are_rejected() {
+        let p = Params::from_toml("[u1]\nalpha = 0.2\n", "p.toml").unwrap();
+        assert_eq!(p.u1.alpha, 0.2);
+        assert_eq!(p.u2.beta, 0.4);
+        let e = Params::from_toml("[u1]\nalpah = 0.2\n", "p.toml").unwrap_err().to_string();
+        assert!(e.contains("p.toml") && e.contains("alpah"), "{e}");
+        let e = Params::from_yaml("u2:\n  bta: 0.1\n", "p.yaml").unwrap_err().to_string();
+        assert!(e.contains("p.yaml") && e.contains("bta"), "{e}");
+        let e = Params::from_toml("[u1]\nalpha = 2.0\n", "p.toml").unwrap_err().to_string();
+        assert!(e.contains("u1.alpha"), "{e}");
+    }
+}

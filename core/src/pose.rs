@@ -1,0 +1,34 @@
+//! Planar robot pose in the map frame (REP-103: yaw counter-clockwise from +x).
+
+use serde::{Deserialize, Serialize};
+
+/// `map_from_robot` in the plane: position in metres, yaw in radians.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pose2 {
+    pub x_m: f64,
+    pub y_m: f64,
+    pub yaw_rad: f64,
+}
+
+impl Pose2 {
+    pub const fn new(x_m: f64, y_m: f64, yaw_rad: f64) -> Self {
+        Self { x_m, y_m, yaw_rad }
+    }
+
+    /// Whether every field is finite.
+    pub fn is_finite(&self) -> bool {
+        self.x_m.is_finite() && self.y_m.is_finite() && self.yaw_rad.is_finite()
+    }
+}
+
+/// Wraps an angle to [0, 2π).
+pub fn wrap_tau(angle_rad: f64) -> f64 {
+    let a = angle_rad.rem_euclid(std::f64::consts::TAU);
+    if a >= std::f64::consts::TAU { 0.0 } else { a }
+}
+
+/// Wraps an angle to (−π, π].
+pub fn wrap_pi(angle_rad: f64) -> f64 {
+    let a = wrap_tau(angle_rad);
+    if a > std::f64::consts::PI { a - std::f64::consts::TAU } else { a }
+}
