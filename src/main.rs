@@ -1,1 +1,36 @@
-fn main() {}
+//! `fitslam`: the command-line face of fitslam-core. Thin: it reads files, calls the core, and
+//! prints or writes the result. Errors print one line and exit non-zero.
+
+mod load;
+mod traversability_cmd;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// FIT-SLAM active SLAM for ground robots.
+#[derive(Parser, Debug)]
+#[command(name = "fitslam", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
+    Traversability(traversability_cmd::TraversabilityArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Traversability(a) => traversability_cmd::run(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -15,9 +15,11 @@
 //! | [`path`] | A* and one Dijkstra (notes §4) |
 //! | [`utility`] | u1 (entropy rays, Θ*) and u2 (bearing FIM along the path) (notes §5–6) |
 //! | [`select`] | goal selectors: FIT-SLAM, greedy, random, u1-only, with the whole ranking (notes §7) |
+//! | [`sim`] | ground-truth world: heightfields (procedural, real DEM), noise |
 //! | [`params`] | every parameter with the paper's defaults |
 
 pub mod cloud;
+pub mod fixtures;
 pub mod frontier;
 pub mod grid;
 pub mod io;
@@ -25,6 +27,8 @@ pub mod params;
 pub mod path;
 pub mod pose;
 pub mod select;
+pub mod slam;
+pub mod sim;
 pub mod traversability;
 pub mod utility;
 

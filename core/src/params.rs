@@ -95,10 +95,17 @@ impl Default for CameraParams {
 pub struct TraversabilityParams {
     /// Radius of the disc whose points are fused per cell, metres. Default 0.15.
     pub disc_radius_m: f64,
-    /// Slope at which hazard reaches 1, radians. Default 30°.
+    /// Slope at which hazard reaches 1, radians. Default 35°: 30° put a 15° ramp exactly at
+    /// τ = 0.5 (a coin flip in floating point); 35° makes slopes up to 17.5° free at τ = 0.5.
     pub max_slope_rad: f64,
-    /// Height difference within the disc at which hazard reaches 1, metres. Default 0.2.
+    /// Height difference within the disc at which hazard reaches 1, metres. Default 0.15: with
+    /// the step measured from the fitted plane (below), steps ≥ 7.5 cm (a 10 cm kerb) are lethal
+    /// at τ = 0.5 and a 15° ramp (≈ 2 cm residual at 5 cm cells) is not.
     pub max_step_m: f64,
+    /// Measure the step relative to the disc's fitted plane (true) or as the raw max z − min z of
+    /// notes §2 (false). Default true: the raw step counts a ramp's rise across the disc (8 cm
+    /// for 15° over 0.3 m) as a step, so no `max_step_m` accepts the ramp and rejects a kerb.
+    pub step_relative_to_plane: bool,
     /// Roughness (RMS distance to the plane) at which hazard reaches 1, metres. Default 0.05.
     pub max_roughness_m: f64,
     /// Fewer points than this in the disc: the cell is unknown. Default 5.
@@ -111,8 +118,9 @@ impl Default for TraversabilityParams {
     fn default() -> Self {
         Self {
             disc_radius_m: 0.15,
-            max_slope_rad: 30f64.to_radians(),
-            max_step_m: 0.2,
+            max_slope_rad: 35f64.to_radians(),
+            max_step_m: 0.15,
+            step_relative_to_plane: true,
             max_roughness_m: 0.05,
             min_points: 5,
             tau: 0.5,

@@ -1,1 +1,272 @@
-//! (in progress)
+//! Loaders and writers: bytes in, typed errors out.
+//!
+//! Every loader takes the file's bytes and a `source_name` (the file name, used only in error
+//! messages), never a path: the core does no file I/O. Every parser is total: hostile input gives
+//! an error, never a panic, and allocations are capped by the length of the input (a header that
+//! declares 10⁹ points in a 100-byte file is rejected before anything is reserved).
+//!
+//! | file | formats |
+//! |---|---|
+//! | [`ply`] | PLY ascii / binary little- and big-endian; writer: binary little-endian |
+//! | [`pcd`] | PCD v0.6/v0.7 ascii / binary / binary_compressed (LZF); writer: ascii or binary |
+//! | [`csv`] | `x,y,z[,covariance]` text |
+//! | [`las`] | LAS 1.0–1.4 via the `las` crate (LAZ when its `laz` feature is on) |
+//! | [`map_server`] | ROS map_server YAML + PGM (P2/P5, 8/16-bit) or PNG; writers: YAML+PGM, PNG |
+//!
+//! Point attributes shared by the formats that carry named fields (PLY, PCD):
+//! - `x`, `y`, `z` (required; any numeric type, metres);
+//! - `classification` (optional; also `scalar_Classification` as CloudCompare writes it, any
+//!   case): an integer 0–255, the ASPRS class;
+//! - covariance (optional, m²): all six of `cov_xx cov_xy cov_xz cov_yy cov_yz cov_zz` (the upper
+//!   triangle of the symmetric 3×3 position covariance), or none of them.
+//!
+//! Non-finite coordinates are an error naming the point (or line). Covariances must be finite with
+//! a non-negative diagonal.
+
+pub mod csv;
+mod image;
+#[cfg(feature = "las")]
+pub mod las;
+pub mod map_server;
+pub mod pcd;
+pub mod ply;
+
+#[cfg(test)]
+mod tests;
+
+pub use image::{write_png_gray8, write_png_rgb8};
+pub use map_server::{load_map, load_map_image, save_map, MapMode, MapThresholds, MapYaml};
+
+use crate::cloud::PointCloud;
+use nalgebra::Matrix3;
+use thiserror::Error;
+
+/// Why a point cloud could not be loaded. Every message starts with the source name.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum CloudError {
+    /// The extension is not one of .pcd, .ply, .csv, .las, .laz.
+    #[error("{name}: unknown point-cloud extension (expected .pcd, .ply, .csv, .las or .laz)")]
+    UnknownExtension { name: String },
+    /// The header is malformed or inconsistent (the detail says how).
+    #[error("{name}: {detail}")]
+    Header { name: String, detail: String },
+    /// A required field or property is missing (e.g. "vertex element has no 'z' property").
+    #[error("{name}: {detail}")]
+    MissingField { name: String, detail: String },
+    /// The header declares a number of points the data does not hold.
+    #[error("{name}: header says {keyword} {declared} but the data holds {found} points")]
+    WrongPointCount { name: String, keyword: &'static str, declared: u64, found: u64 },
+    /// A point whose x, y or z is NaN or infinite (`index` counts from 0 in file order).
+    #[error("{name}: point {index}: non-finite coordinate")]
+    NonFinitePoint { name: String, index: usize },
+    /// A text line that cannot be read (1-based line number).
+    #[error("{name}: line {line}: {detail}")]
+    Line { name: String, line: usize, detail: String },
+    /// A point's attribute is invalid (bad classification, negative variance, …).
+    #[error("{name}: point {index}: {detail}")]
+    Attribute { name: String, index: usize, detail: String },
+    /// A valid file using a feature this build does not support.
+    #[error("{name}: {what} is not supported")]
+    Unsupported { name: String, what: String },
+    /// An error reported by the `las` crate.
+    #[error("{name}: LAS: {detail}")]
+    Las { name: String, detail: String },
+}
+
+/// Why an occupancy map could not be loaded or written. Every message starts with the file name.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum MapError {
+    /// The YAML text does not parse (or is not a mapping).
+    #[error("{name}: invalid YAML: {detail}")]
+    Yaml { name: String, detail: String },
+    /// A key map_server requires is absent.
+    #[error("{name}: missing required key '{key}'")]
+    MissingKey { name: String, key: &'static str },
+    /// A key has a value of the wrong type or out of range.
+    #[error("{name}: key '{key}': {detail}")]
+    BadValue { name: String, key: &'static str, detail: String },
+    /// The origin has a non-zero yaw: the grid type is axis-aligned.
+    #[error("{name}: origin yaw {yaw_rad} rad is not zero: rotated maps are not supported (rotate the image instead)")]
+    RotatedOrigin { name: String, yaw_rad: f64 },
+    /// The image bytes are not a readable PGM or PNG.
+    #[error("{name}: {detail}")]
+    Image { name: String, detail: String },
+    /// Writer input whose size does not match the data.
+    #[error("image of {width} × {height} pixels needs {expected} bytes, got {got}")]
+    ImageSize { width: usize, height: usize, expected: usize, got: usize },
+}
+
+/// Loads a point cloud, choosing the parser from the extension of `source_name` (.pcd, .ply,
+/// .csv, .las, .laz; case-insensitive).
+pub fn load_cloud(bytes: &[u8], source_name: &str) -> Result<PointCloud, CloudError> {
+    let ext = extension(source_name);
+    match ext.as_deref() {
+        Some("ply") => ply::load_ply(bytes, source_name),
+        Some("pcd") => pcd::load_pcd(bytes, source_name),
+        Some("csv") => csv::load_csv(bytes, source_name),
+        Some("las") | Some("laz") => load_las_dispatch(bytes, source_name),
+        _ => Err(CloudError::UnknownExtension { name: source_name.to_string() }),
+    }
+}
+
+#[cfg(feature = "las")]
+fn load_las_dispatch(bytes: &[u8], source_name: &str) -> Result<PointCloud, CloudError> {
+    las::load_las(bytes, source_name)
+}
+
+#[cfg(not(feature = "las"))]
+fn load_las_dispatch(_bytes: &[u8], source_name: &str) -> Result<PointCloud, CloudError> {
+    Err(CloudError::Unsupported {
+        name: source_name.to_string(),
+        what: "LAS/LAZ (fitslam-core built without the `las` feature)".to_string(),
+    })
+}
+
+/// Lower-case extension of a file name (after the last '.' of the last path component).
+pub(crate) fn extension(name: &str) -> Option<String> {
+    let base = name.rsplit(['/', '\\']).next().unwrap_or(name);
+    let dot = base.rfind('.')?;
+    Some(base[dot + 1..].to_ascii_lowercase())
+}
+
+/// Names under which a per-point classification is accepted (compared case-insensitively).
+pub(crate) fn is_classification_name(name: &str) -> bool {
+    name.eq_ignore_ascii_case("classification") || name.eq_ignore_ascii_case("scalar_classification")
+}
+
+/// The accepted covariance field names, in the order of [`cov_from_upper`].
+pub(crate) const COV_NAMES: [&str; 6] = ["cov_xx", "cov_xy", "cov_xz", "cov_yy", "cov_yz", "cov_zz"];
+
+/// Symmetric 3×3 matrix from its upper triangle `xx xy xz yy yz zz`.
+pub(crate) fn cov_from_upper(u: [f64; 6]) -> Matrix3<f64> {
+    Matrix3::new(u[0], u[1], u[2], u[1], u[3], u[4], u[2], u[4], u[5])
+}
+
+/// Upper triangle `xx xy xz yy yz zz` of a 3×3 matrix.
+pub(crate) fn cov_to_upper(m: &Matrix3<f64>) -> [f64; 6] {
+    [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 1)], m[(1, 2)], m[(2, 2)]]
+}
+
+/// Checks a covariance: finite entries, non-negative diagonal. Returns a reason when invalid.
+pub(crate) fn check_cov(m: &Matrix3<f64>) -> Result<(), String> {
+    if m.iter().any(|v| !v.is_finite()) {
+        return Err("non-finite covariance".to_string());
+    }
+    if (0..3).any(|i| m[(i, i)] < 0.0) {
+        return Err("negative variance on the covariance diagonal".to_string());
+    }
+    Ok(())
+}
+
+/// A classification value read as a number: must be an integer in 0..=255.
+pub(crate) fn classification_of(v: f64) -> Result<u8, String> {
+    if v.fract() == 0.0 && (0.0..=255.0).contains(&v) {
+        Ok(v as u8)
+    } else {
+        Err(format!("classification {v} is not an integer in 0..=255"))
+    }
+}
+
+/// Where each attribute lives among a record's numeric fields (PLY properties, PCD fields).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct FieldMap {
+    pub xyz: [usize; 3],
+    pub classification: Option<usize>,
+    pub cov: Option<[usize; 6]>,
+}
+
+impl FieldMap {
+    /// Finds the attributes among `names`; `what` names the container in messages
+    /// (e.g. "vertex element", "FIELDS").
+    pub(crate) fn find<'a>(
+        names: impl Iterator<Item = &'a str> + Clone,
+        source_name: &str,
+        what: &str,
+        kind: &str,
+    ) -> Result<Self, CloudError> {
+        let position = |wanted: &str| names.clone().position(|n| n == wanted);
+        let mut xyz = [0usize; 3];
+        for (axis, slot) in ["x", "y", "z"].into_iter().zip(xyz.iter_mut()) {
+            *slot = position(axis).ok_or_else(|| CloudError::MissingField {
+                name: source_name.to_string(),
+                detail: format!("{what} has no '{axis}' {kind}"),
+            })?;
+        }
+        let classification = names.clone().position(is_classification_name);
+        let found: Vec<Option<usize>> = COV_NAMES.iter().map(|c| position(c)).collect();
+        let cov = if found.iter().all(Option::is_none) {
+            None
+        } else if let Some(missing) = found.iter().position(Option::is_none) {
+            return Err(CloudError::MissingField {
+                name: source_name.to_string(),
+                detail: format!(
+                    "{what} has some covariance {kind}s but no '{}' (all of {} are needed)",
+                    COV_NAMES[missing],
+                    COV_NAMES.join(" ")
+                ),
+            });
+        } else {
+            let mut c = [0usize; 6];
+            for (slot, f) in c.iter_mut().zip(found) {
+                *slot = f.unwrap_or(0);
+            }
+            Some(c)
+        };
+        Ok(Self { xyz, classification, cov })
+    }
+}
+
+/// Accumulates points and attributes, validating as it goes; shared by the named-field parsers.
+pub(crate) struct CloudBuilder<'a> {
+    name: &'a str,
+    map: FieldMap,
+    cloud: PointCloud,
+}
+
+impl<'a> CloudBuilder<'a> {
+    pub(crate) fn new(name: &'a str, map: FieldMap, capacity: usize) -> Self {
+        let cloud = PointCloud {
+            points: Vec::with_capacity(capacity),
+            covariances: map.cov.map(|_| Vec::with_capacity(capacity)),
+            classification: map.classification.map(|_| Vec::with_capacity(capacity)),
+        };
+        Self { name, map, cloud }
+    }
+
+    /// Adds one record given a getter for its numeric fields by index.
+    pub(crate) fn push(&mut self, field: impl Fn(usize) -> f64) -> Result<(), CloudError> {
+        let index = self.cloud.points.len();
+        let [ix, iy, iz] = self.map.xyz;
+        let p = nalgebra::Point3::new(field(ix), field(iy), field(iz));
+        if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+            return Err(CloudError::NonFinitePoint { name: self.name.to_string(), index });
+        }
+        let attr_err = |detail: String| CloudError::Attribute { name: self.name.to_string(), index, detail };
+        if let (Some(i), Some(out)) = (self.map.classification, self.cloud.classification.as_mut()) {
+            out.push(classification_of(field(i)).map_err(attr_err)?);
+        }
+        if let (Some(c), Some(out)) = (self.map.cov, self.cloud.covariances.as_mut()) {
+            let m = cov_from_upper(c.map(&field));
+            check_cov(&m).map_err(attr_err)?;
+            out.push(m);
+        }
+        self.cloud.points.push(p);
+        Ok(())
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.cloud.points.len()
+    }
+
+    pub(crate) fn finish(self) -> PointCloud {
+        self.cloud
+    }
+}
+
+/// Attributes of `cloud` that can be written: present and as long as the points.
+pub(crate) fn writable_attributes(cloud: &PointCloud) -> (Option<&[u8]>, Option<&[Matrix3<f64>]>) {
+    let n = cloud.points.len();
+    let class = cloud.classification.as_deref().filter(|c| c.len() == n);
+    let cov = cloud.covariances.as_deref().filter(|c| c.len() == n);
+    (class, cov)
+}

@@ -1,1 +1,107 @@
-//! (in progress)
+//! Goal selectors (notes §5–7): FIT-SLAM, greedy, random and u1-only, behind one trait, all on
+//! the same pipeline ([`candidates`]) and all returning the whole ranking ([`Decision`]).
+//!
+//! | file | what |
+//! |---|---|
+//! | [`candidates`] | inflate, robot cell (snap), frontiers, one Dijkstra, blacklist, rays, u1, u2 |
+//! | [`report`] | [`Decision`], [`CandidateReport`], [`DropReason`] (serde) |
+//! | [`fit`] | FIT-SLAM: u2 over the N best by u1 |
+//! | [`greedy`] | smallest ρ |
+//! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
+//! | [`u1_only`] | ablation: u1 alone |
+
+pub mod candidates;
+pub mod fit;
+pub mod greedy;
+pub mod random;
+pub mod report;
+pub mod u1_only;
+
+pub use fit::FitSlam;
+pub use greedy::Greedy;
+pub use random::RandomSelector;
+pub use report::{CandidateReport, Decision, DropReason};
+pub use u1_only::U1Only;
+
+use crate::frontier::{Blacklist, Boundary, FrontierError};
+use crate::grid::{Cell, OccupancyGrid};
+use crate::params::{Params, SelectorParams, Strategy};
+use crate::path::PathError;
+use crate::pose::Pose2;
+use crate::utility::{LandmarkVoxels, UtilityError};
+use thiserror::Error;
+
+/// Everything one decision needs.
+#[derive(Clone, Copy, Debug)]
+pub struct DecisionInput<'a> {
+    /// Thresholded traversability grid (0 free, 100 lethal, −1 unknown), NOT yet inflated.
+    pub grid: &'a OccupancyGrid,
+    /// Landmark voxels (built once per landmark set with [`LandmarkVoxels::new`]).
+    pub landmarks: &'a LandmarkVoxels,
+    /// The robot's pose in the map frame.
+    pub robot: Pose2,
+    /// Exploration boundary; `None` means the whole map.
+    pub boundary: Option<&'a Boundary>,
+    /// Blacklisted goals.
+    pub blacklist: &'a Blacklist,
+    /// Height of the (flat) ground in the map frame, metres; cameras sit `camera_height_m` above
+    /// it. Default 0.
+    pub ground_z_m: f64,
+}
+
+impl<'a> DecisionInput<'a> {
+    /// An input with no boundary and the ground at z = 0.
+    pub fn new(grid: &'a OccupancyGrid, landmarks: &'a LandmarkVoxels, robot: Pose2, blacklist: &'a Blacklist) -> Self {
+        Self { grid, landmarks, robot, boundary: None, blacklist, ground_z_m: 0.0 }
+    }
+
+    /// The same input with an exploration boundary.
+    pub fn with_boundary(mut self, boundary: &'a Boundary) -> Self {
+        self.boundary = Some(boundary);
+        self
+    }
+}
+
+/// Why no decision could be made (an empty frontier is not an error: `Decision::chosen` is
+/// `None`).
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum SelectError {
+    #[error("invalid parameters: {0}")]
+    InvalidParams(String),
+    #[error("grid has {data_len} values but its geometry has {cells} cells")]
+    GridSizeMismatch { data_len: usize, cells: usize },
+    #[error("robot pose is not finite")]
+    RobotPoseNotFinite,
+    #[error("robot at ({x_m}, {y_m}) m is outside the map")]
+    RobotOutsideMap { x_m: f64, y_m: f64 },
+    #[error("robot cell ({}, {}) is blocked and no free cell lies within {search_radius_m} m", .cell.col, .cell.row)]
+    RobotBlocked { cell: Cell, search_radius_m: f64 },
+    #[error("frontier detection: {0}")]
+    Frontier(#[from] FrontierError),
+    #[error("path planning: {0}")]
+    Path(#[from] PathError),
+    #[error("utility: {0}")]
+    Utility(#[from] UtilityError),
+}
+
+/// A goal selector: one decision from the current map, landmarks and robot pose.
+pub trait GoalSelector {
+    /// Ranks the frontier candidates and picks one.
+    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError>;
+
+    /// The strategy this selector implements.
+    fn strategy(&self) -> Strategy;
+}
+
+/// The selector named by `params.strategy` (the random one seeded with `params.seed`).
+pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
+    match params.strategy {
+        Strategy::Fit => Box::new(FitSlam),
+        Strategy::Greedy => Box::new(Greedy),
+        Strategy::Random => Box::new(RandomSelector::new(params.seed)),
+        Strategy::U1 => Box::new(U1Only),
+    }
+}
+
+#[cfg(test)]
+mod tests;

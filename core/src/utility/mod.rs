@@ -1,1 +1,41 @@
-//! (in progress)
+//! The utilities that rank frontier candidates (notes §5–6; paper §II-D).
+//!
+//! | file | what | paper |
+//! |---|---|---|
+//! | [`entropy`] | binary entropy `H`, visibility gain `g(N)` | eqs. 5–6 |
+//! | [`rays`] | the ray fan and per-ray gains `ΔE^θ` (Amanatides–Woo) | eqs. 3–6 |
+//! | [`theta_star`] | Θ* and ΔE: a circular sliding window of width Φ | eq. 7 |
+//! | [`u1`] | `u1 = α·ρ_min/ρ + (1 − α)·ΔE/ΔE_max` | eq. 2 |
+//! | [`voxels`] | landmarks binned into voxels with a 2D spatial index | §II-D |
+//! | [`fim`] | bearing Jacobian, bearing covariance, Fisher information and its trace | eqs. 8–9 |
+//! | [`u2`] | waypoints, camera poses, frustum, `I_p`, `u2 = β·u1 + (1 − β)·I_p` | eqs. 10–14 |
+
+pub mod entropy;
+pub mod fim;
+pub mod rays;
+pub mod theta_star;
+pub mod u1;
+pub mod u2;
+pub mod voxels;
+
+pub use entropy::{binary_entropy_bits, visibility_gain_bits, GainTable};
+pub use fim::{bearing_jacobian, information_matrix, trace_information, trace_information_general};
+pub use rays::{ray_count, RayFan};
+pub use theta_star::{theta_star, FovWindows, ThetaStar};
+pub use u1::u1_scores;
+pub use u2::{
+    camera_pose, normalise_path_information, path_information, u2_score, waypoints_along, Frustum, Waypoint,
+    WaypointReport,
+};
+pub use voxels::LandmarkVoxels;
+
+use thiserror::Error;
+
+/// Invalid input to a utility.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum UtilityError {
+    #[error("{name} is out of range (got {value})")]
+    InvalidParameter { name: &'static str, value: f64 },
+    #[error("the landmark cloud has {points} points but {covariances} covariances")]
+    CovarianceCountMismatch { points: usize, covariances: usize },
+}

@@ -1,0 +1,115 @@
+//! Wavefront frontier detection (WFD; notes §3, paper §II-C).
+//!
+//! A BFS over free cells from the robot's cell, 4-connected. With the planner's no-corner-cutting
+//! rule (a diagonal step needs both orthogonal neighbours passable, see [`crate::path`]) every
+//! diagonal move can be replaced by two orthogonal ones, so this is exactly the set of cells the
+//! 8-connected planner reaches with `allow_unknown = false`. A reached cell is a *frontier cell*
+//! when it has an unknown 4-neighbour inside the grid (the map's edge is not unknown space) and
+//! its centre lies inside the exploration [`Boundary`] (the BFS itself ignores the boundary: the
+//! robot may drive outside it to reach a frontier inside it).
+//!
+//! Flat arrays only: one `u8` state per cell and a `VecDeque` of indices. O(N) time and memory for
+//! N grid cells (the BFS touches only reachable cells; the state layer is allocated zeroed), plus
+//! O(F log F) to sort the F frontier cells by index, plus O(F·V) for a boundary of V vertices.
+
+use super::cluster::cluster_frontier;
+use super::{Boundary, FrontierCluster, FrontierError};
+use crate::grid::{Cell, CellClass, OccupancyGrid};
+use crate::params::FrontierParams;
+use std::collections::VecDeque;
+
+/// State layer values shared with the clustering step.
+pub(super) const UNREACHED: u8 = 0;
+pub(super) const REACHED: u8 = 1;
+pub(super) const FRONTIER: u8 = 2;
+
+/// The BFS: returns the state layer (every reachable free cell `REACHED` or `FRONTIER`) and the
+/// frontier cells' flat indices in increasing order.
+pub(super) fn wavefront(
+    grid: &OccupancyGrid,
+    robot: Cell,
+    boundary: Option<&Boundary>,
+) -> Result<(Vec<u8>, Vec<usize>), FrontierError> {
+    let g = grid.geometry;
+    if grid.data.len() != g.len() {
+        return Err(FrontierError::GridSizeMismatch { data_len: grid.data.len(), cells: g.len() });
+    }
+    let start = g.index(robot).ok_or(FrontierError::RobotOutsideMap(robot))?;
+    if CellClass::of(grid.data[start]) != CellClass::Free {
+        return Err(FrontierError::RobotNotFree(robot));
+    }
+    let (w, h) = (g.width, g.height);
+    let mut state = vec![UNREACHED; g.len()];
+    let mut queue = VecDeque::new();
+    let mut frontier = Vec::new();
+    state[start] = REACHED;
+    queue.push_back(start);
+    while let Some(i) = queue.pop_front() {
+        let (c, r) = (i % w, i / w);
+        let mut touches_unknown = false;
+        let mut visit = |j: usize| match CellClass::of(grid.data[j]) {
+            CellClass::Free => {
+                if state[j] == UNREACHED {
+                    state[j] = REACHED;
+                    queue.push_back(j);
+                }
+            }
+            CellClass::Unknown => touches_unknown = true,
+            CellClass::Lethal => {}
+        };
+        if c > 0 {
+            visit(i - 1);
+        }
+        if c + 1 < w {
+            visit(i + 1);
+        }
+        if r > 0 {
+            visit(i - w);
+        }
+        if r + 1 < h {
+            visit(i + w);
+        }
+        if touches_unknown
+            && boundary.is_none_or(|b| {
+                let (x_m, y_m) = g.center_of(g.cell_at(i));
+                b.contains(x_m, y_m)
+            })
+        {
+            state[i] = FRONTIER;
+            frontier.push(i);
+        }
+    }
+    frontier.sort_unstable();
+    Ok((state, frontier))
+}
+
+/// The reachable frontier cells (step 1 of [`detect_frontiers`]), in increasing flat index
+/// (row-major from the bottom-left). Errors as [`detect_frontiers`].
+pub fn frontier_cells(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Boundary>) -> Result<Vec<Cell>, FrontierError> {
+    let (_, frontier) = wavefront(grid, robot, boundary)?;
+    Ok(frontier.into_iter().map(|i| grid.geometry.cell_at(i)).collect())
+}
+
+/// WFD: BFS over passable cells (4-connected, which is exactly the reachable set of the
+/// 8-connected no-corner-cutting planner in [`crate::path`]) from `robot`; frontier cells = free
+/// cells with an unknown 4-neighbour, inside `boundary` (cell centre); then linked 8-connected,
+/// ordered along each chain, split into nearly equal clusters of at most `max_cluster_cells`,
+/// clusters under `min_cluster_cells` dropped (see [`super::cluster`]).
+///
+/// `grid` is the thresholded, inflated occupancy grid. Output order is deterministic: chains by
+/// their smallest flat index, then the pieces of a chain in chain order.
+///
+/// Errors: the robot's cell is outside the map or not free; `grid.data` does not match its
+/// geometry; `params.max_cluster_cells == 0`.
+pub fn detect_frontiers(
+    grid: &OccupancyGrid,
+    robot: Cell,
+    boundary: Option<&Boundary>,
+    params: &FrontierParams,
+) -> Result<Vec<FrontierCluster>, FrontierError> {
+    if params.max_cluster_cells == 0 {
+        return Err(FrontierError::ZeroMaxClusterCells);
+    }
+    let (mut state, frontier) = wavefront(grid, robot, boundary)?;
+    Ok(cluster_frontier(&grid.geometry, &mut state, &frontier, params))
+}

@@ -1,0 +1,167 @@
+//! LAS point clouds (ASPRS LAS 1.0–1.4) through the `las` crate, read from a `Cursor` over the
+//! bytes; LAZ when the crate's `laz` feature is enabled (see `core/Cargo.toml`), otherwise a
+//! clear "unsupported" error. Coordinates are `raw · scale + offset` in the file's units (no
+//! reprojection, no unit conversion); the ASPRS classification is kept. O(points).
+//!
+//! Before handing the bytes to the crate, the public header is checked here, because the crate
+//! trusts it: the point records (offset + count × record length) must lie inside the input for
+//! LAS, an extended VLR must fit in the input, and for LAZ the declared count may not exceed
+//! [`LAZ_MAX_POINTS_PER_BYTE`] × the file size. Points are then read in batches, so memory
+//! follows the points actually present.
+
+use super::CloudError;
+use crate::cloud::PointCloud;
+use nalgebra::Point3;
+use std::io::Cursor;
+
+/// Points read per batch.
+const BATCH_POINTS: u64 = 65_536;
+/// LAZ compresses a point to a few bytes; a thousand points per byte is beyond any real file.
+pub const LAZ_MAX_POINTS_PER_BYTE: u64 = 1_000;
+
+fn las_err(name: &str, detail: impl Into<String>) -> CloudError {
+    CloudError::Las { name: name.to_string(), detail: detail.into() }
+}
+
+fn u16_at(b: &[u8], at: usize) -> Option<u16> {
+    Some(u16::from_le_bytes(b.get(at..at + 2)?.try_into().ok()?))
+}
+fn u32_at(b: &[u8], at: usize) -> Option<u32> {
+    Some(u32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?))
+}
+fn u64_at(b: &[u8], at: usize) -> Option<u64> {
+    Some(u64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
+}
+
+/// Checks the fields of the public header block the `las` crate trusts. Returns the number of
+/// points and whether the data is compressed.
+fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
+    if !bytes.starts_with(b"LASF") {
+        return Err(las_err(name, "not a LAS file (no 'LASF' signature)"));
+    }
+    let short = || las_err(name, "file shorter than its public header");
+    let minor = *bytes.get(25).ok_or_else(short)?;
+    let offset_to_points = u64::from(u32_at(bytes, 96).ok_or_else(short)?);
+    let format_byte = *bytes.get(104).ok_or_else(short)?;
+    let record_len = u64::from(u16_at(bytes, 105).ok_or_else(short)?);
+    let legacy_count = u64::from(u32_at(bytes, 107).ok_or_else(short)?);
+    let compressed = format_byte & 0x80 != 0 || format_byte & 0x40 != 0;
+    let mut count = legacy_count;
+    if minor >= 4 {
+        let start_of_evlr = u64_at(bytes, 235).ok_or_else(short)?;
+        let evlr_count = u32_at(bytes, 243).ok_or_else(short)?;
+        let large_count = u64_at(bytes, 247).ok_or_else(short)?;
+        if legacy_count == 0 {
+            count = large_count;
+        }
+        if evlr_count > 0 {
+            let len = bytes.len() as u64;
+            let fits = start_of_evlr
+                .checked_add(60)
+                .filter(|end| *end <= len)
+                .and_then(|end| u64_at(bytes, start_of_evlr as usize + 20).map(|data_len| (end, data_len)))
+                .is_some_and(|(end, data_len)| data_len <= len - end);
+            if !fits {
+                return Err(las_err(name, "extended VLR lies outside the file"));
+            }
+        }
+    }
+    let len = bytes.len() as u64;
+    if compressed {
+        if count > len.saturating_mul(LAZ_MAX_POINTS_PER_BYTE) {
+            return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found: 0 });
+        }
+    } else {
+        let end = count.checked_mul(record_len).and_then(|b| b.checked_add(offset_to_points));
+        if end.is_none_or(|e| e > len) {
+            let found = if record_len == 0 { 0 } else { len.saturating_sub(offset_to_points) / record_len };
+            return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found });
+        }
+    }
+    Ok((count, compressed))
+}
+
+/// Loads a LAS (or, with the `laz` feature, LAZ) point cloud; `name` is used in messages.
+pub fn load_las(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
+    let (count, compressed) = preflight(bytes, name)?;
+    if compressed && !cfg!(feature = "laz") {
+        return Err(CloudError::Unsupported {
+            name: name.to_string(),
+            what: "LAZ (compressed LAS) in this build (convert to .las or .ply)".to_string(),
+        });
+    }
+    // The crate needs an owned, 'static reader; the copy costs one pass over the file.
+    let mut reader = las::Reader::new(Cursor::new(bytes.to_vec())).map_err(|e| las_err(name, e.to_string()))?;
+    let declared = reader.header().number_of_points();
+    if declared != count {
+        return Err(las_err(name, format!("header point counts disagree ({declared} vs {count})")));
+    }
+    let capacity = usize::try_from(count).unwrap_or(usize::MAX).min(bytes.len() / 20 + 1);
+    let mut points = Vec::with_capacity(capacity);
+    let mut classification = Vec::with_capacity(capacity);
+    let mut batch = las::PointDataBuilder::new().for_header(reader.header()).build();
+    loop {
+        let n = reader.fill_points(BATCH_POINTS, &mut batch).map_err(|e| las_err(name, e.to_string()))?;
+        if n == 0 {
+            break;
+        }
+        for ((x, y), z) in batch.x().zip(batch.y()).zip(batch.z()) {
+            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                return Err(CloudError::NonFinitePoint { name: name.to_string(), index: points.len() });
+            }
+            points.push(Point3::new(x, y, z));
+        }
+        classification.extend(batch.classification());
+    }
+    if points.len() as u64 != count {
+        return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found: points.len() as u64 });
+    }
+    Ok(PointCloud { points, covariances: None, classification: Some(classification) })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const VEG: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/data/lidar/vegetation_1_3.las"));
+
+    #[test]
+    fn reads_real_las_with_classes() {
+        let c = load_las(VEG, "vegetation_1_3.las").unwrap();
+        assert_eq!(c.len(), 10_683);
+        let class = c.classification.as_ref().unwrap();
+        assert_eq!(class.len(), 10_683);
+        assert!(class.iter().all(|&k| k == 11), "SOURCES.md: all class 11");
+    }
+
+    #[test]
+    fn truncated_and_garbage_are_errors() {
+        let e = load_las(&VEG[..VEG.len() - 100], "v.las").unwrap_err();
+        assert!(matches!(e, CloudError::WrongPointCount { declared: 10_683, .. }), "{e}");
+        assert!(e.to_string().starts_with("v.las: header says number of point records 10683 but the data holds"), "{e}");
+        assert!(load_las(b"LASF", "v.las").is_err());
+        assert!(load_las(b"PK", "v.las").unwrap_err().to_string().contains("no 'LASF'"));
+        // A header claiming 2^32−1 points in a small file.
+        let mut m = VEG[..4_000].to_vec();
+        m[107..111].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(matches!(load_las(&m, "v.las"), Err(CloudError::WrongPointCount { .. })));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn mutated_header_never_panics(pos in 0usize..400, byte in any::<u8>(), cut in 0usize..3_000) {
+            let mut m = VEG[..VEG.len().min(3_000 + cut)].to_vec();
+            m[pos] = byte;
+            let _ = load_las(&m, "x.las");
+        }
+
+        #[test]
+        fn arbitrary_bytes_never_panic(tail in prop::collection::vec(any::<u8>(), 0..600)) {
+            let mut b = b"LASF".to_vec();
+            b.extend_from_slice(&tail);
+            let _ = load_las(&b, "x.las");
+        }
+    }
+}

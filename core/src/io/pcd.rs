@@ -1,0 +1,571 @@
+//! PCD point clouds (PCL's format, v0.6 and v0.7): `DATA ascii`, `binary` and
+//! `binary_compressed` (LZF), reader and an ascii / binary writer.
+//!
+//! Header keywords: `VERSION` (any), `FIELDS`, `SIZE`, `TYPE` (`I` 1/2/4/8, `U` 1/2/4/8, `F` 4/8),
+//! `COUNT` (default 1 each), `WIDTH`, `HEIGHT` (default 1), `VIEWPOINT` (ignored: points are
+//! returned as stored), `POINTS` (default WIDTH·HEIGHT; must equal it), `DATA`. `#` lines are
+//! comments. Fields used: see [`crate::io`] (`x y z` required, `classification`, `cov_*`); a
+//! field with COUNT > 1 contributes its first element; other fields (`rgb`, `normal_x`, `_`
+//! padding, …) are skipped. Data is little-endian, as PCL writes it on every platform it runs on.
+//!
+//! `binary_compressed`: two little-endian u32 (compressed size, uncompressed size) then LZF data
+//! which decompresses to the fields stored one after the other (all x, then all y, …). The
+//! declared uncompressed size must equal POINTS × record size and may not exceed 88 × the
+//! compressed size (LZF's maximum expansion), so hostile headers cannot make us allocate.
+//! O(file size).
+
+use super::{CloudBuilder, CloudError, FieldMap, COV_NAMES};
+use crate::cloud::PointCloud;
+
+/// LZF expands at most 264 output bytes per 3 input bytes.
+const LZF_MAX_RATIO: usize = 88;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Signed,
+    Unsigned,
+    Float,
+}
+
+#[derive(Clone, Debug)]
+struct Field {
+    name: String,
+    size: usize,
+    kind: Kind,
+    count: usize,
+}
+
+impl Field {
+    /// Reads one little-endian value (exactly `self.size` bytes).
+    #[inline]
+    fn read(&self, b: &[u8]) -> f64 {
+        let mut a = [0u8; 8];
+        a[..self.size].copy_from_slice(&b[..self.size]);
+        match (self.kind, self.size) {
+            (Kind::Float, 4) => f64::from(f32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+            (Kind::Float, _) => f64::from_le_bytes(a),
+            (Kind::Unsigned, 1) => f64::from(a[0]),
+            (Kind::Unsigned, 2) => f64::from(u16::from_le_bytes([a[0], a[1]])),
+            (Kind::Unsigned, 4) => f64::from(u32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+            (Kind::Unsigned, _) => u64::from_le_bytes(a) as f64,
+            (Kind::Signed, 1) => f64::from(a[0] as i8),
+            (Kind::Signed, 2) => f64::from(i16::from_le_bytes([a[0], a[1]])),
+            (Kind::Signed, 4) => f64::from(i32::from_le_bytes([a[0], a[1], a[2], a[3]])),
+            (Kind::Signed, _) => i64::from_le_bytes(a) as f64,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Data {
+    Ascii,
+    Binary,
+    BinaryCompressed,
+}
+
+struct Header {
+    fields: Vec<Field>,
+    points: u64,
+    data: Data,
+    data_start: usize,
+    /// 1-based file line of the first data line.
+    first_data_line: usize,
+}
+
+fn header_err(name: &str, detail: impl Into<String>) -> CloudError {
+    CloudError::Header { name: name.to_string(), detail: detail.into() }
+}
+
+fn parse_header(bytes: &[u8], name: &str) -> Result<Header, CloudError> {
+    let mut pos = 0usize;
+    let mut line_no = 0usize;
+    let mut names: Option<Vec<String>> = None;
+    let mut sizes: Option<Vec<usize>> = None;
+    let mut types: Option<Vec<Kind>> = None;
+    let mut counts: Option<Vec<usize>> = None;
+    let (mut width, mut height, mut points): (Option<u64>, Option<u64>, Option<u64>) = (None, None, None);
+    let data = loop {
+        let rest = &bytes[pos..];
+        if rest.is_empty() {
+            return Err(header_err(name, "header has no DATA line"));
+        }
+        // The DATA line may be the last line without a newline (an empty ascii cloud).
+        let nl = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
+        line_no += 1;
+        let line = std::str::from_utf8(&rest[..nl])
+            .map_err(|_| header_err(name, format!("header line {line_no} is not text")))?
+            .trim();
+        pos = (pos + nl + 1).min(bytes.len());
+        let mut words = line.split_ascii_whitespace();
+        let Some(key) = words.next() else { continue };
+        if key.starts_with('#') {
+            continue;
+        }
+        let bad = |what: &str| header_err(name, format!("header line {line_no} ({key}): {what}"));
+        let list: Vec<&str> = words.collect();
+        let one_number = |list: &[&str]| -> Result<u64, CloudError> {
+            match list {
+                [v] => v.parse::<u64>().map_err(|_| bad("expected a non-negative integer")),
+                _ => Err(bad("expected one integer")),
+            }
+        };
+        match key.to_ascii_uppercase().as_str() {
+            "VERSION" | "VIEWPOINT" => {}
+            "FIELDS" | "COLUMNS" => names = Some(list.iter().map(|s| s.to_string()).collect()),
+            "SIZE" => {
+                sizes = Some(
+                    list.iter()
+                        .map(|s| match *s {
+                            "1" => Ok(1),
+                            "2" => Ok(2),
+                            "4" => Ok(4),
+                            "8" => Ok(8),
+                            _ => Err(bad(&format!("size '{s}' is not 1, 2, 4 or 8"))),
+                        })
+                        .collect::<Result<_, _>>()?,
+                )
+            }
+            "TYPE" => {
+                types = Some(
+                    list.iter()
+                        .map(|s| match *s {
+                            "I" | "i" => Ok(Kind::Signed),
+                            "U" | "u" => Ok(Kind::Unsigned),
+                            "F" | "f" => Ok(Kind::Float),
+                            _ => Err(bad(&format!("type '{s}' is not I, U or F"))),
+                        })
+                        .collect::<Result<_, _>>()?,
+                )
+            }
+            "COUNT" => {
+                counts = Some(
+                    list.iter()
+                        .map(|s| s.parse::<u32>().ok().filter(|c| *c >= 1).map(|c| c as usize).ok_or_else(|| bad(&format!("count '{s}' is not a positive integer"))))
+                        .collect::<Result<_, _>>()?,
+                )
+            }
+            "WIDTH" => width = Some(one_number(&list)?),
+            "HEIGHT" => height = Some(one_number(&list)?),
+            "POINTS" => points = Some(one_number(&list)?),
+            "DATA" => {
+                break match list.as_slice() {
+                    ["ascii"] => Data::Ascii,
+                    ["binary"] => Data::Binary,
+                    ["binary_compressed"] => Data::BinaryCompressed,
+                    _ => return Err(bad("expected ascii, binary or binary_compressed")),
+                };
+            }
+            _ => return Err(bad("unknown header keyword")),
+        }
+        if pos >= bytes.len() {
+            return Err(header_err(name, "header has no DATA line"));
+        }
+    };
+    let names = names.ok_or_else(|| header_err(name, "header has no FIELDS line"))?;
+    let sizes = sizes.ok_or_else(|| header_err(name, "header has no SIZE line"))?;
+    let types = types.ok_or_else(|| header_err(name, "header has no TYPE line"))?;
+    let counts = counts.unwrap_or_else(|| vec![1; names.len()]);
+    let n = names.len();
+    if sizes.len() != n || types.len() != n || counts.len() != n {
+        return Err(header_err(
+            name,
+            format!("FIELDS has {n} entries but SIZE has {}, TYPE {} and COUNT {}", sizes.len(), types.len(), counts.len()),
+        ));
+    }
+    let mut fields = Vec::with_capacity(n);
+    for (((fname, size), kind), count) in names.into_iter().zip(sizes).zip(types).zip(counts) {
+        if kind == Kind::Float && size < 4 {
+            return Err(header_err(name, format!("field '{fname}': TYPE F needs SIZE 4 or 8, got {size}")));
+        }
+        fields.push(Field { name: fname, size, kind, count });
+    }
+    let width = width.ok_or_else(|| header_err(name, "header has no WIDTH line"))?;
+    let height = height.unwrap_or(1);
+    let wh = width.checked_mul(height).ok_or_else(|| header_err(name, "WIDTH × HEIGHT overflows"))?;
+    let points = points.unwrap_or(wh);
+    if points != wh {
+        return Err(header_err(name, format!("WIDTH × HEIGHT = {width} × {height} = {wh} but POINTS {points}")));
+    }
+    Ok(Header { fields, points, data, data_start: pos, first_data_line: line_no + 1 })
+}
+
+fn wrong_count(name: &str, declared: u64, found: u64) -> CloudError {
+    CloudError::WrongPointCount { name: name.to_string(), keyword: "POINTS", declared, found }
+}
+
+/// Loads a PCD point cloud; `name` is used in messages.
+pub fn load_pcd(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
+    let header = parse_header(bytes, name)?;
+    let map = FieldMap::find(header.fields.iter().map(|f| f.name.as_str()), name, "FIELDS", "field")?;
+    let data = &bytes[header.data_start..];
+    match header.data {
+        Data::Ascii => read_ascii(data, &header, map, name),
+        Data::Binary | Data::BinaryCompressed => read_binary(data, &header, map, name),
+    }
+}
+
+fn read_ascii(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Result<PointCloud, CloudError> {
+    let line_err = |line: usize, detail: String| CloudError::Line { name: name.to_string(), line, detail };
+    // Index of each field's first value within a line's values.
+    let mut first_value = Vec::with_capacity(header.fields.len());
+    let mut total = 0usize;
+    for f in &header.fields {
+        first_value.push(total);
+        total = total.checked_add(f.count).ok_or_else(|| header_err(name, "COUNT total overflows"))?;
+    }
+    // Every point needs at least two bytes (a digit and a line break).
+    let capacity = usize::try_from(header.points).unwrap_or(usize::MAX).min(data.len() / 2 + 1);
+    let mut builder = CloudBuilder::new(name, map, capacity);
+    let mut values: Vec<f64> = Vec::with_capacity(total.min(data.len()));
+    let mut found = 0u64;
+    for (i, raw) in data.split(|&b| b == b'\n').enumerate() {
+        let line_no = header.first_data_line + i;
+        let Ok(line) = std::str::from_utf8(raw) else {
+            return Err(line_err(line_no, "not text".to_string()));
+        };
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        found += 1;
+        if found > header.points {
+            continue; // counted for the error message only
+        }
+        values.clear();
+        for tok in line.split_ascii_whitespace() {
+            if values.len() == total {
+                values.push(0.0); // one too many: reported below
+                break;
+            }
+            let v = tok.parse::<f64>().map_err(|_| line_err(line_no, format!("'{}' is not a number", tok.chars().take(40).collect::<String>())))?;
+            values.push(v);
+        }
+        if values.len() != total {
+            return Err(line_err(line_no, format!("expected {total} values, found {}", if values.len() > total { "more".to_string() } else { values.len().to_string() })));
+        }
+        builder.push(|k| values[first_value[k]]).map_err(|e| match e {
+            CloudError::NonFinitePoint { .. } => line_err(line_no, "non-finite coordinate".to_string()),
+            CloudError::Attribute { detail, .. } => line_err(line_no, detail),
+            other => other,
+        })?;
+    }
+    if found != header.points {
+        return Err(wrong_count(name, header.points, found));
+    }
+    Ok(builder.finish())
+}
+
+fn read_binary(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Result<PointCloud, CloudError> {
+    let too_large = || header_err(name, "record size overflows");
+    let mut record = 0usize;
+    for f in &header.fields {
+        record = f.size.checked_mul(f.count).and_then(|b| record.checked_add(b)).ok_or_else(too_large)?;
+    }
+    if record == 0 {
+        return Err(header_err(name, "empty record"));
+    }
+    let declared = header.points;
+    let need = usize::try_from(declared).ok().and_then(|p| p.checked_mul(record));
+    let decompressed;
+    // (bytes, offset of field k's first value for point 0, stride between points per field)
+    let (body, offsets, strides): (&[u8], Vec<usize>, Vec<usize>) = if header.data == Data::Binary {
+        let found = (data.len() / record) as u64;
+        if found != declared {
+            return Err(wrong_count(name, declared, found));
+        }
+        let mut offsets = Vec::with_capacity(header.fields.len());
+        let mut o = 0;
+        for f in &header.fields {
+            offsets.push(o);
+            o += f.size * f.count;
+        }
+        (data, offsets, vec![record; header.fields.len()])
+    } else {
+        let word = |at: usize| data.get(at..at + 4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+        let (Some(compressed), Some(uncompressed)) = (word(0), word(4)) else {
+            return Err(header_err(name, "binary_compressed data has no size words"));
+        };
+        let payload = data.get(8..8 + compressed).ok_or_else(|| {
+            header_err(name, format!("binary_compressed data truncated: {compressed} compressed bytes declared, {} present", data.len().saturating_sub(8)))
+        })?;
+        if need != Some(uncompressed) {
+            // Report the count the uncompressed size implies.
+            return Err(wrong_count(name, declared, (uncompressed / record) as u64));
+        }
+        if uncompressed > compressed.saturating_mul(LZF_MAX_RATIO) {
+            return Err(header_err(name, format!("binary_compressed: {uncompressed} bytes cannot come from {compressed} LZF bytes")));
+        }
+        decompressed = lzf_decompress(payload, uncompressed)
+            .ok_or_else(|| header_err(name, "binary_compressed: corrupt LZF data"))?;
+        // Structure of arrays: field k occupies points × size × count bytes.
+        let points = uncompressed / record;
+        let mut offsets = Vec::with_capacity(header.fields.len());
+        let mut o = 0;
+        for f in &header.fields {
+            offsets.push(o);
+            o += points * f.size * f.count;
+        }
+        (&decompressed[..], offsets, header.fields.iter().map(|f| f.size * f.count).collect())
+    };
+    let n = declared as usize; // fits: checked against the data above
+    let mut builder = CloudBuilder::new(name, map, n);
+    let fields = &header.fields;
+    for i in 0..n {
+        builder.push(|k| {
+            let at = offsets[k] + i * strides[k];
+            fields[k].read(&body[at..at + fields[k].size])
+        })?;
+    }
+    Ok(builder.finish())
+}
+
+/// LZF decompression (liblzf's format, as PCL uses): exactly `out_len` bytes or `None`.
+pub(crate) fn lzf_decompress(input: &[u8], out_len: usize) -> Option<Vec<u8>> {
+    let mut out = Vec::with_capacity(out_len);
+    let mut ip = 0usize;
+    while ip < input.len() {
+        let ctrl = usize::from(input[ip]);
+        ip += 1;
+        if ctrl < 32 {
+            let len = ctrl + 1;
+            let literal = input.get(ip..ip + len)?;
+            if out.len() + len > out_len {
+                return None;
+            }
+            out.extend_from_slice(literal);
+            ip += len;
+        } else {
+            let mut len = ctrl >> 5;
+            if len == 7 {
+                len += usize::from(*input.get(ip)?);
+                ip += 1;
+            }
+            len += 2;
+            let back = ((ctrl & 0x1f) << 8) + usize::from(*input.get(ip)?) + 1;
+            ip += 1;
+            if back > out.len() || out.len() + len > out_len {
+                return None;
+            }
+            let start = out.len() - back;
+            for k in 0..len {
+                let b = out[start + k];
+                out.push(b);
+            }
+        }
+    }
+    (out.len() == out_len).then_some(out)
+}
+
+/// How [`write_pcd`] stores the points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PcdEncoding {
+    Ascii,
+    Binary,
+}
+
+/// PCD v0.7: fields `x y z` (F 8), `classification` (U 1) if present, the six `cov_*` (F 8) if
+/// present; WIDTH = POINTS, HEIGHT 1. Ascii numbers use the shortest exact representation. An
+/// attribute whose length differs from the number of points is not written.
+pub fn write_pcd(cloud: &PointCloud, encoding: PcdEncoding) -> Vec<u8> {
+    let (class, cov) = super::writable_attributes(cloud);
+    let mut fields = vec!["x", "y", "z"];
+    let mut sizes = vec!["8"; 3];
+    let mut types = vec!["F"; 3];
+    if class.is_some() {
+        fields.push("classification");
+        sizes.push("1");
+        types.push("U");
+    }
+    if cov.is_some() {
+        fields.extend(COV_NAMES);
+        sizes.extend(["8"; 6]);
+        types.extend(["F"; 6]);
+    }
+    let n = cloud.points.len();
+    let mut out = format!(
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\nCOUNT {}\nWIDTH {n}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {n}\nDATA {}\n",
+        fields.join(" "),
+        sizes.join(" "),
+        types.join(" "),
+        vec!["1"; fields.len()].join(" "),
+        if encoding == PcdEncoding::Ascii { "ascii" } else { "binary" }
+    )
+    .into_bytes();
+    for (i, p) in cloud.points.iter().enumerate() {
+        let upper = cov.map(|c| super::cov_to_upper(&c[i]));
+        match encoding {
+            PcdEncoding::Ascii => {
+                let mut line = format!("{:?} {:?} {:?}", p.x, p.y, p.z);
+                if let Some(c) = class {
+                    line.push_str(&format!(" {}", c[i]));
+                }
+                for v in upper.iter().flatten() {
+                    line.push_str(&format!(" {v:?}"));
+                }
+                line.push('\n');
+                out.extend_from_slice(line.as_bytes());
+            }
+            PcdEncoding::Binary => {
+                for v in [p.x, p.y, p.z] {
+                    out.extend_from_slice(&v.to_le_bytes());
+                }
+                if let Some(c) = class {
+                    out.push(c[i]);
+                }
+                for v in upper.iter().flatten() {
+                    out.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Point3;
+    use proptest::prelude::*;
+
+    const HEAD: &str = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
+
+    #[test]
+    fn ascii_reads_xyz_and_skips_other_fields() {
+        let text = format!("{HEAD}DATA ascii\n1 2 3 4278190080\n-1.5 0 1e2 0\n");
+        let c = load_pcd(text.as_bytes(), "a.pcd").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0), Point3::new(-1.5, 0.0, 100.0)]);
+    }
+
+    #[test]
+    fn binary_with_count_and_signed_fields() {
+        // fields: normal (F 4 ×3), x (I 2), y (U 1), z (F 8)
+        let h = "VERSION .7\nFIELDS normal x y z\nSIZE 4 2 1 8\nTYPE F I U F\nCOUNT 3 1 1 1\nWIDTH 1\nHEIGHT 2\nPOINTS 2\nDATA binary\n";
+        let mut b = h.as_bytes().to_vec();
+        for (x, y, z) in [(-300i16, 7u8, 0.25f64), (5, 255, -8.0)] {
+            b.extend_from_slice(&[0u8; 12]);
+            b.extend_from_slice(&x.to_le_bytes());
+            b.push(y);
+            b.extend_from_slice(&z.to_le_bytes());
+        }
+        let c = load_pcd(&b, "b.pcd").unwrap();
+        assert_eq!(c.points, vec![Point3::new(-300.0, 7.0, 0.25), Point3::new(5.0, 255.0, -8.0)]);
+    }
+
+    #[test]
+    fn lzf_known_stream() {
+        // literal "abc" (ctrl 2), then a back-reference of length 6 at distance 3 (ctrl (4 << 5) | 0, off 2).
+        let out = lzf_decompress(&[2, b'a', b'b', b'c', 4 << 5, 2], 9).unwrap();
+        assert_eq!(out, b"abcabcabc");
+        // long match: len field 7 + extra 3 → 12 bytes, distance 1.
+        let out = lzf_decompress(&[0, b'z', 7 << 5, 3, 0], 13).unwrap();
+        assert_eq!(out, vec![b'z'; 13]);
+        assert_eq!(lzf_decompress(&[4 << 5, 2], 6), None); // reference before the start
+        assert_eq!(lzf_decompress(&[2, b'a', b'b'], 3), None); // truncated literal
+        assert_eq!(lzf_decompress(&[0, b'a'], 2), None); // wrong length
+    }
+
+    #[test]
+    fn binary_compressed_is_structure_of_arrays() {
+        // 2 points, fields x y z F 4: uncompressed = x0 x1 y0 y1 z0 z1 as f32, stored as literals.
+        let soa: Vec<u8> = [1.0f32, 4.0, 2.0, 5.0, 3.0, 6.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+        let mut lzf = vec![23u8]; // literal of 24 bytes
+        lzf.extend_from_slice(&soa);
+        let mut b = b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nPOINTS 2\nDATA binary_compressed\n".to_vec();
+        b.extend_from_slice(&(lzf.len() as u32).to_le_bytes());
+        b.extend_from_slice(&24u32.to_le_bytes());
+        b.extend_from_slice(&lzf);
+        let c = load_pcd(&b, "c.pcd").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0), Point3::new(4.0, 5.0, 6.0)]);
+        // Uncompressed size that does not match POINTS.
+        let mut bad = b.clone();
+        let at = bad.len() - lzf.len() - 4;
+        bad[at..at + 4].copy_from_slice(&12u32.to_le_bytes());
+        assert_eq!(load_pcd(&bad, "c.pcd").unwrap_err().to_string(), "c.pcd: header says POINTS 2 but the data holds 1 points");
+    }
+
+    #[test]
+    fn errors_are_clear() {
+        let mut b = HEAD.replace("WIDTH 2", "WIDTH 100").replace("POINTS 2", "POINTS 100").into_bytes();
+        b.extend_from_slice(b"DATA binary\n");
+        b.extend(vec![0u8; 16 * 37 + 5]);
+        assert_eq!(load_pcd(&b, "landmarks.pcd").unwrap_err().to_string(), "landmarks.pcd: header says POINTS 100 but the data holds 37 points");
+        let t = format!("{HEAD}DATA ascii\n1 2 3 4\n");
+        assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: header says POINTS 2 but the data holds 1 points");
+        let t = format!("{HEAD}DATA ascii\n1 2 3 4\n1 2 3 4\n1 2 3 4\n");
+        assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: header says POINTS 2 but the data holds 3 points");
+        let t = format!("{HEAD}DATA ascii\n1 2 3 4\nnan 2 3 4\n");
+        assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: line 13: non-finite coordinate");
+        let t = format!("{HEAD}DATA ascii\n1 2 3\n1 2 3 4\n");
+        assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: line 12: expected 4 values, found 3");
+        let t = HEAD.replace("POINTS 2", "POINTS 3") + "DATA ascii\n";
+        assert!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string().contains("WIDTH × HEIGHT = 2 × 1 = 2 but POINTS 3"));
+        let t = HEAD.replace("FIELDS x y z rgb", "FIELDS x y w rgb") + "DATA ascii\n";
+        assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: FIELDS has no 'z' field");
+        let t = HEAD.replace("SIZE 4 4 4 4", "SIZE 4 4 4") + "DATA ascii\n";
+        assert!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string().contains("SIZE has 3"));
+        let t = HEAD.to_string() + "DATA binary_zstd\n";
+        assert!(load_pcd(t.as_bytes(), "a.pcd").is_err());
+        assert!(load_pcd(HEAD.as_bytes(), "a.pcd").unwrap_err().to_string().contains("no DATA line"));
+    }
+
+    #[test]
+    fn hostile_counts_do_not_allocate() {
+        let t = "FIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nWIDTH 4294967295\nHEIGHT 4294967295\nDATA binary\n\x00";
+        assert!(matches!(load_pcd(t.as_bytes(), "h.pcd"), Err(CloudError::WrongPointCount { found: 0, .. })));
+        let t = "FIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 4294967295 4294967295 4294967295\nWIDTH 1\nDATA binary\n\x00";
+        assert!(load_pcd(t.as_bytes(), "h.pcd").is_err());
+        let mut b = b"FIELDS x y z\nSIZE 1 1 1\nTYPE U U U\nWIDTH 1000000000\nDATA binary_compressed\n".to_vec();
+        b.extend_from_slice(&2u32.to_le_bytes());
+        b.extend_from_slice(&3_000_000_000u32.to_le_bytes());
+        b.extend_from_slice(&[0, 0]);
+        assert!(load_pcd(&b, "h.pcd").is_err());
+    }
+
+    fn cloud_strategy() -> impl Strategy<Value = PointCloud> {
+        (0usize..30, any::<bool>(), any::<bool>()).prop_flat_map(|(n, with_class, with_cov)| {
+            (
+                prop::collection::vec((-1e7f64..1e7, -1e7f64..1e7, -1e7f64..1e7), n),
+                prop::collection::vec(any::<u8>(), n),
+                prop::collection::vec((0.0f64..10.0, -1.0f64..1.0, 0.0f64..10.0), n),
+            )
+                .prop_map(move |(pts, class, cov)| PointCloud {
+                    points: pts.into_iter().map(|(x, y, z)| Point3::new(x, y, z)).collect(),
+                    classification: with_class.then_some(class),
+                    covariances: with_cov.then(|| cov.into_iter().map(|(a, b, c)| super::super::cov_from_upper([a, b, -b, c, 0.5 * b, a + c])).collect()),
+                })
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn roundtrip_both_encodings(cloud in cloud_strategy(), ascii in any::<bool>()) {
+            let enc = if ascii { PcdEncoding::Ascii } else { PcdEncoding::Binary };
+            let back = load_pcd(&write_pcd(&cloud, enc), "r.pcd").unwrap();
+            prop_assert_eq!(back, cloud);
+        }
+
+        #[test]
+        fn arbitrary_bytes_never_panic(prefix in prop::sample::select(vec![&b""[..], b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 3\nDATA binary_compressed\n", b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nDATA ascii\n"]), tail in prop::collection::vec(any::<u8>(), 0..300)) {
+            let mut bytes = prefix.to_vec();
+            bytes.extend_from_slice(&tail);
+            let _ = load_pcd(&bytes, "x.pcd");
+        }
+
+        #[test]
+        fn arbitrary_lzf_never_panics(input in prop::collection::vec(any::<u8>(), 0..200), out_len in 0usize..2000) {
+            let _ = lzf_decompress(&input, out_len);
+        }
+
+        #[test]
+        fn mutated_files_never_panic(ascii in any::<bool>(), pos in any::<prop::sample::Index>(), byte in any::<u8>(), cut in any::<prop::sample::Index>()) {
+            let mut c = PointCloud::from_points(vec![Point3::new(1.0, 2.0, 3.0), Point3::new(4.0, 5.0, 6.0)]);
+            c.classification = Some(vec![1, 2]);
+            let f = write_pcd(&c, if ascii { PcdEncoding::Ascii } else { PcdEncoding::Binary });
+            let mut m = f.clone();
+            let i = pos.index(m.len());
+            m[i] = byte;
+            let _ = load_pcd(&m, "x.pcd");
+            let _ = load_pcd(&f[..cut.index(f.len())], "x.pcd");
+        }
+    }
+}

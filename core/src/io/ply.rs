@@ -1,0 +1,558 @@
+//! PLY point clouds: `ascii`, `binary_little_endian` and `binary_big_endian`, reader and a binary
+//! little-endian writer.
+//!
+//! The `vertex` element gives the points: `x`, `y`, `z` of any scalar type (`char`/`int8`,
+//! `uchar`/`uint8`, `short`/`int16`, `ushort`/`uint16`, `int`/`int32`, `uint`/`uint32`,
+//! `float`/`float32`, `double`/`float64`); optional `classification` and covariance properties
+//! as described in [`crate::io`]. Other properties of the vertex element (scalar or list) and
+//! other elements (faces, …, before or after the vertices) are skipped. O(file size).
+//!
+//! Hostile headers: element counts are checked against the bytes left (a binary record of a
+//! known size must fit; an ascii record needs at least one byte per property) before reserving.
+
+use super::{CloudBuilder, CloudError, FieldMap, COV_NAMES};
+use crate::cloud::PointCloud;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(s: &str) -> Option<Self> {
+        Some(match s {
+            "char" | "int8" => Self::I8,
+            "uchar" | "uint8" => Self::U8,
+            "short" | "int16" => Self::I16,
+            "ushort" | "uint16" => Self::U16,
+            "int" | "int32" => Self::I32,
+            "uint" | "uint32" => Self::U32,
+            "float" | "float32" => Self::F32,
+            "double" | "float64" => Self::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Self::I8 | Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::I32 | Self::U32 | Self::F32 => 4,
+            Self::F64 => 8,
+        }
+    }
+
+    fn is_integer(self) -> bool {
+        !matches!(self, Self::F32 | Self::F64)
+    }
+
+    /// Reads one value from `b` (exactly `self.size()` bytes).
+    #[inline]
+    fn read(self, b: &[u8], big_endian: bool) -> f64 {
+        macro_rules! get {
+            ($t:ty, $n:literal) => {{
+                let mut a = [0u8; $n];
+                a.copy_from_slice(&b[..$n]);
+                if big_endian { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) }
+            }};
+        }
+        match self {
+            Self::I8 => f64::from(b[0] as i8),
+            Self::U8 => f64::from(b[0]),
+            Self::I16 => f64::from(get!(i16, 2)),
+            Self::U16 => f64::from(get!(u16, 2)),
+            Self::I32 => f64::from(get!(i32, 4)),
+            Self::U32 => f64::from(get!(u32, 4)),
+            Self::F32 => f64::from(get!(f32, 4)),
+            Self::F64 => get!(f64, 8),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+enum PropKind {
+    Scalar(Scalar),
+    List { count: Scalar, item: Scalar },
+}
+
+#[derive(Clone, Debug)]
+struct Property {
+    name: String,
+    kind: PropKind,
+}
+
+#[derive(Clone, Debug)]
+struct Element {
+    name: String,
+    count: u64,
+    properties: Vec<Property>,
+}
+
+impl Element {
+    /// Bytes of one binary record when it has no list property.
+    fn fixed_size(&self) -> Option<usize> {
+        self.properties
+            .iter()
+            .map(|p| match p.kind {
+                PropKind::Scalar(s) => Some(s.size()),
+                PropKind::List { .. } => None,
+            })
+            .sum()
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Ascii,
+    BinaryLe,
+    BinaryBe,
+}
+
+struct Header {
+    format: Format,
+    elements: Vec<Element>,
+    /// Byte offset of the first data byte.
+    data_start: usize,
+}
+
+fn header_err(name: &str, detail: impl Into<String>) -> CloudError {
+    CloudError::Header { name: name.to_string(), detail: detail.into() }
+}
+
+fn parse_header(bytes: &[u8], name: &str) -> Result<Header, CloudError> {
+    if !bytes.starts_with(b"ply") {
+        return Err(header_err(name, "not a PLY file (no 'ply' magic)"));
+    }
+    let mut pos = 0usize;
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    let mut line_no = 0usize;
+    loop {
+        let rest = &bytes[pos..];
+        let Some(nl) = rest.iter().position(|&b| b == b'\n') else {
+            return Err(header_err(name, "header has no 'end_header' line"));
+        };
+        line_no += 1;
+        let line_bytes = &rest[..nl];
+        pos += nl + 1;
+        let line = std::str::from_utf8(line_bytes)
+            .map_err(|_| header_err(name, format!("header line {line_no} is not text")))?
+            .trim_end_matches('\r');
+        let mut words = line.split_ascii_whitespace();
+        let bad = |what: &str| header_err(name, format!("header line {line_no}: {what}: '{}'", line.chars().take(80).collect::<String>()));
+        match words.next() {
+            None => {}
+            Some("ply") if line_no == 1 => {}
+            Some("comment") | Some("obj_info") => {}
+            Some("format") => {
+                format = Some(match words.next() {
+                    Some("ascii") => Format::Ascii,
+                    Some("binary_little_endian") => Format::BinaryLe,
+                    Some("binary_big_endian") => Format::BinaryBe,
+                    _ => return Err(bad("unknown format")),
+                });
+            }
+            Some("element") => {
+                let (Some(ename), Some(count), None) = (words.next(), words.next(), words.next()) else {
+                    return Err(bad("expected 'element <name> <count>'"));
+                };
+                let count: u64 = count.parse().map_err(|_| bad("element count is not a non-negative integer"))?;
+                elements.push(Element { name: ename.to_string(), count, properties: Vec::new() });
+            }
+            Some("property") => {
+                let element = elements.last_mut().ok_or_else(|| bad("property before any element"))?;
+                let w: Vec<&str> = words.collect();
+                let (kind, pname) = match w.as_slice() {
+                    ["list", c, i, n] => {
+                        let count = Scalar::parse(c).filter(|s| s.is_integer()).ok_or_else(|| bad("list count type must be an integer type"))?;
+                        let item = Scalar::parse(i).ok_or_else(|| bad("unknown list item type"))?;
+                        (PropKind::List { count, item }, *n)
+                    }
+                    [t, n] => (PropKind::Scalar(Scalar::parse(t).ok_or_else(|| bad("unknown property type"))?), *n),
+                    _ => return Err(bad("expected 'property <type> <name>' or 'property list <count type> <item type> <name>'")),
+                };
+                element.properties.push(Property { name: pname.to_string(), kind });
+            }
+            Some("end_header") => break,
+            Some(_) => return Err(bad("unknown header keyword")),
+        }
+    }
+    let format = format.ok_or_else(|| header_err(name, "header has no 'format' line"))?;
+    Ok(Header { format, elements, data_start: pos })
+}
+
+/// Loads a PLY point cloud from its bytes; `name` is used in messages.
+pub fn load_ply(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
+    let header = parse_header(bytes, name)?;
+    let Some(vertex_index) = header.elements.iter().position(|e| e.name == "vertex") else {
+        return Err(CloudError::MissingField { name: name.to_string(), detail: "no 'vertex' element".to_string() });
+    };
+    let vertex = &header.elements[vertex_index];
+    let map = FieldMap::find(vertex.properties.iter().map(|p| p.name.as_str()), name, "vertex element", "property")?;
+    let used = map.xyz.into_iter().chain(map.classification).chain(map.cov.into_iter().flatten());
+    for i in used {
+        if let PropKind::List { .. } = vertex.properties[i].kind {
+            return Err(header_err(name, format!("vertex property '{}' is a list, expected a scalar", vertex.properties[i].name)));
+        }
+    }
+    let data = &bytes[header.data_start..];
+    match header.format {
+        Format::Ascii => {
+            let first_data_line = bytes[..header.data_start].iter().filter(|&&b| b == b'\n').count() + 1;
+            read_ascii(data, first_data_line, &header, vertex_index, map, name)
+        }
+        Format::BinaryLe => read_binary(data, &header, vertex_index, map, name, false),
+        Format::BinaryBe => read_binary(data, &header, vertex_index, map, name, true),
+    }
+}
+
+fn wrong_count(name: &str, declared: u64, found: usize) -> CloudError {
+    CloudError::WrongPointCount { name: name.to_string(), keyword: "element vertex", declared, found: found as u64 }
+}
+
+fn read_binary(data: &[u8], header: &Header, vertex_index: usize, map: FieldMap, name: &str, big_endian: bool) -> Result<PointCloud, CloudError> {
+    let mut pos = 0usize;
+    let truncated_elem = |e: &Element| header_err(name, format!("data truncated inside element '{}'", e.name));
+    for (k, element) in header.elements.iter().enumerate() {
+        if k == vertex_index {
+            let vertex = element;
+            let min_size = vertex.properties.iter().map(|p| match p.kind {
+                PropKind::Scalar(s) => s.size(),
+                PropKind::List { count, .. } => count.size(),
+            }).sum::<usize>().max(1);
+            let left = data.len() - pos;
+            let capacity = usize::try_from(vertex.count).unwrap_or(usize::MAX).min(left / min_size);
+            let mut builder = CloudBuilder::new(name, map, capacity);
+            let mut values = vec![0.0f64; vertex.properties.len()];
+            for _ in 0..vertex.count {
+                for (slot, p) in values.iter_mut().zip(&vertex.properties) {
+                    match record_value(data, &mut pos, &p.kind, big_endian) {
+                        Some(v) => *slot = v,
+                        None => return Err(wrong_count(name, vertex.count, builder.len())),
+                    }
+                }
+                builder.push(|i| values[i])?;
+            }
+            // Elements after the vertices are not read: they cannot change the cloud.
+            return Ok(builder.finish());
+        }
+        if element.properties.is_empty() || element.count == 0 {
+            continue;
+        }
+        if let Some(size) = element.fixed_size() {
+            let need = u64::try_from(size).ok().and_then(|s| s.checked_mul(element.count)).and_then(|n| usize::try_from(n).ok());
+            match need {
+                Some(n) if n <= data.len() - pos => pos += n,
+                _ => return Err(truncated_elem(element)),
+            }
+        } else {
+            for _ in 0..element.count {
+                for p in &element.properties {
+                    if record_value(data, &mut pos, &p.kind, big_endian).is_none() {
+                        return Err(truncated_elem(element));
+                    }
+                }
+            }
+        }
+    }
+    // The vertex element exists (checked by the caller), so the loop returned.
+    Err(header_err(name, "no 'vertex' element"))
+}
+
+/// Reads one property of a binary record at `pos`, advancing it; a scalar's value, or 0 for a
+/// skipped list. `None` if the data ends first.
+#[inline]
+fn record_value(data: &[u8], pos: &mut usize, kind: &PropKind, big_endian: bool) -> Option<f64> {
+    match *kind {
+        PropKind::Scalar(s) => {
+            let b = data.get(*pos..*pos + s.size())?;
+            *pos += s.size();
+            Some(s.read(b, big_endian))
+        }
+        PropKind::List { count, item } => {
+            let b = data.get(*pos..*pos + count.size())?;
+            let n = count.read(b, big_endian);
+            if n < 0.0 {
+                return None;
+            }
+            *pos += count.size();
+            let len = (n as usize).checked_mul(item.size())?;
+            if len > data.len() - *pos {
+                return None;
+            }
+            *pos += len;
+            Some(0.0)
+        }
+    }
+}
+
+/// Whitespace-separated tokens with their 1-based line numbers.
+struct Tokens<'a> {
+    data: &'a [u8],
+    pos: usize,
+    line: usize,
+}
+
+impl<'a> Tokens<'a> {
+    fn next_token(&mut self) -> Option<(&'a [u8], usize)> {
+        while let Some(&b) = self.data.get(self.pos) {
+            if b == b'\n' {
+                self.line += 1;
+            } else if !b.is_ascii_whitespace() {
+                break;
+            }
+            self.pos += 1;
+        }
+        let start = self.pos;
+        while self.data.get(self.pos).is_some_and(|b| !b.is_ascii_whitespace()) {
+            self.pos += 1;
+        }
+        (self.pos > start).then(|| (&self.data[start..self.pos], self.line))
+    }
+}
+
+fn parse_number(tok: &[u8]) -> Option<f64> {
+    std::str::from_utf8(tok).ok()?.parse::<f64>().ok()
+}
+
+fn read_ascii(data: &[u8], first_data_line: usize, header: &Header, vertex_index: usize, map: FieldMap, name: &str) -> Result<PointCloud, CloudError> {
+    let mut tokens = Tokens { data, pos: 0, line: first_data_line };
+    let line_err = |line: usize, detail: String| CloudError::Line { name: name.to_string(), line, detail };
+    for (k, element) in header.elements.iter().enumerate() {
+        if element.properties.is_empty() {
+            continue;
+        }
+        let is_vertex = k == vertex_index;
+        // Each record needs at least one token of at least one byte plus a separator per property.
+        let min_bytes = element.properties.len() as u64;
+        let left = (data.len() - tokens.pos) as u64;
+        let plausible = element.count.saturating_mul(min_bytes) <= left.saturating_add(1);
+        if !is_vertex && !plausible {
+            return Err(header_err(name, format!("data truncated inside element '{}'", element.name)));
+        }
+        let capacity = if is_vertex { usize::try_from(element.count.min(left / min_bytes + 1)).unwrap_or(0) } else { 0 };
+        let mut builder = CloudBuilder::new(name, map, capacity);
+        let mut values = vec![0.0f64; element.properties.len()];
+        for _ in 0..element.count {
+            for (slot, p) in values.iter_mut().zip(&element.properties) {
+                let Some((tok, line)) = tokens.next_token() else {
+                    return Err(if is_vertex {
+                        wrong_count(name, element.count, builder.len())
+                    } else {
+                        header_err(name, format!("data truncated inside element '{}'", element.name))
+                    });
+                };
+                let v = parse_number(tok).ok_or_else(|| line_err(line, format!("'{}' is not a number", String::from_utf8_lossy(&tok[..tok.len().min(40)]))))?;
+                match p.kind {
+                    PropKind::Scalar(_) => *slot = v,
+                    PropKind::List { .. } => {
+                        if !(v >= 0.0 && v.fract() == 0.0) {
+                            return Err(line_err(line, format!("list length '{v}' is not a non-negative integer")));
+                        }
+                        // Each list item is one token, so a count above the bytes left is truncated data.
+                        if v > (data.len() - tokens.pos) as f64 {
+                            return Err(line_err(line, format!("list length {v} exceeds the data")));
+                        }
+                        for _ in 0..v as usize {
+                            let Some((item, line)) = tokens.next_token() else {
+                                return Err(line_err(line, "list truncated".to_string()));
+                            };
+                            parse_number(item).ok_or_else(|| line_err(line, "list item is not a number".to_string()))?;
+                        }
+                    }
+                }
+            }
+            if is_vertex {
+                let line = tokens.line;
+                builder.push(|i| values[i]).map_err(|e| match e {
+                    CloudError::NonFinitePoint { .. } => line_err(line, "non-finite coordinate".to_string()),
+                    CloudError::Attribute { detail, .. } => line_err(line, detail),
+                    other => other,
+                })?;
+            }
+        }
+        if is_vertex {
+            return Ok(builder.finish());
+        }
+    }
+    Err(header_err(name, "no 'vertex' element"))
+}
+
+/// Binary little-endian PLY: `double x y z`, then `uchar classification` if present, then
+/// `double cov_xx cov_xy cov_xz cov_yy cov_yz cov_zz` if covariances are present. An attribute
+/// whose length differs from the number of points is not written.
+pub fn write_ply_binary(cloud: &PointCloud) -> Vec<u8> {
+    let (class, cov) = super::writable_attributes(cloud);
+    let mut header = format!("ply\nformat binary_little_endian 1.0\ncomment written by fitslam\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\n", cloud.points.len());
+    if class.is_some() {
+        header.push_str("property uchar classification\n");
+    }
+    if cov.is_some() {
+        for c in COV_NAMES {
+            header.push_str(&format!("property double {c}\n"));
+        }
+    }
+    header.push_str("end_header\n");
+    let record = 24 + usize::from(class.is_some()) + if cov.is_some() { 48 } else { 0 };
+    let mut out = Vec::with_capacity(header.len() + record * cloud.points.len());
+    out.extend_from_slice(header.as_bytes());
+    for (i, p) in cloud.points.iter().enumerate() {
+        for v in [p.x, p.y, p.z] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        if let Some(c) = class {
+            out.push(c[i]);
+        }
+        if let Some(cov) = cov {
+            for v in super::cov_to_upper(&cov[i]) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Point3};
+    use proptest::prelude::*;
+
+    fn le(values: &[f32]) -> Vec<u8> {
+        values.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    #[test]
+    fn ascii_with_faces_and_lists_skipped() {
+        let text = "ply\r\nformat ascii 1.0\r\ncomment hi\r\nelement vertex 2\r\nproperty float x\r\nproperty list uchar int idx\r\nproperty float y\r\nproperty double z\r\nproperty uchar classification\r\nelement face 1\r\nproperty list uchar int vertex_indices\r\nend_header\r\n1 2 7 8 2.5 -3 2\r\n4 0 5 6e1 11\r\n3 0 1 1\r\n";
+        let c = load_ply(text.as_bytes(), "a.ply").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.5, -3.0), Point3::new(4.0, 5.0, 60.0)]);
+        assert_eq!(c.classification, Some(vec![2, 11]));
+        assert_eq!(c.covariances, None);
+    }
+
+    #[test]
+    fn binary_big_endian_ints_and_leading_element() {
+        let mut b = b"ply\nformat binary_big_endian 1.0\nelement camera 1\nproperty list uchar float k\nproperty short s\nelement vertex 2\nproperty int x\nproperty ushort y\nproperty char z\nend_header\n".to_vec();
+        b.extend_from_slice(&[2, 0, 0, 0, 0, 0, 0, 0, 0, 0xAB, 0xCD]); // camera: list of 2 floats, a short
+        for (x, y, z) in [(-7i32, 65_535u16, -128i8), (100_000, 3, 127)] {
+            b.extend_from_slice(&x.to_be_bytes());
+            b.extend_from_slice(&y.to_be_bytes());
+            b.push(z as u8);
+        }
+        let c = load_ply(&b, "be.ply").unwrap();
+        assert_eq!(c.points, vec![Point3::new(-7.0, 65_535.0, -128.0), Point3::new(100_000.0, 3.0, 127.0)]);
+    }
+
+    #[test]
+    fn binary_le_with_covariance() {
+        let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float cov_xx\nproperty float cov_xy\nproperty float cov_xz\nproperty float cov_yy\nproperty float cov_yz\nproperty float cov_zz\nproperty float intensity\nend_header\n".to_vec();
+        b.extend(le(&[1.0, 2.0, 3.0, 4.0, 0.5, 0.25, 5.0, 0.125, 6.0, 99.0]));
+        let c = load_ply(&b, "c.ply").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0)]);
+        assert_eq!(c.covariances, Some(vec![Matrix3::new(4.0, 0.5, 0.25, 0.5, 5.0, 0.125, 0.25, 0.125, 6.0)]));
+    }
+
+    #[test]
+    fn errors_are_clear() {
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n", "cloud.ply").unwrap_err();
+        assert_eq!(e.to_string(), "cloud.ply: vertex element has no 'z' property");
+        let hdr = "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+        let mut b = hdr.as_bytes().to_vec();
+        b.extend(le(&[0.0; 3 * 37 + 2]));
+        let e = load_ply(&b, "landmarks.ply").unwrap_err();
+        assert_eq!(e.to_string(), "landmarks.ply: header says element vertex 100 but the data holds 37 points");
+        let mut b = hdr.replace("100", "2").into_bytes();
+        b.extend(le(&[0.0, 0.0, 0.0, 1.0, f32::NAN, 2.0]));
+        let e = load_ply(&b, "n.ply").unwrap_err();
+        assert_eq!(e.to_string(), "n.ply: point 1: non-finite coordinate");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 inf 6\n", "a.ply").unwrap_err();
+        assert_eq!(e.to_string(), "a.ply: line 9: non-finite coordinate");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 5\n", "a.ply").unwrap_err();
+        assert_eq!(e.to_string(), "a.ply: header says element vertex 2 but the data holds 1 points");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 x\n", "a.ply").unwrap_err();
+        assert_eq!(e.to_string(), "a.ply: line 8: 'x' is not a number");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float classification\nend_header\n1 2 3 2.5\n", "a.ply").unwrap_err();
+        assert!(e.to_string().contains("classification 2.5 is not an integer"), "{e}");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float cov_xx\nend_header\n1 2 3 2.5\n", "a.ply").unwrap_err();
+        assert!(e.to_string().contains("no 'cov_xy'"), "{e}");
+        let e = load_ply(b"ply\nformat binary_middle_endian 1.0\nend_header\n", "a.ply").unwrap_err();
+        assert!(e.to_string().contains("unknown format"), "{e}");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int v\nend_header\n0\n", "a.ply").unwrap_err();
+        assert_eq!(e.to_string(), "a.ply: no 'vertex' element");
+        let e = load_ply(b"PK\x03\x04", "a.ply").unwrap_err();
+        assert!(e.to_string().contains("not a PLY file"), "{e}");
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\n", "a.ply").unwrap_err();
+        assert!(e.to_string().contains("no 'end_header'"), "{e}");
+    }
+
+    #[test]
+    fn hostile_counts_do_not_allocate() {
+        let b = b"ply\nformat binary_little_endian 1.0\nelement vertex 18446744073709551615\nproperty double x\nproperty double y\nproperty double z\nend_header\n\x00\x00";
+        assert!(matches!(load_ply(b, "h.ply"), Err(CloudError::WrongPointCount { found: 0, .. })));
+        let b = b"ply\nformat binary_little_endian 1.0\nelement face 18446744073709551615\nproperty list uint uint v\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\nend_header\n\xff\xff\xff\xff";
+        assert!(load_ply(b, "h.ply").is_err());
+        let b = b"ply\nformat ascii 1.0\nelement vertex 18446744073709551615\nproperty double x\nproperty double y\nproperty double z\nend_header\n1 2 3\n";
+        assert!(matches!(load_ply(b, "h.ply"), Err(CloudError::WrongPointCount { found: 1, .. })));
+        // An element with no properties and a huge count costs nothing.
+        let b = b"ply\nformat ascii 1.0\nelement empty 18446744073709551615\nelement vertex 1\nproperty double x\nproperty double y\nproperty double z\nend_header\n1 2 3\n";
+        assert_eq!(load_ply(b, "h.ply").unwrap().len(), 1);
+    }
+
+    fn cloud_strategy() -> impl Strategy<Value = PointCloud> {
+        (0usize..40, any::<bool>(), any::<bool>()).prop_flat_map(|(n, with_class, with_cov)| {
+            (
+                prop::collection::vec((-1e6f64..1e6, -1e6f64..1e6, -1e6f64..1e6), n),
+                prop::collection::vec(any::<u8>(), n),
+                prop::collection::vec((0.0f64..10.0, -1.0f64..1.0, -1.0f64..1.0, 0.0f64..10.0, -1.0f64..1.0, 0.0f64..10.0), n),
+            )
+                .prop_map(move |(pts, class, cov)| PointCloud {
+                    points: pts.into_iter().map(|(x, y, z)| Point3::new(x, y, z)).collect(),
+                    classification: with_class.then_some(class),
+                    covariances: with_cov.then(|| cov.into_iter().map(|(a, b, c, d, e, f)| super::super::cov_from_upper([a, b, c, d, e, f])).collect()),
+                })
+        })
+    }
+
+    pub(crate) fn valid_files() -> Vec<Vec<u8>> {
+        let mut v = vec![
+            b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty list uchar int idx\nproperty float y\nproperty double z\nproperty uchar classification\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n1 2 7 8 2.5 -3 2\n4 0 5 6e1 11\n3 0 1 1\n".to_vec(),
+        ];
+        let mut c = PointCloud::from_points(vec![Point3::new(1.0, 2.0, 3.0), Point3::new(-4.0, 5.0, 6.5)]);
+        c.classification = Some(vec![2, 9]);
+        v.push(write_ply_binary(&c));
+        v
+    }
+
+    proptest! {
+        #[test]
+        fn binary_roundtrip(cloud in cloud_strategy()) {
+            let back = load_ply(&write_ply_binary(&cloud), "r.ply").unwrap();
+            prop_assert_eq!(back, cloud);
+        }
+
+        #[test]
+        fn arbitrary_bytes_never_panic(prefix in prop::sample::select(vec![&b""[..], b"ply\nformat ascii 1.0\n", b"ply\nformat binary_big_endian 1.0\nelement vertex 3\n"]), tail in prop::collection::vec(any::<u8>(), 0..300)) {
+            let mut bytes = prefix.to_vec();
+            bytes.extend_from_slice(&tail);
+            let _ = load_ply(&bytes, "x.ply");
+        }
+
+        #[test]
+        fn mutated_files_never_panic(which in 0usize..2, pos in any::<prop::sample::Index>(), byte in any::<u8>(), cut in any::<prop::sample::Index>()) {
+            let f = &valid_files()[which];
+            let mut m = f.clone();
+            let i = pos.index(m.len());
+            m[i] = byte;
+            let _ = load_ply(&m, "x.ply");
+            let _ = load_ply(&f[..cut.index(f.len())], "x.ply");
+        }
+    }
+}

@@ -1,0 +1,272 @@
+//! The planning pipeline shared by every selector (notes §3–5, §7: the baselines use the same
+//! traversability map, frontiers, clusters, blacklist and planner as FIT-SLAM).
+//!
+//! 1. [`prepare`]: inflate the thresholded grid by the robot radius; find the robot's cell
+//!    (error if the pose is non-finite or outside the map); if that cell is not free on the
+//!    inflated grid, snap to the nearest free cell within `radius_m` + one cell (centre to centre,
+//!    ties by flat index) and record it, else error.
+//! 2. [`frontier_clusters`]: WFD frontiers and clusters on the inflated grid, sorted by the
+//!    candidate's flat cell index.
+//! 3. [`distances`]: ONE Dijkstra from the robot's cell on the inflated grid gives every ρ_i and
+//!    path (notes §4).
+//! 4. [`score_u1`]: per candidate — blacklisted (dropped), no path (dropped; the caller
+//!    blacklists it), else path, rays on the *un-inflated* grid, Θ*, ΔE; then u1 over all
+//!    scored candidates.
+//! 5. [`score_u2`] (FIT-SLAM): u2 on the N best by u1.
+//!
+//! Cost: inflation O(B r²), WFD O(cells), Dijkstra O(n log n) over reachable cells, u1 O(C·R·L)
+//! for C candidates, R rays of L cells, u2 O(N·K·V) (see [`crate::utility::u2`]).
+
+use super::report::{CandidateReport, Decision, DropReason};
+use super::{DecisionInput, SelectError};
+use crate::frontier::{detect_frontiers, FrontierCluster};
+use crate::grid::{inflate_lethal, Cell, CellClass, OccupancyGrid};
+use crate::params::{Params, Strategy};
+use crate::path::{dijkstra, DistanceField};
+use crate::utility::{normalise_path_information, path_information, u1_scores, u2_score, FovWindows, RayFan};
+
+/// Output of [`prepare`]: the planning grid and the start cell.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// The thresholded grid inflated by the robot radius.
+    pub inflated: OccupancyGrid,
+    /// The cell planning starts from.
+    pub robot_cell: Cell,
+    /// The cell under the robot's pose.
+    pub requested_robot_cell: Cell,
+    /// Whether `robot_cell` differs from `requested_robot_cell`.
+    pub start_snapped: bool,
+}
+
+/// Step 1: validate, inflate, locate (and if needed snap) the robot.
+pub fn prepare(input: &DecisionInput, params: &Params) -> Result<Prepared, SelectError> {
+    params.validate().map_err(SelectError::InvalidParams)?;
+    let g = input.grid.geometry;
+    if input.grid.data.len() != g.len() {
+        return Err(SelectError::GridSizeMismatch { data_len: input.grid.data.len(), cells: g.len() });
+    }
+    if !input.robot.is_finite() {
+        return Err(SelectError::RobotPoseNotFinite);
+    }
+    let requested = g
+        .cell_of(input.robot.x_m, input.robot.y_m)
+        .ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
+    let inflated = inflate_lethal(input.grid, params.robot.radius_m);
+    let free = |c: Cell| g.index(c).is_some_and(|i| CellClass::of(inflated.data[i]) == CellClass::Free);
+    if free(requested) {
+        return Ok(Prepared { inflated, robot_cell: requested, requested_robot_cell: requested, start_snapped: false });
+    }
+    let max_m = params.robot.radius_m + g.resolution_m;
+    let r = (max_m / g.resolution_m).floor() as i32;
+    let r2 = (max_m / g.resolution_m).powi(2) + 1e-9;
+    let mut best: Option<(i64, usize, Cell)> = None;
+    for dr in -r..=r {
+        for dc in -r..=r {
+            let d2 = i64::from(dc * dc + dr * dr);
+            if d2 as f64 > r2 {
+                continue;
+            }
+            let c = Cell::new(requested.col + dc, requested.row + dr);
+            if let (true, Some(i)) = (free(c), g.index(c)) {
+                if best.is_none_or(|(bd, bi, _)| (d2, i) < (bd, bi)) {
+                    best = Some((d2, i, c));
+                }
+            }
+        }
+    }
+    match best {
+        Some((_, _, c)) => Ok(Prepared { inflated, robot_cell: c, requested_robot_cell: requested, start_snapped: true }),
+        None => Err(SelectError::RobotBlocked { cell: requested, search_radius_m: max_m }),
+    }
+}
+
+/// Step 2: frontier clusters on the inflated grid, sorted by the candidate's flat index.
+pub fn frontier_clusters(input: &DecisionInput, prepared: &Prepared, params: &Params) -> Result<Vec<FrontierCluster>, SelectError> {
+    let mut clusters = detect_frontiers(&prepared.inflated, prepared.robot_cell, input.boundary, &params.frontier)?;
+    let g = prepared.inflated.geometry;
+    clusters.sort_by_key(|c| g.index(c.candidate).unwrap_or(usize::MAX));
+    Ok(clusters)
+}
+
+/// Step 3: one Dijkstra from the robot's cell.
+pub fn distances(prepared: &Prepared, params: &Params) -> Result<DistanceField, SelectError> {
+    Ok(dijkstra(&prepared.inflated, prepared.robot_cell, params.planner.allow_unknown)?)
+}
+
+/// Step 4: the candidate reports with ρ, path, rays, Θ*, ΔE and u1 (see the module doc).
+pub fn score_u1(
+    input: &DecisionInput,
+    prepared: &Prepared,
+    clusters: Vec<FrontierCluster>,
+    field: &DistanceField,
+    params: &Params,
+    strategy: Strategy,
+) -> Result<Decision, SelectError> {
+    let g = input.grid.geometry;
+    let fan = RayFan::new(params.u1.delta_theta_rad, params.camera.max_depth_m, g.resolution_m, params.u1.gamma)?;
+    let windows = FovWindows::new(fan.angles_rad(), params.camera.hfov_rad);
+    let mut candidates = Vec::with_capacity(clusters.len());
+    let mut gains = Vec::with_capacity(fan.len());
+    for cluster in clusters {
+        let (x_m, y_m) = g.center_of(cluster.candidate);
+        let mut c = CandidateReport::new(cluster.candidate, x_m, y_m, cluster.cells);
+        c.rho_m = field.distance_m(c.cell);
+        if let Some(reason) = input.blacklist.contains(x_m, y_m) {
+            c.dropped = Some(DropReason::Blacklisted(reason));
+        } else if let Some(path) = field.path_to(c.cell) {
+            c.path_m = simplify_path(&path.cells, &g);
+            fan.cast(input.grid, c.cell, &mut gains);
+            if let Some(best) = windows.best(fan.angles_rad(), &gains) {
+                c.delta_e_bits = Some(best.delta_e_bits);
+                c.theta_star_rad = Some(best.theta_rad);
+            }
+            c.ray_gains_bits = gains.clone();
+        } else {
+            c.dropped = Some(DropReason::NoPath);
+        }
+        candidates.push(c);
+    }
+    let scored: Vec<usize> = (0..candidates.len()).filter(|&i| candidates[i].dropped.is_none()).collect();
+    let rho: Vec<f64> = scored.iter().map(|&i| candidates[i].rho_m.unwrap_or(f64::INFINITY)).collect();
+    let de: Vec<f64> = scored.iter().map(|&i| candidates[i].delta_e_bits.unwrap_or(0.0)).collect();
+    let mut u1 = Vec::with_capacity(scored.len());
+    u1_scores(&rho, &de, params.u1.alpha, g.resolution_m, &mut u1);
+    for (&i, &u) in scored.iter().zip(&u1) {
+        candidates[i].u1 = Some(u);
+    }
+    let order = order_by(&scored, |i| -candidates[i].u1.unwrap_or(f64::NEG_INFINITY));
+    for (k, &i) in order.iter().enumerate() {
+        candidates[i].u1_rank = Some(k + 1);
+    }
+    Ok(Decision {
+        strategy,
+        chosen: None,
+        goal: None,
+        robot: input.robot,
+        robot_cell: prepared.robot_cell,
+        requested_robot_cell: prepared.requested_robot_cell,
+        start_snapped: prepared.start_snapped,
+        ray_angles_rad: fan.angles_rad().to_vec(),
+        candidates,
+    })
+}
+
+/// Step 5 (FIT-SLAM): waypoints, path information and u2 on the N best candidates by u1; the
+/// other scored candidates are dropped as [`DropReason::NotInTopN`].
+pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params) {
+    let top: Vec<usize> = {
+        let mut t: Vec<usize> = (0..decision.candidates.len())
+            .filter(|&i| decision.candidates[i].u1_rank.is_some_and(|r| r <= params.u2.top_n))
+            .collect();
+        t.sort_by_key(|&i| decision.candidates[i].u1_rank);
+        t
+    };
+    for c in decision.candidates.iter_mut() {
+        if c.u1_rank.is_some_and(|r| r > params.u2.top_n) {
+            c.dropped = Some(DropReason::NotInTopN);
+        }
+    }
+    let mut raw = Vec::with_capacity(top.len());
+    for &i in &top {
+        let c = &mut decision.candidates[i];
+        let ip = path_information(
+            &c.path_m,
+            c.theta_star_rad.unwrap_or(0.0),
+            input.landmarks,
+            params.waypoint_spacing_m(),
+            &params.camera,
+            params.robot.camera_height_m,
+            input.ground_z_m,
+            params.u2.sigma_bearing_rad,
+            &mut c.waypoints,
+        );
+        c.path_info_raw = Some(ip);
+        raw.push(ip);
+    }
+    let mut norm = Vec::with_capacity(raw.len());
+    normalise_path_information(&raw, params.u2.normalisation, &mut norm);
+    for (&i, &ip) in top.iter().zip(&norm) {
+        let c = &mut decision.candidates[i];
+        c.path_info = Some(ip);
+        c.u2 = c.u1.map(|u| u2_score(u, ip, params.u2.beta));
+    }
+}
+
+/// Steps 1–4: everything but u2.
+pub fn plan(input: &DecisionInput, params: &Params, strategy: Strategy) -> Result<Decision, SelectError> {
+    let prepared = prepare(input, params)?;
+    let clusters = frontier_clusters(input, &prepared, params)?;
+    let field = distances(&prepared, params)?;
+    score_u1(input, &prepared, clusters, &field, params, strategy)
+}
+
+/// Assigns ranks 1.. to `indices` in increasing `key` (ties by candidate index), sets `chosen`
+/// and `goal` to rank 1.
+pub fn rank_and_choose(decision: &mut Decision, indices: &[usize], key: impl Fn(&CandidateReport) -> f64) {
+    let order = order_by(indices, |i| key(&decision.candidates[i]));
+    for (k, &i) in order.iter().enumerate() {
+        decision.candidates[i].rank = Some(k + 1);
+    }
+    choose(decision, order.first().copied());
+}
+
+/// Sets `chosen` and `goal` (candidate cell centre, Θ*).
+pub fn choose(decision: &mut Decision, chosen: Option<usize>) {
+    decision.chosen = chosen;
+    decision.goal = chosen.map(|i| {
+        let c = &decision.candidates[i];
+        crate::pose::Pose2::new(c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0))
+    });
+}
+
+/// `indices` sorted by increasing key, ties (and NaN keys, last) by index.
+fn order_by(indices: &[usize], key: impl Fn(usize) -> f64) -> Vec<usize> {
+    let mut v: Vec<(f64, usize)> = indices.iter().map(|&i| (key(i), i)).collect();
+    v.sort_by(|a, b| {
+        let ka = if a.0.is_nan() { f64::INFINITY } else { a.0 };
+        let kb = if b.0.is_nan() { f64::INFINITY } else { b.0 };
+        ka.total_cmp(&kb).then(a.1.cmp(&b.1))
+    });
+    v.into_iter().map(|(_, i)| i).collect()
+}
+
+/// Cell centres of a path with the cells inside straight runs removed (the polyline is the
+/// same).
+fn simplify_path(cells: &[Cell], g: &crate::grid::GridGeometry) -> Vec<[f64; 2]> {
+    let mut out = Vec::new();
+    let pt = |c: Cell| {
+        let (x, y) = g.center_of(c);
+        [x, y]
+    };
+    for (k, &c) in cells.iter().enumerate() {
+        let keep = k == 0
+            || k + 1 == cells.len()
+            || (c.col - cells[k - 1].col, c.row - cells[k - 1].row) != (cells[k + 1].col - c.col, cells[k + 1].row - c.row);
+        if keep {
+            out.push(pt(c));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridGeometry;
+
+    #[test]
+    fn simplify_keeps_corners_only() {
+        let g = GridGeometry::new(0.0, 0.0, 1.0, 10, 10);
+        let cells: Vec<Cell> = [(0, 0), (1, 0), (2, 0), (3, 1), (4, 2), (4, 3)].iter().map(|&(c, r)| Cell::new(c, r)).collect();
+        let p = simplify_path(&cells, &g);
+        assert_eq!(p, vec![[0.5, 0.5], [2.5, 0.5], [4.5, 2.5], [4.5, 3.5]]);
+        assert_eq!(simplify_path(&cells[..1], &g), vec![[0.5, 0.5]]);
+        assert!(simplify_path(&[], &g).is_empty());
+    }
+
+    #[test]
+    fn order_by_breaks_ties_by_index() {
+        assert_eq!(order_by(&[4, 1, 3, 2], |i| if i == 3 { 0.0 } else { 1.0 }), vec![3, 1, 2, 4]);
+        assert_eq!(order_by(&[0, 1, 2], |i| if i == 0 { f64::NAN } else { -(i as f64) }), vec![2, 1, 0]);
+    }
+}

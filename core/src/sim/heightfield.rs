@@ -1,0 +1,175 @@
+//! Terrain as a heightfield: ground height z(x, y) on a square grid, bilinear between samples.
+//! Built from a real DEM image (16- or 8-bit grey PNG, value = metres) scaled to rover size, or
+//! procedurally. Lookups O(1).
+
+use crate::grid::{Cell, GridGeometry};
+use thiserror::Error;
+
+/// A DEM that could not be read.
+#[derive(Debug, Error)]
+pub enum HeightfieldError {
+    #[error("{name}: not a readable PNG: {message}")]
+    Png { name: String, message: String },
+    #[error("{name}: {message}")]
+    Invalid { name: String, message: String },
+}
+
+/// Ground heights on `geometry`'s cell centres, row-major bottom-up like every layer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Heightfield {
+    pub geometry: GridGeometry,
+    pub heights_m: Vec<f64>,
+}
+
+/// How a real DEM is brought to rover scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DemScaling {
+    /// Ground size of one DEM pixel along x (columns), metres.
+    pub pixel_x_m: f64,
+    /// Ground size of one DEM pixel along y (rows), metres.
+    pub pixel_y_m: f64,
+    /// Edge of the square world the DEM's central crop is mapped onto, metres.
+    pub world_size_m: f64,
+    /// Resolution of the resulting heightfield, metres.
+    pub cell_m: f64,
+    /// Fraction of the DEM's shorter side the crop spans (0, 1].
+    pub crop_fraction: f64,
+}
+
+impl Heightfield {
+    /// A heightfield from a function of the cell centre.
+    pub fn from_fn(geometry: GridGeometry, mut z: impl FnMut(f64, f64) -> f64) -> Self {
+        let heights_m = (0..geometry.len())
+            .map(|i| {
+                let (x, y) = geometry.center_of(geometry.cell_at(i));
+                z(x, y)
+            })
+            .collect();
+        Self { geometry, heights_m }
+    }
+
+    /// Height at a world point, bilinear between cell centres (clamped at the border); `None`
+    /// outside the grid.
+    pub fn height_at(&self, x_m: f64, y_m: f64) -> Option<f64> {
+        let g = &self.geometry;
+        g.cell_of(x_m, y_m)?;
+        let fx = ((x_m - g.origin_x_m) / g.resolution_m - 0.5).clamp(0.0, (g.width - 1) as f64);
+        let fy = ((y_m - g.origin_y_m) / g.resolution_m - 0.5).clamp(0.0, (g.height - 1) as f64);
+        let (c0, r0) = (fx.floor() as usize, fy.floor() as usize);
+        let (c1, r1) = ((c0 + 1).min(g.width - 1), (r0 + 1).min(g.height - 1));
+        let (tx, ty) = (fx - c0 as f64, fy - r0 as f64);
+        let h = |c: usize, r: usize| self.heights_m[r * g.width + c];
+        let bottom = h(c0, r0) + (h(c1, r0) - h(c0, r0)) * tx;
+        let top = h(c0, r1) + (h(c1, r1) - h(c0, r1)) * tx;
+        Some(bottom + (top - bottom) * ty)
+    }
+
+    /// Height of a cell's centre.
+    pub fn height_of(&self, cell: Cell) -> Option<f64> {
+        self.geometry.index(cell).map(|i| self.heights_m[i])
+    }
+
+    /// Builds a rover-scale heightfield from a grey PNG DEM (pixel value = metres; image row 0 is
+    /// north, i.e. the top). The central square crop (`crop_fraction` of the shorter side, in
+    /// ground metres) is mapped onto a `world_size_m` square with its origin at (0, 0), and heights
+    /// are scaled by the same factor as distances, so slopes are the real terrain's; the lowest
+    /// point of the crop is at z = 0.
+    pub fn from_dem_png(bytes: &[u8], name: &str, scaling: DemScaling) -> Result<Self, HeightfieldError> {
+        let invalid = |message: String| HeightfieldError::Invalid { name: name.into(), message };
+        let s = scaling;
+        if !(s.pixel_x_m > 0.0 && s.pixel_y_m > 0.0 && s.world_size_m > 0.0 && s.cell_m > 0.0)
+            || !(s.crop_fraction > 0.0 && s.crop_fraction <= 1.0)
+        {
+            return Err(invalid("DEM scaling parameters must be positive (crop fraction in (0, 1])".into()));
+        }
+        let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = decoder.read_info().map_err(|e| HeightfieldError::Png { name: name.into(), message: e.to_string() })?;
+        let (w, h) = {
+            let info = reader.info();
+            (info.width as usize, info.height as usize)
+        };
+        let mut buf = vec![0u8; reader.output_buffer_size().ok_or_else(|| invalid("image too large".into()))?];
+        let frame = reader.next_frame(&mut buf).map_err(|e| HeightfieldError::Png { name: name.into(), message: e.to_string() })?;
+        let channels = frame.color_type.samples();
+        if frame.color_type != png::ColorType::Grayscale && frame.color_type != png::ColorType::GrayscaleAlpha {
+            return Err(invalid(format!("DEM must be a grey image (got {:?})", frame.color_type)));
+        }
+        let sixteen = frame.bit_depth == png::BitDepth::Sixteen;
+        let stride = frame.line_size;
+        let value = |col: usize, row: usize| -> f64 {
+            let base = row * stride;
+            if sixteen {
+                let o = base + col * channels * 2;
+                u16::from_be_bytes([buf[o], buf[o + 1]]) as f64
+            } else {
+                buf[base + col * channels] as f64
+            }
+        };
+        if w < 2 || h < 2 {
+            return Err(invalid("DEM must be at least 2 × 2 pixels".into()));
+        }
+        // Central crop in ground metres.
+        let crop_m = s.crop_fraction * ((w as f64 - 1.0) * s.pixel_x_m).min((h as f64 - 1.0) * s.pixel_y_m);
+        let scale = s.world_size_m / crop_m; // world metres per ground metre
+        let cx0 = ((w as f64 - 1.0) * s.pixel_x_m - crop_m) / 2.0;
+        let cy0 = ((h as f64 - 1.0) * s.pixel_y_m - crop_m) / 2.0;
+        let n = (s.world_size_m / s.cell_m).round().max(2.0) as usize;
+        let geometry = GridGeometry::new(0.0, 0.0, s.world_size_m / n as f64, n, n);
+        let sample = |gx: f64, gy_from_top: f64| -> f64 {
+            let fx = (gx / s.pixel_x_m).clamp(0.0, (w - 1) as f64);
+            let fy = (gy_from_top / s.pixel_y_m).clamp(0.0, (h - 1) as f64);
+            let (c0, r0) = (fx.floor() as usize, fy.floor() as usize);
+            let (c1, r1) = ((c0 + 1).min(w - 1), (r0 + 1).min(h - 1));
+            let (tx, ty) = (fx - c0 as f64, fy - r0 as f64);
+            let a = value(c0, r0) + (value(c1, r0) - value(c0, r0)) * tx;
+            let b = value(c0, r1) + (value(c1, r1) - value(c0, r1)) * tx;
+            a + (b - a) * ty
+        };
+        let mut field = Self::from_fn(geometry, |x, y| {
+            // world y grows north; image rows grow south.
+            let gx = cx0 + x / scale;
+            let gy_from_top = cy0 + (s.world_size_m - y) / scale;
+            sample(gx, gy_from_top) * scale
+        });
+        let min = field.heights_m.iter().cloned().fold(f64::INFINITY, f64::min);
+        field.heights_m.iter_mut().for_each(|z| *z -= min);
+        Ok(field)
+    }
+
+    /// Slope magnitude at a world point from central differences, radians.
+    pub fn slope_at(&self, x_m: f64, y_m: f64) -> Option<f64> {
+        let e = self.geometry.resolution_m;
+        let dzdx = (self.height_at(x_m + e, y_m)? - self.height_at(x_m - e, y_m)?) / (2.0 * e);
+        let dzdy = (self.height_at(x_m, y_m + e)? - self.height_at(x_m, y_m - e)?) / (2.0 * e);
+        Some(dzdx.hypot(dzdy).atan())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bilinear_is_exact_on_a_plane() {
+        let g = GridGeometry::new(0.0, 0.0, 0.1, 20, 20);
+        let hf = Heightfield::from_fn(g, |x, y| 0.3 * x - 0.2 * y + 1.0);
+        for &(x, y) in &[(0.5, 0.5), (1.23, 0.77), (0.06, 1.94)] {
+            assert!((hf.height_at(x, y).unwrap() - (0.3 * x - 0.2 * y + 1.0)).abs() < 1e-12);
+        }
+        assert!(hf.height_at(-0.1, 0.5).is_none());
+        let slope = hf.slope_at(1.0, 1.0).unwrap();
+        assert!((slope - (0.3f64.hypot(0.2)).atan()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn real_dem_scales_isotropically() {
+        let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/data/terrain/jacksboro_fault_dem.png")).unwrap();
+        let s = DemScaling { pixel_x_m: 74.0, pixel_y_m: 93.0, world_size_m: 20.0, cell_m: 0.05, crop_fraction: 0.5 };
+        let hf = Heightfield::from_dem_png(&bytes, "dem.png", s).unwrap();
+        assert_eq!(hf.geometry.width, 400);
+        let max = hf.heights_m.iter().cloned().fold(0.0, f64::max);
+        // crop ≈ 0.5 · 343 · 93 m ≈ 15.9 km → 20 m: scale ≈ 1/800; the real relief (≤ 840 m) becomes ≤ ~1.1 m.
+        assert!(max > 0.05 && max < 1.2, "relief {max}");
+        assert!(Heightfield::from_dem_png(b"not a png", "x.png", s).is_err());
+    }
+}

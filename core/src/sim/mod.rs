@@ -1,0 +1,13 @@
+//! Ground-truth world for simulation and asset building: terrain heightfields (procedural or from
+//! a real DEM), rocks, visible ground points, and deterministic noise. (The mission simulator
+//! builds on this.)
+
+mod heightfield;
+mod noise;
+mod obstacles;
+mod scan;
+
+pub use heightfield::{DemScaling, Heightfield, HeightfieldError};
+pub use noise::{fractal_noise, hash_unit};
+pub use obstacles::{scatter_rocks, Rock};
+pub use scan::{line_of_sight, visible_ground_points};

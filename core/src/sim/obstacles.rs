@@ -1,0 +1,72 @@
+//! Rocks on a heightfield: flat-topped cylinders whose tops are added to the ground, placed by a
+//! seeded Poisson-like process (one candidate per lattice cell, kept with a probability).
+//! O(rocks × footprint cells).
+
+use super::{hash_unit, Heightfield};
+
+/// One rock: a vertical cylinder standing on the terrain.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rock {
+    pub x_m: f64,
+    pub y_m: f64,
+    pub radius_m: f64,
+    pub height_m: f64,
+}
+
+/// Scatters rocks over the heightfield: one candidate per `spacing_m` lattice cell, kept with
+/// probability `density`, radius in [r_min, r_max], height in [h_min, h_max]; rocks within
+/// `keep_clear_m` of `clear_xy` are skipped (the robot's start). Returns the rocks placed.
+#[allow(clippy::too_many_arguments)]
+pub fn scatter_rocks(
+    field: &mut Heightfield,
+    seed: u64,
+    spacing_m: f64,
+    density: f64,
+    radius_range_m: (f64, f64),
+    height_range_m: (f64, f64),
+    clear_xy: (f64, f64),
+    keep_clear_m: f64,
+) -> Vec<Rock> {
+    let (min_x, min_y, max_x, max_y) = field.geometry.bounds_m();
+    let nx = ((max_x - min_x) / spacing_m).floor() as i64;
+    let ny = ((max_y - min_y) / spacing_m).floor() as i64;
+    let mut rocks = Vec::new();
+    for j in 0..ny {
+        for i in 0..nx {
+            if hash_unit(i, j, seed) >= density {
+                continue;
+            }
+            let x = min_x + (i as f64 + hash_unit(i, j, seed ^ 1)) * spacing_m;
+            let y = min_y + (j as f64 + hash_unit(i, j, seed ^ 2)) * spacing_m;
+            let r = radius_range_m.0 + (radius_range_m.1 - radius_range_m.0) * hash_unit(i, j, seed ^ 3);
+            let h = height_range_m.0 + (height_range_m.1 - height_range_m.0) * hash_unit(i, j, seed ^ 4);
+            if (x - clear_xy.0).hypot(y - clear_xy.1) < keep_clear_m + r {
+                continue;
+            }
+            rocks.push(Rock { x_m: x, y_m: y, radius_m: r, height_m: h });
+        }
+    }
+    for rock in &rocks {
+        stamp_rock(field, rock);
+    }
+    rocks
+}
+
+/// Raises the cells under `rock` to a flat top at the rock's base height + its height.
+fn stamp_rock(field: &mut Heightfield, rock: &Rock) {
+    let g = field.geometry;
+    let base = field.height_at(rock.x_m, rock.y_m).unwrap_or(0.0);
+    let top = base + rock.height_m;
+    let r_cells = (rock.radius_m / g.resolution_m).ceil() as i32 + 1;
+    let Some(center) = g.cell_unchecked(rock.x_m, rock.y_m) else { return };
+    for dr in -r_cells..=r_cells {
+        for dc in -r_cells..=r_cells {
+            let cell = crate::grid::Cell::new(center.col + dc, center.row + dr);
+            let Some(i) = g.index(cell) else { continue };
+            let (x, y) = g.center_of(cell);
+            if (x - rock.x_m).hypot(y - rock.y_m) <= rock.radius_m {
+                field.heights_m[i] = field.heights_m[i].max(top);
+            }
+        }
+    }
+}

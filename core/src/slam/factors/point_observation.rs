@@ -1,0 +1,80 @@
+//! A 3D landmark observed from an SE(3) pose, as a point in the robot frame (notes §1):
+//! `e = x⁻¹ m − z = Rᵀ(m − t) − z`. With `p = Rᵀ(m − t)`, the Jacobians are
+//! `∂e/∂ξ = [−I₃, [p]×]` (right perturbation, ξ = (δt, δφ); the same form as notes §6) and
+//! `∂e/∂m = Rᵀ`. O(1).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
+use crate::slam::lie::hat;
+use crate::slam::values::{VarId, Values};
+
+#[derive(Clone, Debug)]
+pub struct PointObservation3 {
+    keys: [VarId; 2],
+    point_in_robot: Vector3<f64>,
+    noise: GaussianNoise,
+}
+
+impl PointObservation3 {
+    /// `noise` 3-dimensional, in the robot frame.
+    pub fn new(pose: VarId, landmark: VarId, point_in_robot: Vector3<f64>, noise: GaussianNoise) -> Self {
+        Self { keys: [pose, landmark], point_in_robot, noise }
+    }
+
+    pub fn point_in_robot(&self) -> &Vector3<f64> {
+        &self.point_in_robot
+    }
+}
+
+impl Factor for PointObservation3 {
+    fn keys(&self) -> &[VarId] {
+        &self.keys
+    }
+
+    fn noise(&self) -> &GaussianNoise {
+        &self.noise
+    }
+
+    fn error(&self, values: &Values) -> Result<Residual, FactorError> {
+        let x = fetch!(values, self.keys[0], se3, "SE3");
+        let m = fetch!(values, self.keys[1], point3, "Point3");
+        let e = x.inverse_transform_point(&m) - self.point_in_robot;
+        Ok(Residual::new(e.x, e.y, e.z, 0.0, 0.0, 0.0))
+    }
+
+    fn linearize(&self, values: &Values, jac: &mut [Jacobian; MAX_FACTOR_KEYS]) -> Result<Residual, FactorError> {
+        let x = fetch!(values, self.keys[0], se3, "SE3");
+        let m = fetch!(values, self.keys[1], point3, "Point3");
+        let p = x.inverse_transform_point(&m);
+        let [jx, jm] = jac;
+        jx.fill(0.0);
+        jx.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-Matrix3::identity()));
+        jx.fixed_view_mut::<3, 3>(0, 3).copy_from(&hat(&p));
+        jm.fill(0.0);
+        jm.fixed_view_mut::<3, 3>(0, 0).copy_from(&x.rotation_matrix().transpose());
+        let e = p - self.point_in_robot;
+        Ok(Residual::new(e.x, e.y, e.z, 0.0, 0.0, 0.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::lie::{so3_exp, Se3};
+    use crate::slam::values::Variable;
+
+    #[test]
+    fn error_hand_value() {
+        // Robot at (1, 0, 0) turned π/2 about z; landmark at (1, 2, 0) is 2 m ahead: p = (2, 0, 0).
+        let mut values = Values::new();
+        let pose = Se3::new(so3_exp(&Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2)), Vector3::new(1.0, 0.0, 0.0));
+        let x = values.push(Variable::Se3(pose));
+        let m = values.push(Variable::Point3(Vector3::new(1.0, 2.0, 0.0)));
+        let f = PointObservation3::new(x, m, Vector3::new(2.0, 0.5, 0.0), GaussianNoise::isotropic(3, 0.5).unwrap());
+        let e = f.error(&values).unwrap();
+        assert!((e - Residual::new(0.0, -0.5, 0.0, 0.0, 0.0, 0.0)).norm() < 1e-12);
+        // χ² = (0.5/0.5)² = 1.
+        assert!((f.chi2(&values).unwrap() - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,115 @@
+//! Prior factors on a pose: `e = Local(z, x)`, the GTSAM `PriorFactor` error.
+//!
+//! SE(2): `e = (x, y, θ)` of `z⁻¹ x` (GTSAM's default `Pose2` chart, g2o's `toVector`); its
+//! Jacobian under `x · Exp(ξ)` is `[[R_zᵀ R_x, 0], [0, 1]]`.
+//! SE(3): `e = Log(z⁻¹ x)`, Jacobian `J_r⁻¹(e)`. Both O(1).
+
+use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
+use crate::slam::lie::{se3_right_jacobian_inv, Se2, Se3};
+use crate::slam::values::{VarId, Values};
+
+/// Prior on an SE(2) pose.
+#[derive(Clone, Debug)]
+pub struct PriorSe2 {
+    keys: [VarId; 1],
+    prior: Se2,
+    noise: GaussianNoise,
+}
+
+impl PriorSe2 {
+    /// `noise` must be 3-dimensional, ordered (x, y, θ).
+    pub fn new(key: VarId, prior: Se2, noise: GaussianNoise) -> Self {
+        Self { keys: [key], prior, noise }
+    }
+
+    pub fn prior(&self) -> &Se2 {
+        &self.prior
+    }
+
+    fn eval(&self, x: &Se2) -> Residual {
+        let d = self.prior.between(x).to_vector();
+        Residual::new(d.x, d.y, d.z, 0.0, 0.0, 0.0)
+    }
+}
+
+impl Factor for PriorSe2 {
+    fn keys(&self) -> &[VarId] {
+        &self.keys
+    }
+
+    fn noise(&self) -> &GaussianNoise {
+        &self.noise
+    }
+
+    fn error(&self, values: &Values) -> Result<Residual, FactorError> {
+        Ok(self.eval(&fetch!(values, self.keys[0], se2, "SE2")))
+    }
+
+    fn linearize(&self, values: &Values, jac: &mut [Jacobian; MAX_FACTOR_KEYS]) -> Result<Residual, FactorError> {
+        let x = fetch!(values, self.keys[0], se2, "SE2");
+        let r = self.prior.rotation_matrix().transpose() * x.rotation_matrix();
+        let j = &mut jac[0];
+        j.fill(0.0);
+        j.fixed_view_mut::<2, 2>(0, 0).copy_from(&r);
+        j[(2, 2)] = 1.0;
+        Ok(self.eval(&x))
+    }
+}
+
+/// Prior on an SE(3) pose.
+#[derive(Clone, Debug)]
+pub struct PriorSe3 {
+    keys: [VarId; 1],
+    prior: Se3,
+    noise: GaussianNoise,
+}
+
+impl PriorSe3 {
+    /// `noise` must be 6-dimensional, ordered (δt, δφ).
+    pub fn new(key: VarId, prior: Se3, noise: GaussianNoise) -> Self {
+        Self { keys: [key], prior, noise }
+    }
+
+    pub fn prior(&self) -> &Se3 {
+        &self.prior
+    }
+}
+
+impl Factor for PriorSe3 {
+    fn keys(&self) -> &[VarId] {
+        &self.keys
+    }
+
+    fn noise(&self) -> &GaussianNoise {
+        &self.noise
+    }
+
+    fn error(&self, values: &Values) -> Result<Residual, FactorError> {
+        Ok(self.prior.local(&fetch!(values, self.keys[0], se3, "SE3")))
+    }
+
+    fn linearize(&self, values: &Values, jac: &mut [Jacobian; MAX_FACTOR_KEYS]) -> Result<Residual, FactorError> {
+        let e = self.prior.local(&fetch!(values, self.keys[0], se3, "SE3"));
+        jac[0] = se3_right_jacobian_inv(&e);
+        Ok(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::values::Variable;
+
+    #[test]
+    fn se2_prior_error_hand_value() {
+        // z = (1, 0, π/2), x = (1, 2, π/2 + 0.1): z⁻¹x = (2, 0, 0.1) (R_zᵀ (0, 2) = (2, 0)).
+        let mut values = Values::new();
+        let k = values.push(Variable::Se2(Se2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2 + 0.1)));
+        let noise = GaussianNoise::from_sigmas(&[1.0, 1.0, 0.1]).unwrap();
+        let f = PriorSe2::new(k, Se2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2), noise);
+        let e = f.error(&values).unwrap();
+        assert!((e.x - 2.0).abs() < 1e-12 && e.y.abs() < 1e-12 && (e.z - 0.1).abs() < 1e-12);
+        // χ² = 4 + (0.1/0.1)² = 5.
+        assert!((f.chi2(&values).unwrap() - 5.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,40 @@
+//! Graph SLAM backend (notes §1, paper eq. 1): keyframe poses on SE(3) (and SE(2) for 2D data
+//! sets), landmarks in R³ / R², factors (priors, odometry, landmark observations), a sparse
+//! Gauss-Newton / Levenberg-Marquardt optimiser with faer's sparse Cholesky, marginal
+//! covariances, and g2o / Victoria Park readers for tests and benchmarks on real pose graphs.
+//!
+//! Conventions: right perturbations `x ⊕ ξ = x · Exp(ξ)`, tangent ξ = (δt, δφ) (translation
+//! first); covariances are in the body frame. See [`lie`].
+//!
+//! | module | what |
+//! |---|---|
+//! | [`lie`] | SO(3), SE(2), SE(3): exp/log, adjoints, Jacobians |
+//! | [`values`] | variables and their fixed flags |
+//! | [`factors`] | `Factor` trait, noise models, prior / between / landmark factors |
+//! | [`graph`] | the factor graph |
+//! | [`linear_system`] | sparse normal equations, Cholesky with cached symbolic analysis |
+//! | [`optimizer`] | Gauss-Newton and Levenberg-Marquardt (`step` / `optimize`) |
+//! | [`marginals`] | marginal covariances by solving `H X = E` |
+//! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
+//! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
+//! | [`graph_slam`] | keyframe SLAM for the simulator: sliding window, full optimisation, covariances |
+
+pub mod factors;
+pub mod graph;
+pub mod lie;
+pub mod linear_system;
+pub mod marginals;
+pub mod g2o;
+pub mod optimizer;
+pub mod problem;
+#[cfg(test)]
+mod real_data_tests;
+pub mod values;
+
+pub use factors::{Factor, FactorError, GaussianNoise};
+pub use graph::{FactorGraph, GraphError};
+pub use lie::{Se2, Se3};
+pub use marginals::{MarginalError, Marginals};
+pub use problem::{Gauge, Problem};
+pub use optimizer::{GaussNewton, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination};
+pub use values::{VarId, Values, Variable};

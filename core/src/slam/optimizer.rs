@@ -1,0 +1,279 @@
+//! Gauss-Newton and Levenberg-Marquardt on the sparse normal equations (notes §1: minimise
+//! Σ_k ‖e_k(X)‖²_{Σ_k}).
+//!
+//! Each [`Optimizer::step`] linearises once (`H = JᵀΩJ`, `g = JᵀΩe`), solves
+//! `(H + λI) δ = −g` by sparse Cholesky (λ = 0 for Gauss-Newton) and retracts `x ⊕ δ`. LM uses
+//! Nielsen's damping update (as g2o and Ceres): λ₀ = τ · max diag(H); a step is accepted when
+//! the gain ratio ρ = (χ² − χ²_new) / (δᵀ(λδ − g)) is positive, then λ ← λ · max(1/3,
+//! 1 − (2ρ − 1)³); otherwise λ ← λ·ν, ν ← 2ν and the solve is retried. Gauss-Newton accepts a
+//! step only if χ² does not increase. [`Optimizer::optimize`] loops `step` until the relative χ²
+//! decrease falls below `relative_tolerance`, χ² below `absolute_tolerance`, no decreasing step
+//! exists, or `max_iterations` is reached (an error that still leaves the best estimate in
+//! `values`: every accepted step lowers χ²).
+//!
+//! The optimised cost is χ² over the factors that touch a free variable (a constant offset from
+//! factors between fixed variables would blunt the relative test in sliding-window use).
+//! Cost per iteration: one linearisation O(factors) plus one sparse numeric Cholesky (its
+//! symbolic analysis is cached while the structure stays the same).
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::factors::FactorError;
+use super::graph::FactorGraph;
+use super::linear_system::{LinearSystem, SolveError};
+use super::values::Values;
+
+/// Stopping rules and damping, with GTSAM-like defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OptimizerParams {
+    /// Maximum number of linearisations. Default 100.
+    pub max_iterations: usize,
+    /// Stop when (χ²_prev − χ²)/χ²_prev falls below this. Default 1e-10.
+    pub relative_tolerance: f64,
+    /// Stop when χ² falls below this. Default 1e-12.
+    pub absolute_tolerance: f64,
+    /// LM: λ₀ = τ · max diag(H). Default 1e-5.
+    pub lambda_initial_factor: f64,
+    /// LM: give up on a linearisation (no decreasing step) when λ exceeds this. Default 1e16.
+    pub lambda_max: f64,
+}
+
+impl Default for OptimizerParams {
+    fn default() -> Self {
+        Self {
+            max_iterations: 100,
+            relative_tolerance: 1e-10,
+            absolute_tolerance: 1e-12,
+            lambda_initial_factor: 1e-5,
+            lambda_max: 1e16,
+        }
+    }
+}
+
+/// Why the loop stopped successfully.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Termination {
+    RelativeDecrease,
+    AbsoluteChi2,
+    /// No step from the last linearisation lowered χ² (a minimum to numerical precision).
+    NoDecrease,
+}
+
+/// What one [`Optimizer::step`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StepReport {
+    /// Optimised χ² at the linearisation point.
+    pub chi2_before: f64,
+    /// χ² after the step (equal to `chi2_before` when rejected).
+    pub chi2_after: f64,
+    pub accepted: bool,
+    /// Damping used for the accepted (or last tried) step; 0 for Gauss-Newton.
+    pub lambda: f64,
+    /// ‖δ‖ of the accepted (or last tried) step.
+    pub step_norm: f64,
+}
+
+/// The outcome of [`Optimizer::optimize`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    pub initial_chi2: f64,
+    pub final_chi2: f64,
+    /// Number of linearisations (calls to `step`).
+    pub iterations: usize,
+    /// `None` when `max_iterations` was reached.
+    pub termination: Option<Termination>,
+    /// Every step, in order.
+    pub steps: Vec<StepReport>,
+}
+
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum OptError {
+    #[error(transparent)]
+    Factor(#[from] FactorError),
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+    #[error("the initial χ² is not finite")]
+    NonFiniteChi2,
+    /// The values hold the best estimate found.
+    #[error("no convergence after {} iterations (χ² {} → {})", .0.iterations, .0.initial_chi2, .0.final_chi2)]
+    MaxIterations(Summary),
+}
+
+/// A nonlinear least-squares optimiser over a [`FactorGraph`].
+pub trait Optimizer {
+    fn params(&self) -> &OptimizerParams;
+
+    /// One linearisation and (possibly damped) solve; updates `values` when the step is
+    /// accepted and leaves them untouched otherwise.
+    fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError>;
+
+    /// Forgets per-problem state (damping, cached structure).
+    fn reset(&mut self);
+
+    /// Loops [`Optimizer::step`] until convergence. On `Err`, `values` hold the best estimate.
+    fn optimize(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<Summary, OptError> {
+        self.reset();
+        let params = self.params().clone();
+        let mut summary =
+            Summary { initial_chi2: f64::NAN, final_chi2: f64::NAN, iterations: 0, termination: None, steps: Vec::new() };
+        while summary.iterations < params.max_iterations {
+            let report = self.step(graph, values)?;
+            if summary.iterations == 0 {
+                if !report.chi2_before.is_finite() {
+                    return Err(OptError::NonFiniteChi2);
+                }
+                summary.initial_chi2 = report.chi2_before;
+            }
+            summary.iterations += 1;
+            summary.final_chi2 = report.chi2_after;
+            summary.steps.push(report);
+            if !report.accepted {
+                summary.termination = Some(Termination::NoDecrease);
+                break;
+            }
+            if report.chi2_after <= params.absolute_tolerance {
+                summary.termination = Some(Termination::AbsoluteChi2);
+                break;
+            }
+            if report.chi2_before - report.chi2_after <= params.relative_tolerance * report.chi2_before {
+                summary.termination = Some(Termination::RelativeDecrease);
+                break;
+            }
+        }
+        if summary.termination.is_none() {
+            return Err(OptError::MaxIterations(summary));
+        }
+        Ok(summary)
+    }
+}
+
+/// Reuses `system` if it still describes `graph` and `values`, else rebuilds it.
+fn ensure_system<'a>(
+    system: &'a mut Option<LinearSystem>,
+    graph: &FactorGraph,
+    values: &Values,
+) -> Result<&'a mut LinearSystem, SolveError> {
+    let stale = system.as_ref().is_none_or(|s| !s.matches(graph, values));
+    if stale {
+        *system = Some(LinearSystem::new(graph, values)?);
+    }
+    system.as_mut().ok_or(SolveError::NoFreeVariables)
+}
+
+/// Undamped Gauss-Newton.
+#[derive(Debug, Default)]
+pub struct GaussNewton {
+    pub params: OptimizerParams,
+    system: Option<LinearSystem>,
+    delta: Vec<f64>,
+    trial: Values,
+}
+
+impl GaussNewton {
+    pub fn new(params: OptimizerParams) -> Self {
+        Self { params, ..Self::default() }
+    }
+}
+
+impl Optimizer for GaussNewton {
+    fn params(&self) -> &OptimizerParams {
+        &self.params
+    }
+
+    fn reset(&mut self) {}
+
+    fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
+        let system = ensure_system(&mut self.system, graph, values)?;
+        let chi2 = system.linearize(graph, values)?;
+        system.solve_step(0.0, &mut self.delta)?;
+        system.retract_into(values, &self.delta, &mut self.trial);
+        let chi2_new = system.cost(graph, &self.trial)?;
+        let step_norm = self.delta.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let accepted = chi2_new.is_finite() && chi2_new <= chi2;
+        if accepted {
+            std::mem::swap(values, &mut self.trial);
+        }
+        Ok(StepReport { chi2_before: chi2, chi2_after: if accepted { chi2_new } else { chi2 }, accepted, lambda: 0.0, step_norm })
+    }
+}
+
+/// Levenberg-Marquardt with Nielsen's damping update.
+#[derive(Debug, Default)]
+pub struct LevenbergMarquardt {
+    pub params: OptimizerParams,
+    system: Option<LinearSystem>,
+    lambda: Option<f64>,
+    nu: f64,
+    delta: Vec<f64>,
+    trial: Values,
+}
+
+impl LevenbergMarquardt {
+    pub fn new(params: OptimizerParams) -> Self {
+        Self { params, ..Self::default() }
+    }
+
+    /// Current damping (after the last step), if any step was taken.
+    pub fn lambda(&self) -> Option<f64> {
+        self.lambda
+    }
+}
+
+impl Optimizer for LevenbergMarquardt {
+    fn params(&self) -> &OptimizerParams {
+        &self.params
+    }
+
+    fn reset(&mut self) {
+        self.lambda = None;
+        self.nu = 2.0;
+    }
+
+    fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
+        let system = ensure_system(&mut self.system, graph, values)?;
+        let chi2 = system.linearize(graph, values)?;
+        let mut lambda = match self.lambda {
+            Some(l) => l,
+            None => {
+                let max_diag = system.diagonal().fold(0.0f64, f64::max);
+                (self.params.lambda_initial_factor * max_diag).max(1e-12)
+            }
+        };
+        if self.nu < 2.0 {
+            self.nu = 2.0;
+        }
+        let mut step_norm = 0.0;
+        while lambda <= self.params.lambda_max {
+            match system.solve_step(lambda, &mut self.delta) {
+                Ok(()) => {}
+                Err(SolveError::NotPositiveDefinite) => {
+                    lambda *= self.nu;
+                    self.nu *= 2.0;
+                    continue;
+                }
+                Err(e) => return Err(e.into()),
+            }
+            system.retract_into(values, &self.delta, &mut self.trial);
+            let chi2_new = system.cost(graph, &self.trial)?;
+            // Predicted decrease of the linear model: δᵀ(λδ − g).
+            let predicted: f64 =
+                self.delta.iter().zip(system.gradient()).map(|(d, g)| d * (lambda * d - g)).sum();
+            step_norm = self.delta.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let rho = (chi2 - chi2_new) / predicted;
+            if chi2_new.is_finite() && chi2_new < chi2 && predicted > 0.0 {
+                std::mem::swap(values, &mut self.trial);
+                let factor = 1.0 - (2.0 * rho - 1.0).powi(3);
+                lambda *= factor.max(1.0 / 3.0);
+                self.nu = 2.0;
+                self.lambda = Some(lambda.max(1e-300));
+                return Ok(StepReport { chi2_before: chi2, chi2_after: chi2_new, accepted: true, lambda, step_norm });
+            }
+            lambda *= self.nu;
+            self.nu *= 2.0;
+        }
+        self.lambda = Some(lambda);
+        Ok(StepReport { chi2_before: chi2, chi2_after: chi2, accepted: false, lambda, step_norm })
+    }
+}

@@ -1,0 +1,68 @@
+//! The optimiser on real pose graphs (assets/data/slam, see assets/data/SOURCES.md). The fast
+//! ones run in every `cargo test`; the large ones are `#[ignore]`d and run in release:
+//! `cargo test -p fitslam-core --release slam::real_data -- --ignored --nocapture`.
+
+use super::g2o::read_g2o;
+use super::optimizer::{GaussNewton, LevenbergMarquardt, Optimizer, OptimizerParams, Summary, Termination};
+use super::problem::{Gauge, Problem};
+
+fn data(name: &str) -> Vec<u8> {
+    let path = format!("{}/../assets/data/slam/{name}", env!("CARGO_MANIFEST_DIR"));
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
+
+fn load_g2o(name: &str) -> Problem {
+    read_g2o(&data(name)).unwrap().to_problem(Gauge::FixFirst).unwrap()
+}
+
+/// χ² decreases at every step and the loop ends on a converged criterion.
+fn check_converged(name: &str, summary: &Summary) {
+    eprintln!(
+        "{name}: χ² {:.6} → {:.9}, {} iterations, {:?}",
+        summary.initial_chi2, summary.final_chi2, summary.iterations, summary.termination
+    );
+    assert!(summary.final_chi2 < summary.initial_chi2, "{name}: χ² did not decrease");
+    for s in &summary.steps {
+        assert!(s.chi2_after <= s.chi2_before, "{name}: a step increased χ²");
+    }
+    assert!(matches!(summary.termination, Some(Termination::RelativeDecrease) | Some(Termination::NoDecrease)));
+}
+
+fn run_lm(name: &str) -> (Problem, Summary) {
+    let mut p = load_g2o(name);
+    let mut lm = LevenbergMarquardt::new(OptimizerParams::default());
+    let summary = lm.optimize(&p.graph, &mut p.values).unwrap_or_else(|e| panic!("{name}: {e}"));
+    check_converged(name, &summary);
+    (p, summary)
+}
+
+#[test]
+fn intel_lm_reaches_a_stable_minimum() {
+    let (mut p, summary) = run_lm("intel.g2o");
+    // Stable: more iterations from the optimum do not lower χ² further (beyond rounding).
+    let mut gn = GaussNewton::new(OptimizerParams::default());
+    let again = gn.optimize(&p.graph, &mut p.values).unwrap();
+    assert!((again.final_chi2 - summary.final_chi2).abs() <= 1e-9 * summary.final_chi2);
+}
+
+#[test]
+fn mit_lm() {
+    run_lm("MIT.g2o");
+}
+
+#[test]
+fn small_grid_3d_lm() {
+    run_lm("smallGrid3D.g2o");
+}
+
+#[test]
+#[ignore = "larger; run in release"]
+fn csail_lm() {
+    run_lm("CSAIL.g2o");
+}
+
+#[test]
+#[ignore = "larger; run in release"]
+fn parking_garage_lm() {
+    run_lm("parking-garage.g2o");
+}

@@ -1,0 +1,238 @@
+//! The traversability map's moments layer: registered 3D points binned into grid cells.
+//!
+//! Notes §2: points from LiDAR scans registered in the world are binned into a grid; each cell
+//! keeps its [`CellMoments`]. Insertion is O(1) per point and allocation-free; the map does **not
+//! grow**: points outside the geometry (or non-finite) are ignored and counted in the returned
+//! [`InsertStats`]. Size the map up front ([`TraversabilityMap::from_cloud`] sizes it to a
+//! cloud's extent plus a margin). [`TraversabilityMap::clear`] empties it for re-registration
+//! after the SLAM graph is re-optimised. Changed cells are remembered (a dirty set) so that
+//! [`TraversabilityMap::update`] recomputes only the cells whose disc touches them.
+//!
+//! Precision: moments are stored relative to a per-map local origin — (x, y) of the grid's
+//! lower-left corner and z of the first point ever inserted — so UTM-sized coordinates lose
+//! nothing.
+
+use nalgebra::Point3;
+
+use super::moments::CellMoments;
+use super::TraversabilityError;
+use crate::cloud::PointCloud;
+use crate::grid::GridGeometry;
+use crate::params::Params;
+
+/// Largest number of cells a map may have (guards against absurd extents or resolutions).
+pub const MAX_CELLS: usize = 1 << 25;
+
+/// What happened to the points given to [`TraversabilityMap::insert_points`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct InsertStats {
+    /// Points binned into a cell.
+    pub inserted: usize,
+    /// Points outside the grid or with a non-finite coordinate.
+    pub ignored: usize,
+}
+
+/// Geometry + per-cell moments of the registered points (flat, row-major).
+#[derive(Clone, Debug)]
+pub struct TraversabilityMap {
+    pub(super) geometry: GridGeometry,
+    /// Local origin z, metres; set by the first inserted point.
+    pub(super) z_origin_m: Option<f64>,
+    pub(super) moments: Vec<CellMoments>,
+    /// Cells changed since the last [`TraversabilityMap::update`] (each listed once).
+    pub(super) dirty: Vec<u32>,
+    pub(super) is_dirty: Vec<bool>,
+    /// Everything changed (after [`TraversabilityMap::clear`]).
+    pub(super) all_dirty: bool,
+    /// Scratch for [`TraversabilityMap::update`]: cells to recompute, and their membership mask.
+    pub(super) affected: Vec<u32>,
+    pub(super) is_affected: Vec<bool>,
+}
+
+impl TraversabilityMap {
+    /// An empty map over `geometry`.
+    pub fn new(geometry: GridGeometry) -> Result<Self, TraversabilityError> {
+        if !(geometry.resolution_m.is_finite() && geometry.resolution_m > 0.0)
+            || !geometry.origin_x_m.is_finite()
+            || !geometry.origin_y_m.is_finite()
+        {
+            return Err(TraversabilityError::BadGeometry);
+        }
+        let cells = geometry.width.checked_mul(geometry.height).filter(|&n| n <= MAX_CELLS && n <= u32::MAX as usize);
+        let Some(cells) = cells else {
+            return Err(TraversabilityError::TooManyCells {
+                width: geometry.width,
+                height: geometry.height,
+                limit: MAX_CELLS,
+            });
+        };
+        Ok(Self {
+            geometry,
+            z_origin_m: None,
+            moments: vec![CellMoments::EMPTY; cells],
+            dirty: Vec::new(),
+            is_dirty: vec![false; cells],
+            all_dirty: true,
+            affected: Vec::new(),
+            is_affected: vec![false; cells],
+        })
+    }
+
+    /// A map sized to the finite points of `cloud` plus a margin of
+    /// `traversability.disc_radius_m + robot.radius_m` (rounded up to whole cells, plus one) on
+    /// every side, at `grid.resolution_m`, with the cloud's points inserted.
+    pub fn from_cloud(cloud: &PointCloud, params: &Params) -> Result<Self, TraversabilityError> {
+        let res = params.grid.resolution_m;
+        if !(res.is_finite() && res > 0.0) {
+            return Err(TraversabilityError::BadGeometry);
+        }
+        let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) =
+            (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for p in cloud.points.iter().filter(|p| p.coords.iter().all(|v| v.is_finite())) {
+            lo_x = lo_x.min(p.x);
+            lo_y = lo_y.min(p.y);
+            hi_x = hi_x.max(p.x);
+            hi_y = hi_y.max(p.y);
+        }
+        if lo_x > hi_x {
+            return Err(TraversabilityError::EmptyCloud);
+        }
+        let margin_m = params.traversability.disc_radius_m.max(0.0) + params.robot.radius_m.max(0.0);
+        // The small tolerance keeps an exact multiple (0.4 m / 0.1 m) from rounding up a whole cell.
+        let margin_cells = (margin_m / res - 1e-9).ceil().max(0.0) + 1.0;
+        let span = |lo: f64, hi: f64| ((hi - lo) / res).floor() + 1.0 + 2.0 * margin_cells;
+        let (w, h) = (span(lo_x, hi_x), span(lo_y, hi_y));
+        let too_many = || TraversabilityError::TooManyCells {
+            width: if w.is_finite() { w as usize } else { usize::MAX },
+            height: if h.is_finite() { h as usize } else { usize::MAX },
+            limit: MAX_CELLS,
+        };
+        if !(w.is_finite() && h.is_finite()) || w * h > MAX_CELLS as f64 {
+            return Err(too_many());
+        }
+        let geometry = GridGeometry::new(
+            lo_x - margin_cells * res,
+            lo_y - margin_cells * res,
+            res,
+            w as usize,
+            h as usize,
+        );
+        let mut map = Self::new(geometry)?;
+        map.insert_points(cloud.points.iter().copied());
+        Ok(map)
+    }
+
+    /// The grid geometry shared by every layer.
+    pub fn geometry(&self) -> GridGeometry {
+        self.geometry
+    }
+
+    /// The local origin (x, y, z) the moments are relative to, metres (z is 0 before the first
+    /// point).
+    pub fn local_origin_m(&self) -> [f64; 3] {
+        [self.geometry.origin_x_m, self.geometry.origin_y_m, self.z_origin_m.unwrap_or(0.0)]
+    }
+
+    /// Per-cell moments, row-major, relative to [`Self::local_origin_m`].
+    pub fn moments(&self) -> &[CellMoments] {
+        &self.moments
+    }
+
+    /// Total number of points binned.
+    pub fn point_count(&self) -> u64 {
+        self.moments.iter().map(|m| m.count).sum()
+    }
+
+    /// Bins world points (metres) into their cells. O(1) per point, no allocation beyond the
+    /// dirty list's amortised growth. Points outside the grid or non-finite are ignored.
+    pub fn insert_points<I: IntoIterator<Item = Point3<f64>>>(&mut self, world_points: I) -> InsertStats {
+        let mut stats = InsertStats::default();
+        let g = self.geometry;
+        for p in world_points {
+            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                stats.ignored += 1;
+                continue;
+            }
+            let Some(i) = g.cell_of(p.x, p.y).and_then(|c| g.index(c)) else {
+                stats.ignored += 1;
+                continue;
+            };
+            let z0 = *self.z_origin_m.get_or_insert(p.z);
+            self.moments[i].add([p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0]);
+            if !self.is_dirty[i] {
+                self.is_dirty[i] = true;
+                self.dirty.push(i as u32);
+            }
+            stats.inserted += 1;
+        }
+        stats
+    }
+
+    /// Removes every point (e.g. before re-registering all scans after a loop closure). Keeps
+    /// the geometry and the local origin; the next [`Self::update`] recomputes everything.
+    pub fn clear(&mut self) {
+        self.moments.fill(CellMoments::EMPTY);
+        self.take_dirty();
+        self.all_dirty = true;
+    }
+
+    /// Empties the dirty set.
+    pub(super) fn take_dirty(&mut self) {
+        for &i in &self.dirty {
+            self.is_dirty[i as usize] = false;
+        }
+        self.dirty.clear();
+        self.all_dirty = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::Cell;
+
+    #[test]
+    fn points_are_binned_relative_to_the_local_origin() {
+        let g = GridGeometry::new(500_000.0, 4_000_000.0, 0.5, 4, 3);
+        let mut m = TraversabilityMap::new(g).unwrap();
+        let s = m.insert_points([
+            Point3::new(500_000.25, 4_000_000.25, 120.0),
+            Point3::new(500_001.9, 4_000_001.4, 121.0),
+            Point3::new(500_002.0, 4_000_000.0, 0.0), // x at the right edge: outside
+            Point3::new(f64::NAN, 4_000_000.0, 0.0),
+        ]);
+        assert_eq!(s, InsertStats { inserted: 2, ignored: 2 });
+        assert_eq!(m.local_origin_m(), [500_000.0, 4_000_000.0, 120.0]);
+        let c0 = &m.moments()[g.index(Cell::new(0, 0)).unwrap()];
+        assert_eq!((c0.count, c0.mean), (1, [0.25, 0.25, 0.0]));
+        let c1 = &m.moments()[g.index(Cell::new(3, 2)).unwrap()];
+        assert_eq!(c1.count, 1);
+        assert!((c1.mean[0] - 1.9).abs() < 1e-9 && (c1.mean[2] - 1.0).abs() < 1e-12);
+        assert_eq!(m.point_count(), 2);
+        m.clear();
+        assert_eq!(m.point_count(), 0);
+    }
+
+    #[test]
+    fn from_cloud_covers_the_cloud_with_a_margin() {
+        let mut p = Params::default();
+        p.grid.resolution_m = 0.1;
+        p.traversability.disc_radius_m = 0.15;
+        p.robot.radius_m = 0.25;
+        let cloud = PointCloud::from_points(vec![Point3::new(-1.0, 2.0, 0.0), Point3::new(1.0, 3.0, 0.5)]);
+        let m = TraversabilityMap::from_cloud(&cloud, &p).unwrap();
+        let g = m.geometry();
+        // margin = ceil(0.4 / 0.1) + 1 = 5 cells on each side; span = floor(2/0.1) + 1 = 21.
+        assert_eq!((g.width, g.height), (21 + 10, 11 + 10));
+        assert!((g.origin_x_m - (-1.5)).abs() < 1e-12 && (g.origin_y_m - 1.5).abs() < 1e-12);
+        assert_eq!(m.point_count(), 2);
+        assert_eq!(
+            TraversabilityMap::from_cloud(&PointCloud::default(), &p).unwrap_err(),
+            TraversabilityError::EmptyCloud
+        );
+        let far = PointCloud::from_points(vec![Point3::new(0.0, 0.0, 0.0), Point3::new(1e7, 1e7, 0.0)]);
+        assert!(matches!(TraversabilityMap::from_cloud(&far, &p), Err(TraversabilityError::TooManyCells { .. })));
+        p.grid.resolution_m = 0.0;
+        assert_eq!(TraversabilityMap::from_cloud(&cloud, &p).unwrap_err(), TraversabilityError::BadGeometry);
+    }
+}

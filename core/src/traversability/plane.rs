@@ -1,0 +1,179 @@
+//! Least-squares plane of a set of points from its moments: normal, slope, roughness.
+//!
+//! Notes §2: the plane's normal is the eigenvector of the smallest eigenvalue λ_min of the
+//! centred covariance C = S/n; slope = angle between that normal and +z; roughness = √λ_min
+//! (the RMS distance of the points to the plane). One 3×3 symmetric eigendecomposition, O(1).
+//!
+//! Degenerate geometry (not in the notes; chosen so the answer is always defined and never
+//! optimistic for vertical structures): when the points do not span a plane the least-squares
+//! plane is not unique, and we take the *least-sloped* plane among those that fit:
+//! - all points (numerically) coincident: the horizontal plane, slope 0, roughness 0;
+//! - collinear points (λ_mid ≤ 10⁻⁶ λ_max) with direction u: the plane containing u whose normal
+//!   is closest to +z, so slope = asin(|u_z|) (a vertical line of points — a pole — gives 90°).
+
+use nalgebra::{Matrix3, SymmetricEigen};
+
+use super::moments::CellMoments;
+
+/// Relative size of λ_mid below which the points are treated as collinear.
+const COLLINEAR_RATIO: f64 = 1e-6;
+/// λ_max below which the points are treated as coincident, m² ((1 nm)²).
+const COINCIDENT_VAR_M2: f64 = 1e-18;
+
+/// A fitted plane, in the coordinates of the moments it was fitted to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneFit {
+    /// Unit normal with n_z ≥ 0.
+    pub normal: [f64; 3],
+    /// The plane passes through the points' centroid.
+    pub centroid: [f64; 3],
+    /// Angle between the normal and +z, radians in [0, π/2].
+    pub slope_rad: f64,
+    /// RMS distance of the points to the plane, metres.
+    pub roughness_m: f64,
+}
+
+impl PlaneFit {
+    /// Height of the plane above (x, y); `None` for a (near-)vertical plane.
+    #[inline]
+    pub fn height_at(&self, x: f64, y: f64) -> Option<f64> {
+        let [nx, ny, nz] = self.normal;
+        (nz > 1e-9).then(|| self.centroid[2] - (nx * (x - self.centroid[0]) + ny * (y - self.centroid[1])) / nz)
+    }
+}
+
+/// Fits the least-squares plane to the points summarised by `m`; `None` when `m` is empty.
+pub fn fit_plane(m: &CellMoments) -> Option<PlaneFit> {
+    if m.count == 0 {
+        return None;
+    }
+    let c = m.covariance();
+    let cov = Matrix3::new(c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]);
+    if !cov.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let eig = SymmetricEigen::new(cov);
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
+    let lam = order.map(|i| eig.eigenvalues[i].max(0.0));
+    let vec_of = |k: usize| {
+        let v = eig.eigenvectors.column(order[k]);
+        [v[0], v[1], v[2]]
+    };
+    let quad = |n: [f64; 3]| {
+        let mut q = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                q += n[i] * c[i][j] * n[j];
+            }
+        }
+        q.max(0.0)
+    };
+
+    let (normal, roughness_m) = if lam[2] <= COINCIDENT_VAR_M2 {
+        ([0.0, 0.0, 1.0], 0.0)
+    } else if lam[1] <= COLLINEAR_RATIO * lam[2] {
+        // Least-sloped plane containing the line direction u: normal ∝ z − u_z u.
+        let u = vec_of(2);
+        let n = [-u[2] * u[0], -u[2] * u[1], 1.0 - u[2] * u[2]];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let n = if len > 1e-12 {
+            [n[0] / len, n[1] / len, n[2] / len]
+        } else {
+            // Vertical line: any vertical plane through it; pick the one facing +x or +y.
+            let h = (u[0] * u[0] + u[1] * u[1]).sqrt();
+            if h > 1e-12 { [-u[1] / h, u[0] / h, 0.0] } else { [1.0, 0.0, 0.0] }
+        };
+        (n, quad(n).sqrt())
+    } else {
+        (vec_of(0), lam[0].sqrt())
+    };
+    let normal = if normal[2] < 0.0 { normal.map(|v| -v) } else { normal };
+    let horizontal = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
+    let slope_rad = horizontal.atan2(normal[2]);
+    Some(PlaneFit { normal, centroid: m.mean, slope_rad, roughness_m })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn moments(points: impl IntoIterator<Item = [f64; 3]>) -> CellMoments {
+        let mut m = CellMoments::EMPTY;
+        for p in points {
+            m.add(p);
+        }
+        m
+    }
+
+    fn grid_points(n: usize, f: impl Fn(f64, f64) -> f64) -> Vec<[f64; 3]> {
+        let mut v = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = (i as f64 * 0.01, j as f64 * 0.01);
+                v.push([x, y, f(x, y)]);
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn tilted_plane_gives_its_angle_and_no_roughness() {
+        // z = tan(20°)·(x cos 30° + y sin 30°): a plane tilted 20° about an oblique axis.
+        let a = 20f64.to_radians();
+        let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
+        let p = fit_plane(&moments(grid_points(20, |x, y| 3.0 + a.tan() * (x * c + y * s)))).unwrap();
+        assert!((p.slope_rad - a).abs() < 1e-9, "{}", p.slope_rad.to_degrees());
+        assert!(p.roughness_m < 1e-7, "{}", p.roughness_m);
+        // Normal ∝ (−tan a cos 30°, −tan a sin 30°, 1).
+        let n = [-a.tan() * c, -a.tan() * s, 1.0];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        for k in 0..3 {
+            assert!((p.normal[k] - n[k] / len).abs() < 1e-9);
+        }
+        let h = p.height_at(0.05, 0.1).unwrap();
+        assert!((h - (3.0 + a.tan() * (0.05 * c + 0.1 * s))).abs() < 1e-9);
+    }
+
+    #[test]
+    fn plus_minus_sigma_offsets_give_roughness_sigma() {
+        // Horizontal plane, every point offset by +σ or −σ in a checkerboard: each point is
+        // exactly σ from the plane z = 0, so the RMS distance is σ.
+        let sigma = 0.013;
+        let pts: Vec<[f64; 3]> = (0..400)
+            .map(|k| {
+                let (i, j) = (k / 20, k % 20);
+                [i as f64 * 0.01, j as f64 * 0.01, if (i + j) % 2 == 0 { sigma } else { -sigma }]
+            })
+            .collect();
+        let p = fit_plane(&moments(pts)).unwrap();
+        assert!((p.roughness_m - sigma).abs() < 1e-12, "{}", p.roughness_m);
+        assert!(p.slope_rad < 1e-9);
+    }
+
+    #[test]
+    fn degenerate_inputs_are_defined() {
+        assert!(fit_plane(&CellMoments::EMPTY).is_none());
+        // Coincident points: horizontal, zero roughness.
+        let p = fit_plane(&moments([[1.0, 2.0, 3.0]; 5])).unwrap();
+        assert_eq!((p.slope_rad, p.roughness_m), (0.0, 0.0));
+        // A horizontal line of points: slope 0 (a horizontal plane contains it).
+        let p = fit_plane(&moments((0..10).map(|i| [i as f64 * 0.1, 0.5 * i as f64 * 0.1, 1.0]))).unwrap();
+        assert!(p.slope_rad < 1e-9, "{}", p.slope_rad);
+        // A line rising at 10°: least-sloped plane through it has slope 10°.
+        let t = 10f64.to_radians().tan();
+        let p = fit_plane(&moments((0..10).map(|i| [0.0, i as f64 * 0.1, t * i as f64 * 0.1]))).unwrap();
+        assert!((p.slope_rad - 10f64.to_radians()).abs() < 1e-9, "{}", p.slope_rad.to_degrees());
+        // A vertical line of points (a pole): 90°, and no plane height.
+        let p = fit_plane(&moments((0..10).map(|i| [0.3, 0.4, i as f64 * 0.1]))).unwrap();
+        assert!((p.slope_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!(p.height_at(0.0, 0.0).is_none());
+    }
+
+    #[test]
+    fn vertical_wall_is_ninety_degrees() {
+        let pts: Vec<[f64; 3]> = (0..100).map(|k| [1.0, (k % 10) as f64 * 0.02, (k / 10) as f64 * 0.02]).collect();
+        let p = fit_plane(&moments(pts)).unwrap();
+        assert!((p.slope_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+    }
+}

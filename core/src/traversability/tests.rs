@@ -1,0 +1,285 @@
+//! Scenario tests of the whole traversability pipeline on synthetic terrain with hand-derived
+//! expectations (notes §2).
+
+use nalgebra::Point3;
+use proptest::prelude::*;
+
+use super::*;
+use crate::grid::{inflate_lethal, Cell, Grid, GridGeometry, FREE, LETHAL, UNKNOWN};
+use crate::params::TraversabilityParams;
+
+const RES: f64 = 0.05;
+const N_CELLS: usize = 40;
+/// Points every 1 cm at ((i + ½) cm, (j + ½) cm): 5 × 5 points per 5 cm cell.
+const SPACING: f64 = 0.01;
+
+fn geometry() -> GridGeometry {
+    GridGeometry::new(0.0, 0.0, RES, N_CELLS, N_CELLS)
+}
+
+fn surface(f: impl Fn(f64, f64) -> f64) -> Vec<Point3<f64>> {
+    let n = (N_CELLS as f64 * RES / SPACING).round() as usize;
+    let mut v = Vec::with_capacity(n * n);
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = ((i as f64 + 0.5) * SPACING, (j as f64 + 0.5) * SPACING);
+            v.push(Point3::new(x, y, f(x, y)));
+        }
+    }
+    v
+}
+
+fn layers_of(points: &[Point3<f64>], p: &TraversabilityParams) -> TraversabilityLayers {
+    let mut map = TraversabilityMap::new(geometry()).unwrap();
+    map.insert_points(points.iter().copied());
+    map.compute(p)
+}
+
+/// Cells whose whole disc lies inside the sampled area (disc radius 3 cells by default).
+fn interior() -> impl Iterator<Item = Cell> {
+    (3..N_CELLS as i32 - 3).flat_map(|r| (3..N_CELLS as i32 - 3).map(move |c| Cell::new(c, r)))
+}
+
+/// Bitwise equality of every layer (NaN equals NaN).
+fn assert_same(a: &TraversabilityLayers, b: &TraversabilityLayers) {
+    for (x, y) in [(&a.slope_rad, &b.slope_rad), (&a.step_m, &b.step_m), (&a.roughness_m, &b.roughness_m), (&a.hazard, &b.hazard), (&a.score, &b.score)] {
+        assert_eq!(x.geometry, y.geometry);
+        assert!(x.data.iter().zip(&y.data).all(|(u, v)| u.to_bits() == v.to_bits()));
+    }
+    assert_eq!(a.cell_points, b.cell_points);
+    assert_eq!(a.disc_points, b.disc_points);
+    assert_eq!(a.params(), b.params());
+}
+
+fn at(layer: &Grid<f32>, c: Cell) -> f64 {
+    f64::from(*layer.get(c).unwrap())
+}
+
+#[test]
+fn default_disc_has_29_cells() {
+    // r = 0.15 m / 0.05 m = 3 cells: lattice points with dx² + dy² ≤ 9 → 1 + 4·3 + 4·(2 + 2 + 1 + 1)… = 29.
+    assert_eq!(disc_offsets(0.15, 0.05).len(), 29);
+    assert_eq!(disc_offsets(0.01, 0.05), vec![(0, 0)]);
+    assert_eq!(disc_offsets(0.05, 0.05).len(), 5);
+    assert_eq!(disc_offsets(f64::NAN, 0.05), vec![(0, 0)]);
+}
+
+#[test]
+fn fifteen_degree_ramp_has_its_slope_and_is_free() {
+    let t = 15f64.to_radians().tan();
+    let p = TraversabilityParams::default();
+    let layers = layers_of(&surface(|x, _| t * x), &p);
+    let occ = layers.to_occupancy(p.tau);
+    // Plane-relative step: in every cell the 5 point columns sit at mean ± 0.02 m, so the
+    // residuals span ±0.02·tan 15° → step = 0.04·tan 15°.
+    let step_rel = 0.04 * t;
+    let hazard = (15f64 / 35.0).max(step_rel / p.max_step_m);
+    for c in interior() {
+        assert!((at(&layers.slope_rad, c) - 15f64.to_radians()).abs() < 1e-5, "{c:?}");
+        assert!(at(&layers.roughness_m, c) < 1e-4);
+        assert!((at(&layers.step_m, c) - step_rel).abs() < 1e-6, "{c:?} {}", at(&layers.step_m, c));
+        assert!((at(&layers.score, c) - (1.0 - hazard)).abs() < 1e-5);
+        assert_eq!(*occ.get(c).unwrap(), FREE);
+        assert_eq!(*layers.disc_points.get(c).unwrap(), 29 * 25);
+        assert_eq!(*layers.cell_points.get(c).unwrap(), 25);
+    }
+    // The notes' literal step (max z − min z in the disc): the disc's points span 7 cells less
+    // one point spacing in x, 0.34 m, so the step is 0.34·tan 15° = 9.1 cm.
+    let raw = TraversabilityParams { step_relative_to_plane: false, ..p.clone() };
+    let layers = layers_of(&surface(|x, _| t * x), &raw);
+    for c in interior() {
+        assert!((at(&layers.step_m, c) - 0.34 * t).abs() < 1e-6, "{}", at(&layers.step_m, c));
+    }
+}
+
+#[test]
+fn ten_centimetre_step_has_its_height_and_is_lethal() {
+    // Floor z = 0 for x < 1 m (columns 0–19), z = 0.1 m from x = 1 m (columns 20–39).
+    let h = 0.1;
+    let pts = surface(|x, _| if x < 1.0 { 0.0 } else { h });
+    let raw = TraversabilityParams { step_relative_to_plane: false, ..TraversabilityParams::default() };
+    let layers = layers_of(&pts, &raw);
+    for c in interior() {
+        // A disc (columns col−3..=col+3) sees the step iff it spans columns 19 and 20.
+        let expected = if (17..=22).contains(&c.col) { h } else { 0.0 };
+        assert!((at(&layers.step_m, c) - expected).abs() < 1e-6, "{c:?}");
+    }
+
+    let p = TraversabilityParams::default();
+    let layers = layers_of(&pts, &p);
+    let occ = layers.to_occupancy(p.tau);
+    for row in 3..N_CELLS as i32 - 3 {
+        for col in [19, 20] {
+            let c = Cell::new(col, row);
+            // Each cell is flat, so relative to a plane of gradient b = tan(slope) the residual
+            // jumps by h − b·0.05 between the cell means either side of the step (0.975 / 1.025 m).
+            let b = at(&layers.slope_rad, c).tan();
+            assert!(at(&layers.step_m, c) >= h - 0.05 * b - 1e-6, "{c:?}");
+            assert_eq!(*occ.get(c).unwrap(), LETHAL, "{c:?} score {}", at(&layers.score, c));
+        }
+        for col in [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36] {
+            let c = Cell::new(col, row);
+            assert_eq!(at(&layers.score, c), 1.0, "{c:?}");
+            assert_eq!(*occ.get(c).unwrap(), FREE);
+        }
+    }
+    // After inflation by the robot radius the step is a wall 2·0.25 m thick.
+    let inflated = inflate_lethal(&occ, 0.25);
+    assert_eq!(*inflated.get(Cell::new(15, 20)).unwrap(), LETHAL);
+}
+
+#[test]
+fn plus_minus_sigma_points_give_roughness_sigma() {
+    // Every (x, y) carries two points, z = +σ and z = −σ: the plane is z = 0 and every point is
+    // exactly σ from it.
+    let sigma = 0.02;
+    let mut pts = surface(|_, _| sigma);
+    pts.extend(surface(|_, _| -sigma));
+    let p = TraversabilityParams::default();
+    let layers = layers_of(&pts, &p);
+    for c in interior() {
+        assert!((at(&layers.roughness_m, c) - sigma).abs() < 1e-7);
+        assert!(at(&layers.slope_rad, c) < 1e-6);
+        // hazard = max(0, 2σ / max_step, σ / max_roughness) = max(0.267, 0.4)
+        let hazard = (2.0 * sigma / p.max_step_m).max(sigma / p.max_roughness_m);
+        assert!((at(&layers.hazard, c) - hazard).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn sparse_cells_are_unknown_and_stay_unknown_in_the_occupancy() {
+    let g = GridGeometry::new(0.0, 0.0, RES, 20, 20);
+    let mut map = TraversabilityMap::new(g).unwrap();
+    // Four points in cell (5, 5), nothing else: min_points = 5 → the whole map is unknown.
+    map.insert_points((0..4).map(|k| Point3::new(0.26 + k as f64 * 0.005, 0.26, 0.0)));
+    let p = TraversabilityParams::default();
+    let layers = map.compute(&p);
+    assert_eq!(layers.known_cells(), 0);
+    assert!(layers.to_occupancy(p.tau).data.iter().all(|&v| v == UNKNOWN));
+    assert_eq!(*layers.cell_points.get(Cell::new(5, 5)).unwrap(), 4);
+    assert_eq!(*layers.disc_points.get(Cell::new(7, 5)).unwrap(), 4);
+    // A fifth, collinear point: every cell whose disc holds the cell becomes known (29 cells),
+    // with the least-sloped plane through the line (horizontal), hence free.
+    map.insert_points([Point3::new(0.28, 0.26, 0.0)]);
+    let layers = map.compute(&p);
+    assert_eq!(layers.known_cells(), 29);
+    assert_eq!(*layers.to_occupancy(p.tau).get(Cell::new(5, 5)).unwrap(), FREE);
+}
+
+#[test]
+fn occupancy_thresholds_at_tau() {
+    let g = GridGeometry::new(0.0, 0.0, 1.0, 5, 1);
+    let score = Grid::from_vec(g, vec![f32::NAN, 0.2, 0.5, 0.9, 0.0]).unwrap();
+    assert_eq!(to_occupancy(&score, 0.5).data, vec![UNKNOWN, LETHAL, FREE, FREE, LETHAL]);
+    assert_eq!(to_occupancy(&score, 0.0).data, vec![UNKNOWN, FREE, FREE, FREE, FREE]);
+}
+
+#[test]
+fn score_image_is_top_row_first() {
+    let g = GridGeometry::new(0.0, 0.0, 1.0, 2, 2);
+    let mut layers = TraversabilityLayers::unknown(g, &TraversabilityParams::default());
+    layers.score.data = vec![1.0, 0.0, 0.5, f32::NAN]; // row 0 (bottom): green, red; row 1: yellow, unknown
+    assert_eq!(score_to_rgb(&layers), vec![255, 255, 0, 128, 128, 128, 0, 255, 0, 255, 0, 0]);
+}
+
+#[test]
+fn utm_coordinates_give_the_same_layers() {
+    let t = 10f64.to_radians().tan();
+    let pts = surface(|x, y| t * x + 0.02 * (40.0 * y).sin());
+    let p = TraversabilityParams::default();
+    let near = layers_of(&pts, &p);
+    let (ox, oy, oz) = (512_345.0, 5_123_456.0, 1_234.0);
+    let g = GridGeometry::new(ox, oy, RES, N_CELLS, N_CELLS);
+    let mut map = TraversabilityMap::new(g).unwrap();
+    map.insert_points(pts.iter().map(|q| Point3::new(q.x + ox, q.y + oy, q.z + oz)));
+    let far = map.compute(&p);
+    for (a, b) in near.score.data.iter().zip(&far.score.data) {
+        assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+    }
+    for (a, b) in near.roughness_m.data.iter().zip(&far.roughness_m.data) {
+        assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn incremental_update_equals_full_compute() {
+    let pts = surface(|x, y| 0.05 * (5.0 * x).sin() * (3.0 * y).cos() + if x > 1.3 { 0.08 } else { 0.0 });
+    let p = TraversabilityParams::default();
+    let batch = layers_of(&pts, &p);
+
+    let mut map = TraversabilityMap::new(geometry()).unwrap();
+    let mut layers = map.compute(&p);
+    let (a, b) = pts.split_at(pts.len() / 2);
+    assert_eq!(map.update(&p, &mut layers), N_CELLS * N_CELLS); // never updated: full compute
+    map.insert_points(a.iter().copied());
+    map.update(&p, &mut layers);
+    map.insert_points(b.iter().copied());
+    map.update(&p, &mut layers);
+    assert_same(&layers, &batch);
+
+    // A small local change recomputes only the discs around it, and still equals compute.
+    map.insert_points([Point3::new(0.51, 0.51, 0.3)]);
+    assert_eq!(map.update(&p, &mut layers), 29);
+    assert_same(&layers, &map.compute(&p));
+    assert_eq!(map.update(&p, &mut layers), 0);
+
+    // Other parameters, or a clear, recompute everything.
+    let p2 = TraversabilityParams { disc_radius_m: 0.1, ..p.clone() };
+    assert_eq!(map.update(&p2, &mut layers), N_CELLS * N_CELLS);
+    assert_same(&layers, &map.compute(&p2));
+    map.clear();
+    map.insert_points(pts.iter().copied());
+    assert_eq!(map.update(&p, &mut layers), N_CELLS * N_CELLS);
+    assert_same(&layers, &batch);
+}
+
+#[test]
+fn bad_parameters_do_not_panic() {
+    let pts = surface(|x, _| 0.1 * x);
+    let p = TraversabilityParams {
+        disc_radius_m: -1.0,
+        max_slope_rad: 0.0,
+        max_step_m: f64::NAN,
+        max_roughness_m: 0.0,
+        min_points: 0,
+        tau: 2.0,
+        step_relative_to_plane: true,
+    };
+    let layers = layers_of(&pts, &p);
+    // Zero limits: any positive slope is fully hazardous.
+    assert_eq!(at(&layers.hazard, Cell::new(10, 10)), 1.0);
+    assert!(layers.score.data.iter().all(|s| s.is_nan() || (0.0..=1.0).contains(s)));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Insertion order does not change the layers (beyond rounding).
+    #[test]
+    fn insertion_order_does_not_matter(
+        pts in proptest::collection::vec((0.0f64..0.5, 0.0f64..0.5, -0.1f64..0.1), 20..300),
+        seed in any::<u64>(),
+    ) {
+        let g = GridGeometry::new(0.0, 0.0, RES, 10, 10);
+        let p = TraversabilityParams::default();
+        let pts: Vec<Point3<f64>> = pts.into_iter().map(|(x, y, z)| Point3::new(x, y, z)).collect();
+        let mut shuffled = pts.clone();
+        // Deterministic Fisher–Yates from the seed (a small LCG).
+        let mut s = seed;
+        for i in (1..shuffled.len()).rev() {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            shuffled.swap(i, ((s >> 33) % (i as u64 + 1)) as usize);
+        }
+        let mut a = TraversabilityMap::new(g).unwrap();
+        a.insert_points(pts.iter().copied());
+        let mut b = TraversabilityMap::new(g).unwrap();
+        b.insert_points(shuffled.iter().copied());
+        let (la, lb) = (a.compute(&p), b.compute(&p));
+        prop_assert_eq!(&la.disc_points, &lb.disc_points);
+        for (x, y) in [(&la.score, &lb.score), (&la.step_m, &lb.step_m), (&la.roughness_m, &lb.roughness_m)] {
+            for (u, v) in x.data.iter().zip(&y.data) {
+                prop_assert!(u.is_nan() == v.is_nan() && (u.is_nan() || (u - v).abs() < 1e-4), "{} vs {}", u, v);
+            }
+        }
+    }
+}

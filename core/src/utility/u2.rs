@@ -1,0 +1,387 @@
+//! Second-level utility u2 (paper eqs. 10–14; notes §6, which this follows where they differ).
+//!
+//! 1. Waypoints: along the path polyline (from the robot's cell to the candidate), one every
+//!    `d_max` of arc length (`Params::waypoint_spacing_m`, by default the camera's max depth),
+//!    starting at `d_max` (the robot already sees what it sees from where it is), plus the goal.
+//!    A waypoint closer than 1 mm to the goal is merged with it.
+//! 2. Camera pose at a waypoint: position at `ground_z_m + camera_height_m`; yaw along the path
+//!    tangent, pitch and roll 0. A grid path is a chain of 8-connected cells whose segment
+//!    directions are quantised to 45°, so the tangent is taken as the chord over
+//!    ±[`TANGENT_HALF_WINDOW_M`] of arc length (clamped to the path). At the goal the yaw is Θ*.
+//!    Body frame REP-103 (x forward, y left, z up) → camera optical frame (z forward, x right,
+//!    y down).
+//! 3. Frustum: a voxel centroid `p_c` in the optical frame is seen when
+//!    `min_depth ≤ z ≤ max_depth`, `|x| ≤ z·tan(Φ/2)`, `|y| ≤ z·tan(Φ_v/2)` (depth along the optical
+//!    axis, as a depth camera reports it). Occlusion is not modelled (paper; optional in notes).
+//! 4. `I_{w_k} = Σ_{voxels seen from w_k} tr(I_i)` (T-optimality, [`super::fim`]);
+//!    `I_{p_i} = Σ_k I_{w_k}`; normalised over the N candidates by the max (paper eq. 12) or the
+//!    mean; `u2 = β · u1 + (1 − β) · I_p,normalised`.
+//!
+//! Cost per candidate: O(P + K · V) for P path vertices, K waypoints and V voxels in the
+//! buckets under a frustum's footprint ([`LandmarkVoxels::for_each_in_box`]).
+
+use super::fim::{trace_information, trace_information_general};
+use super::voxels::LandmarkVoxels;
+use crate::params::{CameraParams, InfoNormalisation};
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Half-length of the chord that estimates a path's tangent, metres.
+pub const TANGENT_HALF_WINDOW_M: f64 = 0.5;
+const MERGE_WITH_GOAL_M: f64 = 1e-3;
+
+/// A waypoint on a path (map frame).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Waypoint {
+    pub x_m: f64,
+    pub y_m: f64,
+    /// Camera (and body) yaw, radians, counter-clockwise from +x.
+    pub yaw_rad: f64,
+    /// Arc length from the start of the path, metres.
+    pub arc_length_m: f64,
+    /// Whether this is the goal (yaw Θ*).
+    pub is_goal: bool,
+}
+
+/// A waypoint with what the camera would see there.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WaypointReport {
+    pub x_m: f64,
+    pub y_m: f64,
+    /// Camera height in the map frame, metres.
+    pub z_m: f64,
+    pub yaw_rad: f64,
+    pub arc_length_m: f64,
+    pub is_goal: bool,
+    /// Landmark voxels inside the frustum.
+    pub voxels_seen: usize,
+    /// `I_w`: summed `tr(I)` of those voxels (rad⁻² + m⁻², as the paper's score).
+    pub info: f64,
+}
+
+/// Waypoints along `path_m` (at least one vertex) every `spacing_m`, plus the goal (the last
+/// vertex) with yaw `goal_yaw_rad`. Writes into `out` (cleared).
+pub fn waypoints_along(path_m: &[[f64; 2]], spacing_m: f64, goal_yaw_rad: f64, out: &mut Vec<Waypoint>) {
+    out.clear();
+    let Some(&goal) = path_m.last() else { return };
+    // Cumulative arc length per vertex.
+    let mut cum = Vec::with_capacity(path_m.len());
+    let mut total = 0.0;
+    cum.push(0.0);
+    for w in path_m.windows(2) {
+        total += ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt();
+        cum.push(total);
+    }
+    let point_at = |s: f64| -> [f64; 2] {
+        let s = s.clamp(0.0, total);
+        // First vertex with cum ≥ s.
+        let k = cum.partition_point(|&c| c < s);
+        if k == 0 {
+            return path_m[0];
+        }
+        let (a, b) = (path_m[k - 1], path_m[k]);
+        let seg = cum[k] - cum[k - 1];
+        let t = if seg > 0.0 { (s - cum[k - 1]) / seg } else { 1.0 };
+        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+    };
+    if spacing_m.is_finite() && spacing_m > 0.0 {
+        let mut k = 1.0;
+        loop {
+            let s = k * spacing_m;
+            if s > total - MERGE_WITH_GOAL_M {
+                break;
+            }
+            let p = point_at(s);
+            let a = point_at(s - TANGENT_HALF_WINDOW_M);
+            let b = point_at(s + TANGENT_HALF_WINDOW_M);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let yaw_rad = if dx != 0.0 || dy != 0.0 { dy.atan2(dx) } else { goal_yaw_rad };
+            out.push(Waypoint { x_m: p[0], y_m: p[1], yaw_rad, arc_length_m: s, is_goal: false });
+            k += 1.0;
+        }
+    }
+    out.push(Waypoint { x_m: goal[0], y_m: goal[1], yaw_rad: goal_yaw_rad, arc_length_m: total, is_goal: true });
+}
+
+/// `world_from_camera` (optical frame: z forward, x right, y down) for a camera at
+/// (`x_m`, `y_m`, `z_m`) with body yaw `yaw_rad`, pitch and roll 0.
+pub fn camera_pose(x_m: f64, y_m: f64, z_m: f64, yaw_rad: f64) -> Isometry3<f64> {
+    // Columns: the optical axes in the body frame (x_opt = −y_body, y_opt = −z_body, z_opt = x_body).
+    let body_from_optical = Rotation3::from_matrix_unchecked(Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0));
+    let world_from_body = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad);
+    Isometry3::from_parts(
+        Translation3::new(x_m, y_m, z_m),
+        UnitQuaternion::from_rotation_matrix(&(world_from_body * body_from_optical)),
+    )
+}
+
+/// The camera frustum in the optical frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frustum {
+    pub tan_half_hfov: f64,
+    pub tan_half_vfov: f64,
+    pub min_depth_m: f64,
+    pub max_depth_m: f64,
+}
+
+impl Frustum {
+    /// From the camera parameters (a horizontal FOV ≥ π leaves x unbounded).
+    pub fn from_params(camera: &CameraParams) -> Self {
+        let tan_half = |fov: f64| if fov < std::f64::consts::PI { (0.5 * fov).tan() } else { f64::INFINITY };
+        Self {
+            tan_half_hfov: tan_half(camera.hfov_rad),
+            tan_half_vfov: tan_half(camera.vfov_rad),
+            min_depth_m: camera.min_depth_m,
+            max_depth_m: camera.max_depth_m,
+        }
+    }
+
+    /// Whether the optical-frame point (x, y, z) is inside.
+    #[inline]
+    pub fn contains(&self, x: f64, y: f64, z: f64) -> bool {
+        z >= self.min_depth_m
+            && z <= self.max_depth_m
+            && z > 0.0
+            && x.abs() <= z * self.tan_half_hfov
+            && y.abs() <= z * self.tan_half_vfov
+    }
+}
+
+/// What a camera at (x, y, z, yaw) sees: (voxels in the frustum, `I_w = Σ tr(I_i)`).
+pub fn waypoint_information(
+    voxels: &LandmarkVoxels,
+    camera_m: [f64; 3],
+    yaw_rad: f64,
+    frustum: &Frustum,
+    sigma_bearing_rad: f64,
+) -> (usize, f64) {
+    let (s, c) = yaw_rad.sin_cos();
+    let (fwd, right) = ([c, s], [s, -c]);
+    // x–y footprint: the trapezoid between min and max depth, or everything if unbounded.
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+    if frustum.tan_half_hfov.is_finite() {
+        for depth in [frustum.min_depth_m, frustum.max_depth_m] {
+            for side in [-1.0, 1.0] {
+                let lateral = side * depth * frustum.tan_half_hfov;
+                let px = camera_m[0] + depth * fwd[0] + lateral * right[0];
+                let py = camera_m[1] + depth * fwd[1] + lateral * right[1];
+                x0 = x0.min(px);
+                x1 = x1.max(px);
+                y0 = y0.min(py);
+                y1 = y1.max(py);
+            }
+        }
+    } else {
+        (x0, y0, x1, y1) = (f64::MIN, f64::MIN, f64::MAX, f64::MAX);
+    }
+    let camera_from_world_rotation = camera_pose(0.0, 0.0, 0.0, yaw_rad).rotation.inverse().to_rotation_matrix().into_inner();
+    let sigma_b = sigma_bearing_rad;
+    let mut seen = 0;
+    let mut info = 0.0;
+    voxels.for_each_in_box(x0, y0, x1, y1, |i| {
+        let p = voxels.centroid_m(i);
+        let (dx, dy, dz) = (p[0] - camera_m[0], p[1] - camera_m[1], p[2] - camera_m[2]);
+        let z = c * dx + s * dy;
+        let x = s * dx - c * dy;
+        let y = -dz;
+        if !frustum.contains(x, y, z) {
+            return;
+        }
+        seen += 1;
+        info += match voxels.isotropic_variance_m2(i) {
+            Some(var) => trace_information((x * x + y * y + z * z).sqrt(), sigma_b, var),
+            None => trace_information_general(&Vector3::new(x, y, z), &camera_from_world_rotation, voxels.covariance_m2(i), sigma_b)
+                .unwrap_or(0.0),
+        };
+    });
+    (seen, info)
+}
+
+/// `I_p = Σ_k I_{w_k}` along `path_m` (map frame, metres; from the robot's cell to the candidate),
+/// with the goal's yaw `goal_yaw_rad` (Θ*). Writes one report per waypoint into `out`
+/// (cleared) and returns `I_p`.
+#[allow(clippy::too_many_arguments)]
+pub fn path_information(
+    path_m: &[[f64; 2]],
+    goal_yaw_rad: f64,
+    voxels: &LandmarkVoxels,
+    spacing_m: f64,
+    camera: &CameraParams,
+    camera_height_m: f64,
+    ground_z_m: f64,
+    sigma_bearing_rad: f64,
+    out: &mut Vec<WaypointReport>,
+) -> f64 {
+    out.clear();
+    let mut wps = Vec::new();
+    waypoints_along(path_m, spacing_m, goal_yaw_rad, &mut wps);
+    let frustum = Frustum::from_params(camera);
+    let z_m = ground_z_m + camera_height_m;
+    let mut total = 0.0;
+    for w in &wps {
+        let (voxels_seen, info) = waypoint_information(voxels, [w.x_m, w.y_m, z_m], w.yaw_rad, &frustum, sigma_bearing_rad);
+        total += info;
+        out.push(WaypointReport {
+            x_m: w.x_m,
+            y_m: w.y_m,
+            z_m,
+            yaw_rad: w.yaw_rad,
+            arc_length_m: w.arc_length_m,
+            is_goal: w.is_goal,
+            voxels_seen,
+            info,
+        });
+    }
+    total
+}
+
+/// Normalises path informations over the candidates (paper eq. 12: divide by the max; or by the
+/// mean). All zeros (or an empty slice) stay zeros.
+pub fn normalise_path_information(raw: &[f64], mode: InfoNormalisation, out: &mut Vec<f64>) {
+    out.clear();
+    let scale = match mode {
+        InfoNormalisation::Max => raw.iter().cloned().fold(0.0, f64::max),
+        InfoNormalisation::Mean if !raw.is_empty() => raw.iter().sum::<f64>() / raw.len() as f64,
+        InfoNormalisation::Mean => 0.0,
+    };
+    out.extend(raw.iter().map(|&v| if scale > 0.0 && scale.is_finite() { v / scale } else { 0.0 }));
+}
+
+/// `u2 = β · u1 + (1 − β) · I_p,normalised` (paper eq. 14).
+#[inline]
+pub fn u2_score(u1: f64, path_info_normalised: f64, beta: f64) -> f64 {
+    beta * u1 + (1.0 - beta) * path_info_normalised
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::PointCloud;
+    use nalgebra::Point3;
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    #[test]
+    fn waypoints_on_a_straight_path() {
+        let path: Vec<[f64; 2]> = (0..=70).map(|k| [k as f64 * 0.1, 1.0]).collect();
+        let mut w = Vec::new();
+        waypoints_along(&path, 3.0, 0.7, &mut w);
+        assert_eq!(w.len(), 3);
+        assert!((w[0].x_m - 3.0).abs() < 1e-9 && (w[1].x_m - 6.0).abs() < 1e-9 && (w[2].x_m - 7.0).abs() < 1e-9);
+        assert!(w[0].yaw_rad.abs() < 1e-12 && w[1].yaw_rad.abs() < 1e-12);
+        assert_eq!(w[2].yaw_rad, 0.7);
+        assert!(w[2].is_goal && !w[0].is_goal);
+        // Exactly 6 m: the waypoint at 6 m is the goal.
+        waypoints_along(&path[..61], 3.0, 0.0, &mut w);
+        assert_eq!(w.len(), 2);
+        // A single-vertex path (robot on the candidate): only the goal.
+        waypoints_along(&path[..1], 3.0, 1.0, &mut w);
+        assert_eq!(w.len(), 1);
+        assert!(w[0].is_goal && w[0].arc_length_m == 0.0);
+    }
+
+    #[test]
+    fn waypoints_follow_the_tangent() {
+        // Along +x for 2 m then along +y for 4 m: waypoint at s = 3 is at (2, 1), heading +y;
+        // the chord ±0.5 m there is (2, 0.5)→(2, 1.5): yaw π/2.
+        let path = vec![[0.0, 0.0], [2.0, 0.0], [2.0, 4.0]];
+        let mut w = Vec::new();
+        waypoints_along(&path, 3.0, 0.0, &mut w);
+        assert_eq!(w.len(), 2);
+        assert!((w[0].x_m - 2.0).abs() < 1e-12 && (w[0].y_m - 1.0).abs() < 1e-12);
+        assert!((w[0].yaw_rad - FRAC_PI_2).abs() < 1e-12);
+        // At s = 2.25 (spacing 2.25) the chord is s = 1.75 → 2.75: (1.75, 0)→(2, 0.75): yaw atan2(0.75, 0.25).
+        waypoints_along(&path, 2.25, 0.0, &mut w);
+        assert!((w[0].yaw_rad - 0.75f64.atan2(0.25)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn camera_frame_is_optical() {
+        let x = camera_pose(1.0, 2.0, 0.2, FRAC_PI_2); // looking along +y
+        let c = x.inverse();
+        // 2 m ahead (world +y) at camera height → optical (0, 0, 2).
+        let p = c * Point3::new(1.0, 4.0, 0.2);
+        assert!((p.coords - Vector3::new(0.0, 0.0, 2.0)).norm() < 1e-12);
+        // To the robot's left (world −x when facing +y) → optical x negative; above → y negative.
+        let p = c * Point3::new(0.0, 4.0, 0.7);
+        assert!((p.coords - Vector3::new(-1.0, -0.5, 2.0)).norm() < 1e-12);
+    }
+
+    #[test]
+    fn frustum_by_hand() {
+        let cam = CameraParams { hfov_rad: FRAC_PI_2, vfov_rad: FRAC_PI_2, min_depth_m: 0.3, max_depth_m: 3.0 };
+        let f = Frustum::from_params(&cam);
+        assert!(f.contains(0.0, 0.0, 1.0));
+        assert!(f.contains(0.99, -0.99, 1.0)); // 45° half-angles: |x| ≤ z
+        assert!(!f.contains(1.01, 0.0, 1.0));
+        assert!(!f.contains(0.0, 0.0, 0.2)); // closer than min depth
+        assert!(!f.contains(0.0, 0.0, 3.1));
+        assert!(!f.contains(0.0, 0.0, -1.0));
+        let wide = Frustum::from_params(&CameraParams { hfov_rad: 1.5 * PI, ..cam });
+        assert!(wide.contains(100.0, 0.0, 1.0));
+    }
+
+    #[test]
+    fn waypoint_information_by_hand() {
+        // Camera at (0, 0, 0.2) facing +x. Voxel A at (2, 0, 0.2): d = 2, seen.
+        // Voxel B at (−2, 0, 0.2): behind. Voxel C at (2, 3, 0.2): 56° off-axis > 43.5°.
+        let cloud = PointCloud::from_points(vec![Point3::new(2.0, 0.0, 0.2), Point3::new(-2.0, 0.0, 0.2), Point3::new(2.0, 3.0, 0.2)]);
+        let v = LandmarkVoxels::new(&cloud, 0.01, 0.05).unwrap();
+        let f = Frustum::from_params(&CameraParams::default());
+        let (n, info) = waypoint_information(&v, [0.0, 0.0, 0.2], 0.0, &f, 0.01);
+        assert_eq!(n, 1);
+        let d = 2.0; // the voxel centroid is the point itself
+        let expected = 2.0 * (1.0 + 1.0 / (d * d)) / (1e-4 + 0.0025 / (d * d));
+        assert!((info - expected).abs() < 1e-9 * expected);
+        // Turned round (yaw π), B is seen instead.
+        let (n, _) = waypoint_information(&v, [0.0, 0.0, 0.2], PI, &f, 0.01);
+        assert_eq!(n, 1);
+    }
+
+    #[test]
+    fn general_covariance_path_agrees_with_isotropic_when_q_is_isotropic_in_disguise() {
+        // A Q that is isotropic but stored off the fast path (tiny off-diagonal noise) gives
+        // the same information up to that noise.
+        let mut cloud = PointCloud::from_points(vec![Point3::new(2.0, 0.5, 0.4)]);
+        let mut q = Matrix3::identity() * 0.0025;
+        q[(0, 1)] = 1e-12;
+        q[(1, 0)] = 1e-12;
+        cloud.covariances = Some(vec![q]);
+        let general = LandmarkVoxels::new(&cloud, 0.25, 0.05).unwrap();
+        assert!(general.isotropic_variance_m2(0).is_none());
+        let iso = LandmarkVoxels::new(&PointCloud::from_points(cloud.points.clone()), 0.25, 0.05).unwrap();
+        let f = Frustum::from_params(&CameraParams::default());
+        let (_, a) = waypoint_information(&general, [0.0, 0.0, 0.2], 0.1, &f, 0.01);
+        let (_, b) = waypoint_information(&iso, [0.0, 0.0, 0.2], 0.1, &f, 0.01);
+        assert!(a > 0.0 && (a - b).abs() < 1e-6 * b);
+    }
+
+    #[test]
+    fn path_information_sums_waypoints() {
+        let cloud = PointCloud::from_points(vec![Point3::new(4.0, 0.0, 0.2), Point3::new(7.5, 0.0, 0.2)]);
+        let v = LandmarkVoxels::new(&cloud, 0.25, 0.05).unwrap();
+        let path: Vec<[f64; 2]> = (0..=60).map(|k| [k as f64 * 0.1, 0.0]).collect();
+        let mut rep = Vec::new();
+        let cam = CameraParams::default();
+        let ip = path_information(&path, 0.0, &v, 3.0, &cam, 0.2, 0.0, 0.01, &mut rep);
+        assert_eq!(rep.len(), 2); // s = 3 and the goal at 6
+        let sum: f64 = rep.iter().map(|r| r.info).sum();
+        assert_eq!(ip, sum);
+        // From x = 3 both voxels lie within 3 m depth only for the first (1 m); the second is 4.5 m.
+        assert_eq!(rep[0].voxels_seen, 1);
+        // From the goal at x = 6 facing +x: the second at 1.5 m is seen; the first is behind.
+        assert_eq!(rep[1].voxels_seen, 1);
+        assert!((rep[0].z_m - 0.2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn normalisation_by_hand() {
+        let mut out = Vec::new();
+        normalise_path_information(&[2.0, 4.0, 0.0], InfoNormalisation::Max, &mut out);
+        assert_eq!(out, vec![0.5, 1.0, 0.0]);
+        normalise_path_information(&[2.0, 4.0, 0.0], InfoNormalisation::Mean, &mut out);
+        assert_eq!(out, vec![1.0, 2.0, 0.0]);
+        normalise_path_information(&[0.0, 0.0], InfoNormalisation::Max, &mut out);
+        assert_eq!(out, vec![0.0, 0.0]);
+        assert!((u2_score(0.5, 1.0, 0.4) - 0.8).abs() < 1e-15);
+    }
+}

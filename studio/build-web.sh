@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Builds the studio's web bundle into target/studio-web/ (index.html at its root), servable by
+# any static file server, e.g. `python3 -m http.server -d target/studio-web 8080`.
+#
+# Needs the wasm32-unknown-unknown target and wasm-bindgen-cli at exactly the wasm-bindgen
+# version of Cargo.lock (installed with cargo if missing: no download from anywhere else).
+# Usage: studio/build-web.sh [--dev]   (--dev: debug build, faster to compile, much larger)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+profile=release
+if [[ "${1:-}" == "--dev" ]]; then profile=debug; fi
+
+rustup target list --installed 2>/dev/null | grep -qx wasm32-unknown-unknown || rustup target add wasm32-unknown-unknown
+
+want=$(awk '/^name = "wasm-bindgen"$/ { getline; gsub(/version = |"/, ""); print; exit }' Cargo.lock)
+if [[ -z "$want" ]]; then echo "build-web.sh: no wasm-bindgen in Cargo.lock" >&2; exit 1; fi
+have=$(wasm-bindgen --version 2>/dev/null | awk '{print $2}' || true)
+if [[ "$have" != "$want" ]]; then
+  echo "build-web.sh: installing wasm-bindgen-cli $want (found '${have:-none}')"
+  # Without --locked: the CLI's own lockfile does not build with this toolchain.
+  cargo install wasm-bindgen-cli --version "$want"
+fi
+
+flags=()
+if [[ "$profile" == release ]]; then flags+=(--release); fi
+cargo build -p fitslam-studio --lib --target wasm32-unknown-unknown "${flags[@]}"
+
+out=target/studio-web
+rm -rf "$out"
+mkdir -p "$out"
+wasm-bindgen --target web --no-typescript --out-dir "$out" --out-name fitslam_studio \
+  "target/wasm32-unknown-unknown/$profile/fitslam_studio.wasm"
+cp studio/web/index.html "$out/index.html"
+
+wasm_bytes=$(stat -c %s "$out/fitslam_studio_bg.wasm")
+total=$(du -cb "$out"/* | tail -n1 | cut -f1)
+gz=$(gzip -9 -c "$out/fitslam_studio_bg.wasm" | wc -c)
+awk -v p="$profile" -v o="$out" -v w="$wasm_bytes" -v g="$gz" -v t="$total" 'BEGIN {
+  printf "build-web.sh: %s bundle in %s: wasm %d bytes (%.2f MB, %.2f MB gzipped), total %d bytes\n", p, o, w, w / 1e6, g / 1e6, t }'

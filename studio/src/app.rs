@@ -1,0 +1,498 @@
+//! The studio application: panels around the canvas, the loading of files, and the glue
+//! between the widgets and the [`Pipeline`]. Same code natively, in the browser and in the
+//! headless UI tests ([`StudioApp::show`] draws everything into a `Ui`).
+
+use crate::assets;
+use crate::canvas::{CanvasState, Layer, Overlays};
+use crate::export;
+use crate::files::{self, FileBrowser, Inbox, IncomingFile, Intent};
+use crate::loader::{self, Loaded};
+use crate::panels::{self, TableState};
+use crate::pipeline::{Pipeline, Revisions};
+use crate::scene::{Landmarks, Scene};
+use crate::tour::Tour;
+use fitslam_core::Params;
+use std::collections::BTreeMap;
+
+/// A message for the user (loading errors, exports, decision failures).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Message {
+    pub error: bool,
+    pub text: String,
+}
+
+/// The whole studio state.
+pub struct StudioApp {
+    pub scene: Scene,
+    pub revs: Revisions,
+    pub params: Params,
+    pub pipeline: Pipeline,
+    pub canvas: CanvasState,
+    pub layer: Layer,
+    pub overlays: Overlays,
+    /// Candidate selected in the canvas or the table.
+    pub selected: Option<usize>,
+    /// Candidate under the pointer in the canvas this frame.
+    pub hovered: Option<usize>,
+    pub table: TableState,
+    pub messages: Vec<Message>,
+    pub tour: Tour,
+    inbox: Inbox,
+    browser: FileBrowser,
+    /// Map YAMLs waiting for their image: (yaml name, yaml bytes, image base name).
+    pending_yaml: Vec<(String, Vec<u8>, String)>,
+    /// A cloud dropped without intent, waiting for the user's choice.
+    ask_cloud: Option<IncomingFile>,
+    /// Screen rectangles of named widgets this frame (published on the web for tests).
+    pub widget_rects: BTreeMap<&'static str, egui::Rect>,
+    last_title: String,
+    last_published: String,
+    show_about: bool,
+}
+
+impl StudioApp {
+    /// The studio showing the built-in asset `asset` (or the first one) with a decision made.
+    pub fn new(ctx: &egui::Context, asset: Option<&str>) -> Self {
+        let params = Params::default();
+        let builtin = asset.and_then(assets::builtin).unwrap_or(&assets::builtins()[0]);
+        let mut messages = Vec::new();
+        if let Some(name) = asset.filter(|n| assets::builtin(n).is_none()) {
+            messages.push(Message { error: true, text: format!("no built-in asset named '{name}'; showing '{}'", builtin.name) });
+        }
+        let scene = match builtin.build(params.frontier.blacklist_radius_m) {
+            Ok(s) => s,
+            Err(e) => {
+                messages.push(Message { error: true, text: format!("built-in asset '{}': {e}", builtin.name) });
+                empty_scene()
+            }
+        };
+        let mut app = Self {
+            scene,
+            revs: Revisions::default(),
+            params,
+            pipeline: Pipeline::default(),
+            canvas: CanvasState::default(),
+            layer: Layer::Score,
+            overlays: Overlays::default(),
+            selected: None,
+            hovered: None,
+            table: TableState::default(),
+            messages,
+            tour: Tour::default(),
+            inbox: Inbox::default(),
+            browser: FileBrowser::default(),
+            pending_yaml: Vec::new(),
+            ask_cloud: None,
+            widget_rects: BTreeMap::new(),
+            last_title: String::new(),
+            last_published: String::new(),
+            show_about: false,
+        };
+        app.pipeline.update(&app.scene, app.revs, &app.params);
+        egui_extras_free_setup(ctx);
+        app
+    }
+
+    /// Replaces the scene by a built-in asset.
+    pub fn load_builtin(&mut self, name: &str) {
+        match assets::builtin(name).map(|b| b.build(self.params.frontier.blacklist_radius_m)) {
+            Some(Ok(scene)) => {
+                self.scene = scene;
+                self.revs.map += 1;
+                self.revs.landmarks += 1;
+                self.revs.layout += 1;
+                self.after_scene_change();
+                self.info(format!("loaded built-in '{name}'"));
+            }
+            Some(Err(e)) => self.error(format!("built-in asset '{name}': {e}")),
+            None => self.error(format!("no built-in asset named '{name}'")),
+        }
+    }
+
+    fn after_scene_change(&mut self) {
+        self.selected = None;
+        self.hovered = None;
+        self.canvas.fit_requested = true;
+    }
+
+    pub fn info(&mut self, text: impl Into<String>) {
+        self.push_message(Message { error: false, text: text.into() });
+    }
+
+    pub fn error(&mut self, text: impl Into<String>) {
+        self.push_message(Message { error: true, text: text.into() });
+    }
+
+    fn push_message(&mut self, m: Message) {
+        self.messages.push(m);
+        if self.messages.len() > 6 {
+            self.messages.remove(0);
+        }
+    }
+
+    /// Loads files as if dropped (tests and the web use this too).
+    pub fn load_files(&mut self, files: Vec<IncomingFile>) {
+        if files.is_empty() {
+            return;
+        }
+        let results = loader::load_batch(files, &mut self.pending_yaml, &self.params);
+        for r in results {
+            match r {
+                Ok(Loaded::Map(map)) => {
+                    let (name, cells, known) = (map.source.clone(), map.geometry().len(), map.known_cells());
+                    let robot = self.scene.robot;
+                    let landmarks = std::mem::take(&mut self.scene.landmarks);
+                    let mut scene = Scene::new(map, landmarks, None, self.params.frontier.blacklist_radius_m);
+                    // Keep the robot where it was if that is on the new map.
+                    if scene.map.score.at_world(robot.x_m, robot.y_m).is_some_and(|s| *s >= 0.5) {
+                        scene.robot = robot;
+                    }
+                    self.scene = scene;
+                    self.revs.map += 1;
+                    self.revs.layout += 1;
+                    self.after_scene_change();
+                    self.info(format!("map {name}: {cells} cells, {known} known"));
+                }
+                Ok(Loaded::Landmarks(lm)) => {
+                    let n = lm.cloud.len();
+                    let name = lm.source.clone();
+                    self.scene.landmarks = lm;
+                    self.revs.landmarks += 1;
+                    self.selected = None;
+                    self.info(format!("landmarks {name}: {n} points"));
+                }
+                Ok(Loaded::Params(p)) => {
+                    self.params = *p;
+                    self.info("parameters loaded");
+                }
+                Ok(Loaded::WaitingForImage { yaml_name, yaml_bytes, image }) => {
+                    self.info(format!("{yaml_name}: now drop or open its image {image}"));
+                    self.pending_yaml.retain(|(n, _, _)| *n != yaml_name);
+                    self.pending_yaml.push((yaml_name, yaml_bytes, image));
+                }
+                Ok(Loaded::AskCloudUse(f)) => self.ask_cloud = Some(f),
+                Err(e) => self.error(e),
+            }
+        }
+    }
+
+    /// Resets the parameters to the paper's defaults.
+    pub fn reset_params(&mut self) {
+        self.params = Params::default();
+    }
+
+    /// Draws the whole studio into `ui` and updates the decision; the body of `eframe::App::ui`.
+    pub fn show(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        self.widget_rects.clear();
+        self.inbox.take_dropped(&ctx);
+        let incoming = self.inbox.drain();
+        self.load_files(incoming);
+        self.shortcuts(&ctx);
+
+        egui::Panel::top("menu").show(ui, |ui| {
+            egui::MenuBar::new().ui(ui, |ui| self.menu_bar(ui));
+        });
+        egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        egui::Panel::left("params").resizable(true).default_size(270.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| panels::params_panel(ui, self));
+        });
+        egui::Panel::right("details").resizable(true).default_size(270.0).show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| panels::details_panel(ui, self));
+        });
+        egui::Panel::bottom("table").resizable(true).default_size(190.0).show(ui, |ui| panels::candidate_table(ui, self));
+        egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, self));
+
+        // The parameters or the scene may have changed above: bring the decision up to date.
+        // (The canvas drew last frame's decision for at most one frame.)
+        if self.params.validate().is_ok() && self.pipeline.update(&self.scene, self.revs, &self.params) {
+            ctx.request_repaint();
+            if let Some(Err(e)) = self.pipeline.decision() {
+                let e = e.clone();
+                if !self.messages.last().is_some_and(|m| m.text == e) {
+                    self.error(e);
+                }
+            }
+        }
+        if let Some(sel) = self.selected {
+            if self.pipeline.ok_decision().is_none_or(|d| sel >= d.candidates.len()) {
+                self.selected = None;
+            }
+        }
+
+        self.browser.show(&ctx, &self.inbox);
+        self.cloud_question(&ctx);
+        self.tour_window(&ctx);
+        self.about_window(&ctx);
+        self.publish(&ctx);
+    }
+
+    fn shortcuts(&mut self, ctx: &egui::Context) {
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        let open = KeyboardShortcut::new(Modifiers::COMMAND, Key::O);
+        let params = KeyboardShortcut::new(Modifiers::COMMAND, Key::E);
+        let json = KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::J);
+        let csv = KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::C);
+        if ctx.input_mut(|i| i.consume_shortcut(&open)) {
+            files::open_picker(Intent::Any, &self.inbox, ctx, &mut self.browser);
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&params)) {
+            self.export_params();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&json)) {
+            self.export_ranking(true);
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&csv)) {
+            self.export_ranking(false);
+        }
+    }
+
+    /// Writes the parameters as the robot node's YAML file.
+    pub fn export_params(&mut self) {
+        match files::save_text("fitslam_params.yaml", "application/yaml", &self.params.to_yaml()) {
+            Ok(p) => self.info(format!("parameters written to {p}")),
+            Err(e) => self.error(format!("export parameters: {e}")),
+        }
+    }
+
+    /// Writes the ranking as JSON or CSV.
+    pub fn export_ranking(&mut self, json: bool) {
+        let Some(d) = self.pipeline.ok_decision() else {
+            self.error("no ranking to export (the decision failed)");
+            return;
+        };
+        let (name, mime, text) = if json {
+            ("fitslam_ranking.json", "application/json", export::ranking_json(d, &self.params, &self.scene.map.source, &self.scene.landmarks.source))
+        } else {
+            ("fitslam_ranking.csv", "text/csv", export::ranking_csv(d))
+        };
+        match files::save_text(name, mime, &text) {
+            Ok(p) => self.info(format!("ranking written to {p}")),
+            Err(e) => self.error(format!("export ranking: {e}")),
+        }
+    }
+
+    fn menu_bar(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
+        ui.menu_button("File", |ui| {
+            if ui.button("Open… (Ctrl+O)").clicked() {
+                files::open_picker(Intent::Any, &self.inbox, &ctx, &mut self.browser);
+            }
+            if ui.button("Open map (YAML + PGM/PNG, PNG)…").clicked() {
+                files::open_picker(Intent::Map, &self.inbox, &ctx, &mut self.browser);
+            }
+            if ui.button("Open landmarks (PCD, PLY, CSV, LAS)…").clicked() {
+                files::open_picker(Intent::Landmarks, &self.inbox, &ctx, &mut self.browser);
+            }
+            if ui.button("Open terrain cloud → traversability map…").clicked() {
+                files::open_picker(Intent::TerrainCloud, &self.inbox, &ctx, &mut self.browser);
+            }
+            if ui.button("Open parameters (YAML, TOML)…").clicked() {
+                files::open_picker(Intent::Params, &self.inbox, &ctx, &mut self.browser);
+            }
+            ui.separator();
+            if ui.button("Export parameters (robot YAML, Ctrl+E)").clicked() {
+                self.export_params();
+            }
+            if ui.button("Export ranking JSON (Ctrl+Shift+J)").clicked() {
+                self.export_ranking(true);
+            }
+            if ui.button("Export ranking CSV (Ctrl+Shift+C)").clicked() {
+                self.export_ranking(false);
+            }
+        });
+        ui.menu_button("Built-in", |ui| {
+            for b in assets::builtins() {
+                if ui.button(b.name).on_hover_text(b.description).clicked() {
+                    self.load_builtin(b.name);
+                }
+            }
+        });
+        ui.menu_button("View", |ui| {
+            ui.label("Map layer");
+            for l in Layer::ALL {
+                ui.radio_value(&mut self.layer, l, l.label());
+            }
+            ui.separator();
+            self.overlays.checkboxes(ui);
+            ui.separator();
+            if ui.button("Fit map to view").clicked() {
+                self.canvas.fit_requested = true;
+            }
+        });
+        if ui.button("Tour").clicked() {
+            self.tour.start();
+            self.tour.apply_step(self);
+        }
+        if ui.button("About").clicked() {
+            self.show_about = true;
+        }
+    }
+
+    fn status_bar(&mut self, ui: &mut egui::Ui) {
+        let g = self.scene.map.geometry();
+        ui.horizontal_wrapped(|ui| {
+            ui.label(format!(
+                "map: {} ({}×{} @ {:.2} m) · landmarks: {} ({} pts, {} voxels)",
+                self.scene.map.source,
+                g.width,
+                g.height,
+                g.resolution_m,
+                self.scene.landmarks.source,
+                self.scene.landmarks.cloud.len(),
+                self.pipeline.voxels().map(|v| v.len()).unwrap_or(0),
+            ));
+            ui.separator();
+            let t = self.pipeline.timings;
+            ui.label(format!("decision {:.1} ms (last update {:.1} ms)", t.decision_ms, t.last_update_ms))
+                .on_hover_text("Wall-clock time of the last selector run and of everything re-run by the last change.");
+        });
+        let mut dismiss = None;
+        for (k, m) in self.messages.iter().enumerate().rev().take(3) {
+            ui.horizontal(|ui| {
+                if ui.small_button("✖").on_hover_text("Dismiss").clicked() {
+                    dismiss = Some(k);
+                }
+                let color = if m.error { egui::Color32::from_rgb(255, 120, 110) } else { ui.visuals().text_color() };
+                ui.colored_label(color, &m.text);
+            });
+        }
+        if let Some(k) = dismiss {
+            self.messages.remove(k);
+        }
+    }
+
+    fn cloud_question(&mut self, ctx: &egui::Context) {
+        let Some(f) = &self.ask_cloud else { return };
+        let name = f.name.clone();
+        let mut choice = None;
+        egui::Window::new("Point cloud").collapsible(false).resizable(false).show(ctx, |ui| {
+            ui.label(format!("What is {}?", loader::base_name(&name)));
+            ui.horizontal(|ui| {
+                if ui.button("Landmarks (for u2)").clicked() {
+                    choice = Some(Intent::Landmarks);
+                }
+                if ui.button("Terrain (compute traversability map)").clicked() {
+                    choice = Some(Intent::TerrainCloud);
+                }
+                if ui.button("Cancel").clicked() {
+                    choice = Some(Intent::Any);
+                }
+            });
+        });
+        if let Some(intent) = choice {
+            if let Some(mut f) = self.ask_cloud.take() {
+                if intent != Intent::Any {
+                    f.intent = intent;
+                    self.load_files(vec![f]);
+                }
+            }
+        }
+    }
+
+    fn tour_window(&mut self, ctx: &egui::Context) {
+        if !self.tour.open {
+            return;
+        }
+        let mut action = None;
+        let mut open = true;
+        egui::Window::new("Tour: how FIT-SLAM picks a goal")
+            .open(&mut open)
+            .default_pos([320.0, 80.0])
+            .default_width(380.0)
+            .show(ctx, |ui| action = self.tour.ui(ui));
+        if !open {
+            self.tour.open = false;
+        }
+        if let Some(step) = action {
+            self.tour.step = step;
+            self.tour.apply_step(self);
+        }
+    }
+
+    fn about_window(&mut self, ctx: &egui::Context) {
+        let mut open = self.show_about;
+        egui::Window::new("About the FIT-SLAM studio").open(&mut open).show(ctx, |ui| {
+            ui.label("FIT-SLAM ranks frontier goals by u1 (path length and expected entropy gain over the camera's best heading Θ*) and re-ranks the best N by u2 (landmark Fisher information along the path).");
+            ui.label("Drag the robot to move it, drag its heading handle to rotate it, scroll to zoom, drag the background to pan. Hover or click a candidate for its numbers.");
+            ui.label("Drop map_server YAML + PGM/PNG, PNG, or PCD/PLY/CSV/LAS files on the window to load them.");
+        });
+        self.show_about = open;
+    }
+
+    /// Window title / document title digest, and (web) the ranking for page scripts.
+    fn publish(&mut self, ctx: &egui::Context) {
+        let title = match self.pipeline.decision() {
+            Some(Ok(d)) => export::digest(d, 3),
+            Some(Err(_)) => "fitslam: error".to_string(),
+            None => "fitslam".to_string(),
+        };
+        if title != self.last_title {
+            self.last_title = title.clone();
+            #[cfg(not(target_arch = "wasm32"))]
+            ctx.send_viewport_cmd(egui::ViewportCommand::Title(format!("FIT-SLAM studio — {title}")));
+        }
+        let _ = ctx;
+        let ranking = self.pipeline.ok_decision().map(export::ranking_brief_json).unwrap_or_else(|| "null".into());
+        let g = self.scene.map.geometry();
+        let stats = serde_json::json!({
+            "decision_ms": self.pipeline.timings.decision_ms,
+            "last_update_ms": self.pipeline.timings.last_update_ms,
+            "decisions_computed": self.pipeline.decisions_computed,
+            "decision_revision": self.pipeline.decision_revision,
+            "map": self.scene.map.source,
+            "map_cells": [g.width, g.height],
+            "landmarks": self.scene.landmarks.source,
+            "landmark_points": self.scene.landmarks.cloud.len(),
+            "error": self.pipeline.decision().and_then(|d| d.as_ref().err()).cloned(),
+            "messages": self.messages.iter().map(|m| &m.text).collect::<Vec<_>>(),
+        })
+        .to_string();
+        let widgets: BTreeMap<&str, [f32; 4]> =
+            self.widget_rects.iter().map(|(k, r)| (*k, [r.min.x, r.min.y, r.width(), r.height()])).collect();
+        let widgets = serde_json::to_string(&widgets).unwrap_or_default();
+        let all = format!("{title}\n{ranking}\n{stats}\n{widgets}");
+        if all != self.last_published {
+            #[cfg(target_arch = "wasm32")]
+            crate::web::publish(&title, &ranking, &stats, &widgets);
+            self.last_published = all;
+        }
+    }
+
+    /// The title digest last published.
+    pub fn title(&self) -> &str {
+        &self.last_title
+    }
+
+    /// Marks the robot pose, boundary or blacklist as edited.
+    pub fn layout_changed(&mut self) {
+        self.revs.layout += 1;
+    }
+
+    /// The landmarks in use.
+    pub fn landmarks(&self) -> &Landmarks {
+        &self.scene.landmarks
+    }
+}
+
+/// A one-cell unknown map, used only if a built-in asset fails to build.
+fn empty_scene() -> Scene {
+    use fitslam_core::grid::{Grid, GridGeometry};
+    let map = crate::scene::MapLayers {
+        score: Grid::filled(GridGeometry::new(0.0, 0.0, 0.05, 1, 1), f32::NAN),
+        source: "empty".into(),
+        kind: crate::scene::MapKind::Synthetic,
+    };
+    Scene::new(map, Landmarks::default(), None, 0.5)
+}
+
+/// Visual defaults shared by every platform.
+fn egui_extras_free_setup(ctx: &egui::Context) {
+    ctx.set_visuals(egui::Visuals::dark());
+}
+
+impl eframe::App for StudioApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        self.show(ui);
+    }
+}

@@ -1,0 +1,136 @@
+//! Built-in scenes: embedded in the binary (the web build has no files), listed in the
+//! "Built-in" menu. The first one is what the studio shows on start.
+//!
+//! The synthetic courtyard is made here, deterministically, so that the studio and its tests
+//! always have a small scene with every feature (walls, rough ground that τ can turn lethal,
+//! unknown space, frontiers, landmarks at several heights).
+
+use crate::scene::{Landmarks, MapKind, MapLayers, Scene};
+use fitslam_core::grid::{Grid, GridGeometry};
+use fitslam_core::sim::hash_unit;
+use fitslam_core::{Pose2, PointCloud};
+use nalgebra::Point3;
+
+/// A built-in scene the user can pick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BuiltIn {
+    /// Name shown in the menu (also accepted by `?asset=` on the web).
+    pub name: &'static str,
+    /// One line shown as a tooltip.
+    pub description: &'static str,
+    build: fn(blacklist_radius_m: f64) -> Result<Scene, String>,
+}
+
+impl BuiltIn {
+    /// Builds the scene. Built-in data is checked by tests, so an error here is a bug in the
+    /// asset, reported like any loading error.
+    pub fn build(&self, blacklist_radius_m: f64) -> Result<Scene, String> {
+        (self.build)(blacklist_radius_m)
+    }
+}
+
+/// Every built-in scene; the first is the default.
+pub fn builtins() -> &'static [BuiltIn] {
+    &BUILTINS
+}
+
+/// Looks a built-in up by name (case-insensitive).
+pub fn builtin(name: &str) -> Option<&'static BuiltIn> {
+    BUILTINS.iter().find(|b| b.name.eq_ignore_ascii_case(name))
+}
+
+static BUILTINS: [BuiltIn; 1] = [BuiltIn {
+    name: "synthetic courtyard",
+    description: "16 m × 12 m synthetic courtyard, 0.05 m cells, partly explored, 400 landmarks",
+    build: synthetic_courtyard,
+}];
+
+/// Axis-aligned boxes (min x, min y, max x, max y) of the courtyard's obstacles, metres.
+const OBSTACLES: [[f64; 4]; 7] = [
+    [3.0, 7.0, 4.2, 8.0],
+    [6.5, 2.0, 7.0, 4.5],
+    [10.0, 6.5, 12.5, 7.0],
+    [11.5, 2.0, 12.5, 3.0],
+    [5.0, 9.5, 9.0, 10.0],
+    [13.5, 8.5, 14.5, 9.5],
+    [1.5, 3.5, 2.3, 4.3],
+];
+
+/// Ground patches with an intermediate score (rough, sloped): lethal only when τ exceeds it.
+const ROUGH: [([f64; 4], f32); 3] = [([8.0, 3.0, 9.5, 4.5], 0.45), ([4.5, 4.5, 5.8, 6.0], 0.7), ([9.5, 8.0, 11.0, 9.0], 0.3)];
+
+fn synthetic_courtyard(blacklist_radius_m: f64) -> Result<Scene, String> {
+    let geometry = GridGeometry::new(0.0, 0.0, 0.05, 320, 240);
+    let (w_m, h_m) = (16.0, 12.0);
+    let robot = Pose2::new(6.0, 6.0, 0.3);
+    // The part explored so far: within 4.5 m of the trajectory (2, 2) → (6, 6) → (9, 5).
+    let trajectory = [[2.0, 2.0], [6.0, 6.0], [9.0, 5.5]];
+    let explored = |x: f64, y: f64| distance_to_polyline(x, y, &trajectory) <= 4.5;
+    let inside_box = |x: f64, y: f64, b: &[f64; 4]| x >= b[0] && x < b[2] && y >= b[1] && y < b[3];
+    let mut data = Vec::with_capacity(geometry.len());
+    for row in 0..geometry.height {
+        for col in 0..geometry.width {
+            let (x, y) = geometry.center_of(fitslam_core::Cell::new(col as i32, row as i32));
+            let wall = x < 0.2 || y < 0.2 || x > w_m - 0.2 || y > h_m - 0.2;
+            let score = if !explored(x, y) {
+                f32::NAN
+            } else if wall || OBSTACLES.iter().any(|b| inside_box(x, y, b)) {
+                0.0
+            } else if let Some((_, s)) = ROUGH.iter().find(|(b, _)| inside_box(x, y, b)) {
+                // A little texture so that the score layer reads as terrain.
+                s + 0.08 * (hash_unit(col as i64, row as i64, 7) as f32 - 0.5)
+            } else {
+                0.9 + 0.1 * hash_unit(col as i64 / 4, row as i64 / 4, 3) as f32
+            };
+            data.push(score);
+        }
+    }
+    let score = Grid::from_vec(geometry, data).ok_or("synthetic map size mismatch")?;
+    let map = MapLayers { score, source: "synthetic courtyard".into(), kind: MapKind::Synthetic };
+    let landmarks = Landmarks { cloud: courtyard_landmarks(w_m, h_m), source: "synthetic courtyard landmarks".into() };
+    Ok(Scene::new(map, landmarks, Some(robot), blacklist_radius_m))
+}
+
+/// 400 landmarks on the walls and obstacle faces, 0.1–1.9 m high (deterministic).
+fn courtyard_landmarks(w_m: f64, h_m: f64) -> PointCloud {
+    let walls = [[0.0, 0.0, w_m, 0.2], [0.0, h_m - 0.2, w_m, h_m], [0.0, 0.0, 0.2, h_m], [w_m - 0.2, 0.0, w_m, h_m]];
+    let boxes: Vec<[f64; 4]> = walls.iter().chain(OBSTACLES.iter()).copied().collect();
+    let perimeters: Vec<f64> = boxes.iter().map(|b| 2.0 * ((b[2] - b[0]) + (b[3] - b[1]))).collect();
+    let total: f64 = perimeters.iter().sum();
+    let mut points = Vec::with_capacity(400);
+    for i in 0..400i64 {
+        // Pick a box by perimeter, then a point on its outline.
+        let mut t = hash_unit(i, 0, 11) * total;
+        let mut k = 0;
+        while k + 1 < boxes.len() && t > perimeters[k] {
+            t -= perimeters[k];
+            k += 1;
+        }
+        let b = boxes[k];
+        let (bw, bh) = (b[2] - b[0], b[3] - b[1]);
+        let (x, y) = if t < bw {
+            (b[0] + t, b[1])
+        } else if t < bw + bh {
+            (b[2], b[1] + t - bw)
+        } else if t < 2.0 * bw + bh {
+            (b[2] - (t - bw - bh), b[3])
+        } else {
+            (b[0], b[3] - (t - 2.0 * bw - bh))
+        };
+        let z = 0.1 + 1.8 * hash_unit(i, 1, 11);
+        points.push(Point3::new(x, y, z));
+    }
+    PointCloud::from_points(points)
+}
+
+fn distance_to_polyline(x: f64, y: f64, pts: &[[f64; 2]]) -> f64 {
+    pts.windows(2)
+        .map(|s| {
+            let ([ax, ay], [bx, by]) = (s[0], s[1]);
+            let (dx, dy) = (bx - ax, by - ay);
+            let len2 = dx * dx + dy * dy;
+            let t = if len2 > 0.0 { (((x - ax) * dx + (y - ay) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            ((x - ax - t * dx).powi(2) + (y - ay - t * dy).powi(2)).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}

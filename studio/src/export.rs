@@ -1,0 +1,131 @@
+//! What the studio writes out: the ranking as CSV or JSON, the parameters as the robot node's
+//! YAML (`Params::to_yaml`, exactly the struct the node reads), and a one-line digest of the
+//! ranking (the browser's `document.title`, the native window title).
+
+use fitslam_core::params::Strategy;
+use fitslam_core::select::{CandidateReport, Decision, DropReason};
+use serde::Serialize;
+
+/// The score a strategy ranks by, for display and digests: u2 (FIT-SLAM), u1 (u1-only),
+/// ρ (greedy, smaller is better), u1 for random (it draws uniformly; u1 is informative).
+pub fn final_score(strategy: Strategy, c: &CandidateReport) -> Option<f64> {
+    match strategy {
+        Strategy::Fit => c.u2,
+        Strategy::U1 | Strategy::Random => c.u1,
+        Strategy::Greedy => c.rho_m,
+    }
+}
+
+/// Short digest: `fitslam: chosen=3 top=[(3,0.712),(5,0.660),(1,0.601)]` (candidate index and
+/// the strategy's score, best first, at most `top` entries); `fitslam: no goal` without one.
+pub fn digest(decision: &Decision, top: usize) -> String {
+    let Some(chosen) = decision.chosen else { return "fitslam: no goal".to_string() };
+    let items: Vec<String> = decision
+        .ranking()
+        .into_iter()
+        .take(top)
+        .map(|i| format!("({},{:.3})", i, final_score(decision.strategy, &decision.candidates[i]).unwrap_or(f64::NAN)))
+        .collect();
+    format!("fitslam: chosen={chosen} top=[{}]", items.join(","))
+}
+
+/// Why a candidate was dropped, as a short word for tables and CSV.
+pub fn drop_text(d: Option<DropReason>) -> String {
+    match d {
+        None => String::new(),
+        Some(DropReason::NoPath) => "no_path".into(),
+        Some(DropReason::NotInTopN) => "not_in_top_n".into(),
+        Some(DropReason::Blacklisted(r)) => format!("blacklisted_{}", serde_json::to_value(r).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()),
+    }
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map(|x| format!("{x}")).unwrap_or_default()
+}
+
+/// The ranking as CSV, one row per candidate in rank order (unranked ones last, by index).
+pub fn ranking_csv(decision: &Decision) -> String {
+    let mut s = String::from(
+        "index,rank,u1_rank,chosen,x_m,y_m,cluster_size,rho_m,delta_e_bits,theta_star_rad,u1,path_info_raw,path_info,u2,waypoints,dropped\n",
+    );
+    for i in ordered(decision) {
+        let c = &decision.candidates[i];
+        s += &format!(
+            "{i},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            c.rank.map(|r| r.to_string()).unwrap_or_default(),
+            c.u1_rank.map(|r| r.to_string()).unwrap_or_default(),
+            u8::from(decision.chosen == Some(i)),
+            c.x_m,
+            c.y_m,
+            c.cluster_size,
+            opt(c.rho_m),
+            opt(c.delta_e_bits),
+            opt(c.theta_star_rad),
+            opt(c.u1),
+            opt(c.path_info_raw),
+            opt(c.path_info),
+            opt(c.u2),
+            c.waypoints.len(),
+            drop_text(c.dropped),
+        );
+    }
+    s
+}
+
+/// Candidate indices: ranked ones by rank, then the rest by index.
+pub fn ordered(decision: &Decision) -> Vec<usize> {
+    let mut r = decision.ranking();
+    r.extend((0..decision.candidates.len()).filter(|&i| decision.candidates[i].rank.is_none()));
+    r
+}
+
+#[derive(Serialize)]
+struct RankingExport<'a> {
+    map: &'a str,
+    landmarks: &'a str,
+    params: &'a fitslam_core::Params,
+    /// Candidate indices in rank order.
+    ranking: Vec<usize>,
+    decision: &'a Decision,
+}
+
+/// The ranking as JSON: the map and landmark names, the parameters, the rank order and the
+/// whole decision (every candidate's ρ, ΔE, Θ*, rays, u1, waypoints, I_p, u2).
+pub fn ranking_json(decision: &Decision, params: &fitslam_core::Params, map: &str, landmarks: &str) -> String {
+    let e = RankingExport { map, landmarks, params, ranking: decision.ranking(), decision };
+    serde_json::to_string_pretty(&e).unwrap_or_else(|err| format!("{{\"error\": \"{err}\"}}"))
+}
+
+/// A compact JSON of the ranking for page scripts: chosen index, and per ranked candidate its
+/// index, rank, position and scores.
+pub fn ranking_brief_json(decision: &Decision) -> String {
+    #[derive(Serialize)]
+    struct Row {
+        index: usize,
+        rank: Option<usize>,
+        x_m: f64,
+        y_m: f64,
+        rho_m: Option<f64>,
+        delta_e_bits: Option<f64>,
+        u1: Option<f64>,
+        path_info: Option<f64>,
+        u2: Option<f64>,
+    }
+    #[derive(Serialize)]
+    struct Brief {
+        strategy: Strategy,
+        chosen: Option<usize>,
+        candidates: usize,
+        ranked: Vec<Row>,
+    }
+    let ranked = decision
+        .ranking()
+        .into_iter()
+        .map(|i| {
+            let c = &decision.candidates[i];
+            Row { index: i, rank: c.rank, x_m: c.x_m, y_m: c.y_m, rho_m: c.rho_m, delta_e_bits: c.delta_e_bits, u1: c.u1, path_info: c.path_info, u2: c.u2 }
+        })
+        .collect();
+    serde_json::to_string(&Brief { strategy: decision.strategy, chosen: decision.chosen, candidates: decision.candidates.len(), ranked })
+        .unwrap_or_default()
+}

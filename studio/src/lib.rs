@@ -1,0 +1,1 @@
+//! FIT-SLAM studio (placeholder while it is written).

@@ -1,0 +1,150 @@
+//! Turns incoming files into scene parts, with `fitslam_core::io` doing all the parsing.
+//!
+//! | file | becomes |
+//! |---|---|
+//! | `.yaml`/`.yml` map_server description | a map, once its image is there (same drop or pick, or next to it natively) |
+//! | `.yaml`/`.yml`/`.toml` parameter file | the parameters |
+//! | `.png`/`.pgm` alone | a map at the current resolution, origin (0, 0), map_server's default thresholds |
+//! | `.pcd`/`.ply`/`.csv`/`.las`/`.laz` | a landmark set, or a traversability map computed from it (the user says which) |
+//!
+//! Every failure is a message naming the file; nothing here panics on input.
+
+use crate::files::{IncomingFile, Intent};
+use crate::scene::{Landmarks, MapKind, MapLayers};
+use fitslam_core::io::{self, MapError, MapThresholds, MapYaml};
+use fitslam_core::traversability::TraversabilityMap;
+use fitslam_core::Params;
+
+/// What a file turned into.
+#[derive(Debug)]
+pub enum Loaded {
+    Map(MapLayers),
+    Landmarks(Landmarks),
+    Params(Box<Params>),
+    /// A map YAML whose image has not arrived yet (the web cannot read a file's neighbours).
+    WaitingForImage { yaml_name: String, yaml_bytes: Vec<u8>, image: String },
+    /// A point cloud dropped without saying what it is: the user is asked.
+    AskCloudUse(IncomingFile),
+}
+
+/// The last path component of a name ("a/b/map.pgm" → "map.pgm").
+pub fn base_name(name: &str) -> &str {
+    name.rsplit(['/', '\\']).next().unwrap_or(name)
+}
+
+fn extension(name: &str) -> String {
+    base_name(name).rsplit_once('.').map(|(_, e)| e.to_ascii_lowercase()).unwrap_or_default()
+}
+
+fn is_cloud(ext: &str) -> bool {
+    matches!(ext, "pcd" | "ply" | "csv" | "las" | "laz")
+}
+
+fn is_image(ext: &str) -> bool {
+    matches!(ext, "png" | "pgm")
+}
+
+/// Loads a batch of files (one drop or one pick). A map YAML is paired with an image of the
+/// batch whose base name matches its `image:` key; `pending` holds YAMLs still waiting for their
+/// image from an earlier batch and is updated. `params` gives the resolution of bare images and
+/// the traversability parameters for clouds.
+pub fn load_batch(files: Vec<IncomingFile>, pending: &mut Vec<(String, Vec<u8>, String)>, params: &Params) -> Vec<Result<Loaded, String>> {
+    let mut out = Vec::new();
+    // Images of this batch, by base name, so YAMLs can claim them.
+    let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
+    let mut others = Vec::new();
+    for f in files {
+        match f.bytes {
+            Err(e) => out.push(Err(format!("{}: cannot read: {e}", f.name))),
+            Ok(bytes) if is_image(&extension(&f.name)) => images.push((base_name(&f.name).to_string(), f.name, bytes)),
+            Ok(bytes) => others.push(IncomingFile { name: f.name, bytes: Ok(bytes), intent: f.intent }),
+        }
+    }
+    for f in others {
+        let Ok(bytes) = f.bytes else { continue };
+        let ext = extension(&f.name);
+        match ext.as_str() {
+            "yaml" | "yml" => match MapYaml::parse(&bytes, &f.name) {
+                Ok(yaml) => {
+                    let wanted = base_name(&yaml.image).to_string();
+                    if let Some(k) = images.iter().position(|(b, _, _)| *b == wanted) {
+                        let (_, image_name, image_bytes) = images.remove(k);
+                        out.push(map_from_yaml(&bytes, &f.name, &image_bytes, &image_name));
+                    } else if let Some((image_name, image_bytes)) = crate::files::read_sibling(&f.name, &yaml.image) {
+                        out.push(match image_bytes {
+                            Ok(b) => map_from_yaml(&bytes, &f.name, &b, &image_name),
+                            Err(e) => Err(format!("{}: its image {}: {e}", f.name, yaml.image)),
+                        });
+                    } else {
+                        out.push(Ok(Loaded::WaitingForImage { yaml_name: f.name, yaml_bytes: bytes, image: wanted }));
+                    }
+                }
+                Err(map_err) => {
+                    if f.intent == Intent::Map {
+                        out.push(Err(map_err.to_string()));
+                    } else {
+                        out.push(params_or_error(&bytes, &f.name, Some(&map_err)));
+                    }
+                }
+            },
+            "toml" => out.push(params_or_error(&bytes, &f.name, None)),
+            e if is_cloud(e) => out.push(load_cloud(f.name, bytes, f.intent, params)),
+            _ => out.push(Err(format!(
+                "{}: unsupported file type (maps: .yaml + .pgm/.png, .png; landmarks or terrain: .pcd .ply .csv .las; parameters: .yaml .toml)",
+                f.name
+            ))),
+        }
+    }
+    // Images left: a pending YAML's, or bare maps.
+    for (base, name, bytes) in images {
+        if let Some(k) = pending.iter().position(|(_, _, img)| *img == base) {
+            let (yaml_name, yaml_bytes, _) = pending.remove(k);
+            out.push(map_from_yaml(&yaml_bytes, &yaml_name, &bytes, &name));
+        } else {
+            out.push(bare_image_map(&bytes, &name, params.grid.resolution_m));
+        }
+    }
+    out
+}
+
+fn map_from_yaml(yaml: &[u8], yaml_name: &str, image: &[u8], image_name: &str) -> Result<Loaded, String> {
+    let grid = io::load_map(yaml, yaml_name, image, image_name).map_err(|e| e.to_string())?;
+    let mut map = MapLayers::from_occupancy(&grid, base_name(yaml_name));
+    map.kind = MapKind::Occupancy;
+    Ok(Loaded::Map(map))
+}
+
+fn bare_image_map(bytes: &[u8], name: &str, resolution_m: f64) -> Result<Loaded, String> {
+    let grid = io::load_map_image(bytes, name, resolution_m, [0.0, 0.0], &MapThresholds::default()).map_err(|e| e.to_string())?;
+    Ok(Loaded::Map(MapLayers::from_occupancy(&grid, base_name(name))))
+}
+
+fn params_or_error(bytes: &[u8], name: &str, map_err: Option<&MapError>) -> Result<Loaded, String> {
+    match Params::from_bytes(bytes, name) {
+        Ok(p) => Ok(Loaded::Params(Box::new(p))),
+        Err(pe) => Err(match map_err {
+            // A YAML that is neither: say both, the map reason first (maps are the usual case).
+            Some(me) => format!("{me}; not a parameter file either: {pe}"),
+            None => pe.to_string(),
+        }),
+    }
+}
+
+fn load_cloud(name: String, bytes: Vec<u8>, intent: Intent, params: &Params) -> Result<Loaded, String> {
+    match intent {
+        Intent::Landmarks => {
+            let cloud = io::load_cloud(&bytes, &name).map_err(|e| e.to_string())?;
+            if cloud.is_empty() {
+                return Err(format!("{name}: no landmarks in the file"));
+            }
+            Ok(Loaded::Landmarks(Landmarks { cloud, source: base_name(&name).to_string() }))
+        }
+        Intent::TerrainCloud => {
+            let cloud = io::load_cloud(&bytes, &name).map_err(|e| e.to_string())?;
+            let map = TraversabilityMap::from_cloud(&cloud, params).map_err(|e| format!("{name}: {e}"))?;
+            let layers = map.compute(&params.traversability);
+            Ok(Loaded::Map(MapLayers { score: layers.score, source: base_name(&name).to_string(), kind: MapKind::Traversability }))
+        }
+        Intent::Any | Intent::Map | Intent::Params => Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent })),
+    }
+}

@@ -1,0 +1,334 @@
+//! Side panels: the parameter sliders, the focused candidate's details and the sortable
+//! candidate table. They edit `app.params` / `app.selected` and read the core's `Decision`.
+
+use crate::app::StudioApp;
+use crate::export::{self, drop_text, final_score};
+use fitslam_core::params::{InfoNormalisation, Strategy};
+use fitslam_core::select::{CandidateReport, Decision};
+
+/// A slider over an `f64` field shown in another unit (degrees for radians); returns the
+/// response so its rectangle can be published.
+fn scaled_slider(ui: &mut egui::Ui, value: &mut f64, scale: f64, range: std::ops::RangeInclusive<f64>, text: &str, decimals: usize) -> egui::Response {
+    let mut shown = *value * scale;
+    let r = ui.add(egui::Slider::new(&mut shown, range).text(text).fixed_decimals(decimals));
+    if r.changed() {
+        *value = shown / scale;
+    }
+    r
+}
+
+/// The parameter panel: every tunable the issue lists, live.
+pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
+    ui.heading("Parameters");
+    ui.label("Changes re-rank at once.");
+    ui.add_space(4.0);
+    let deg = 180.0 / std::f64::consts::PI;
+    let p = &mut app.params;
+    let mut rects: Vec<(&'static str, egui::Rect)> = Vec::new();
+
+    ui.label(egui::RichText::new("Strategy").strong());
+    let strat = egui::ComboBox::from_label("strategy")
+        .selected_text(strategy_name(p.selector.strategy))
+        .show_ui(ui, |ui| {
+            for s in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {
+                ui.selectable_value(&mut p.selector.strategy, s, strategy_name(s));
+            }
+        });
+    rects.push(("strategy", strat.response.rect));
+    if p.selector.strategy == Strategy::Random {
+        ui.horizontal(|ui| {
+            let l = ui.label("seed");
+            ui.add(egui::DragValue::new(&mut p.selector.seed)).labelled_by(l.id);
+        });
+    }
+
+    ui.add_space(6.0);
+    ui.label(egui::RichText::new("u1: path length vs entropy").strong());
+    let r = ui.add(egui::Slider::new(&mut p.u1.alpha, 0.0..=1.0).text("α").fixed_decimals(2))
+        .on_hover_text("α weights the path-length term ρ_min/ρ; 1 − α weights the entropy term ΔE/ΔE_max (paper 0.35).");
+    rects.push(("alpha", r.rect));
+    let r = scaled_slider(ui, &mut p.u1.delta_theta_rad, deg, 1.0..=45.0, "Δθ [°]", 1).on_hover_text("Angle between rays (paper 8.5°).");
+    rects.push(("delta_theta", r.rect));
+    let r = ui.add(egui::Slider::new(&mut p.u1.gamma, 0.9..=1.0).text("γ").fixed_decimals(3))
+        .on_hover_text("Visibility decay per cell along a ray: an unknown cell N cells out gains 1 − H((1 + γ^N)/2) bits.");
+    rects.push(("gamma", r.rect));
+    let r = scaled_slider(ui, &mut p.camera.hfov_rad, deg, 10.0..=360.0, "Φ [°]", 0).on_hover_text("Camera horizontal field of view: the Θ* window (D435: 87°).");
+    rects.push(("hfov", r.rect));
+    let r = ui.add(egui::Slider::new(&mut p.camera.max_depth_m, 0.5..=10.0).text("d_max [m]").fixed_decimals(2))
+        .on_hover_text("Camera max depth: ray length in u1 and waypoint spacing in u2.");
+    rects.push(("max_depth", r.rect));
+    if p.camera.min_depth_m >= p.camera.max_depth_m {
+        p.camera.min_depth_m = 0.5 * p.camera.max_depth_m;
+    }
+
+    ui.add_space(6.0);
+    ui.label(egui::RichText::new("u2: landmark information").strong());
+    let r = ui.add(egui::Slider::new(&mut p.u2.beta, 0.0..=1.0).text("β").fixed_decimals(2))
+        .on_hover_text("β weights u1 in u2; 1 − β weights the path's landmark information I_p (paper 0.4).");
+    rects.push(("beta", r.rect));
+    let r = ui.add(egui::Slider::new(&mut p.u2.top_n, 1..=20).text("N"))
+        .on_hover_text("How many of the best candidates by u1 are re-ranked by u2 (paper 7).");
+    rects.push(("top_n", r.rect));
+    let r = ui.add(egui::Slider::new(&mut p.u2.voxel_m, 0.05..=1.0).text("voxel [m]").fixed_decimals(2))
+        .on_hover_text("Landmark voxel edge: each occupied voxel counts once (paper 0.25 m).");
+    rects.push(("voxel", r.rect));
+    ui.horizontal(|ui| {
+        ui.label("I_p normalisation");
+        ui.radio_value(&mut p.u2.normalisation, InfoNormalisation::Max, "max");
+        ui.radio_value(&mut p.u2.normalisation, InfoNormalisation::Mean, "mean");
+    });
+
+    ui.add_space(6.0);
+    ui.label(egui::RichText::new("Map").strong());
+    let r = ui.add(egui::Slider::new(&mut p.traversability.tau, 0.0..=1.0).text("τ").fixed_decimals(2))
+        .on_hover_text("Risk acceptance: cells with score ≥ τ are free, below are lethal.");
+    rects.push(("tau", r.rect));
+    let r = ui.add(egui::Slider::new(&mut p.robot.radius_m, 0.0..=1.0).text("inflation [m]").fixed_decimals(2))
+        .on_hover_text("Robot radius lethal cells are inflated by for planning (LeoRover: 0.25 m).");
+    rects.push(("inflation", r.rect));
+    ui.checkbox(&mut p.planner.allow_unknown, "plan through unknown");
+
+    ui.add_space(8.0);
+    ui.horizontal(|ui| {
+        if ui.button("Paper defaults").clicked() {
+            app.reset_params();
+        }
+        if ui.button("Export YAML").on_hover_text("The robot node's parameter file (fitslam_core::Params)").clicked() {
+            app.export_params();
+        }
+    });
+    if let Err(e) = app.params.validate() {
+        ui.colored_label(egui::Color32::from_rgb(255, 120, 110), e);
+    }
+    for (k, r) in rects {
+        app.widget_rects.insert(k, r);
+    }
+}
+
+pub fn strategy_name(s: Strategy) -> &'static str {
+    match s {
+        Strategy::Fit => "FIT-SLAM (u1 → u2)",
+        Strategy::Greedy => "greedy (nearest)",
+        Strategy::Random => "random",
+        Strategy::U1 => "u1 only",
+    }
+}
+
+fn fmt(v: Option<f64>, decimals: usize) -> String {
+    v.map(|x| format!("{x:.decimals$}")).unwrap_or_else(|| "—".into())
+}
+
+/// ρ, ΔE, Θ*, u1, I_p, u2 of one candidate (tooltip and details panel).
+pub fn candidate_summary(ui: &mut egui::Ui, d: &Decision, i: usize, c: &CandidateReport) {
+    let title = match c.rank {
+        Some(r) if d.chosen == Some(i) => format!("Candidate {i} — rank {r} (chosen)"),
+        Some(r) => format!("Candidate {i} — rank {r}"),
+        None => format!("Candidate {i} — not ranked ({})", drop_text(c.dropped)),
+    };
+    ui.label(egui::RichText::new(title).strong());
+    egui::Grid::new(("summary", i)).num_columns(2).show(ui, |ui| {
+        let mut row = |k: &str, v: String| {
+            ui.label(k);
+            ui.label(v);
+            ui.end_row();
+        };
+        row("position", format!("({:.2}, {:.2}) m", c.x_m, c.y_m));
+        row("ρ (path)", format!("{} m", fmt(c.rho_m, 2)));
+        row("ΔE", format!("{} bits", fmt(c.delta_e_bits, 2)));
+        row("Θ*", format!("{}°", fmt(c.theta_star_rad.map(f64::to_degrees), 1)));
+        row("u1", format!("{} (rank {})", fmt(c.u1, 3), c.u1_rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into())));
+        row("I_p", format!("{} (raw {})", fmt(c.path_info, 3), fmt(c.path_info_raw, 1)));
+        row("u2", fmt(c.u2, 3));
+        row("cluster", format!("{} cells", c.cluster_size));
+    });
+}
+
+/// Right panel: the focused candidate in full, with its waypoints.
+pub fn details_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
+    ui.heading("Candidate");
+    let Some(result) = app.pipeline.decision() else { return };
+    let d = match result {
+        Ok(d) => d,
+        Err(e) => {
+            ui.colored_label(egui::Color32::from_rgb(255, 120, 110), format!("No decision: {e}"));
+            return;
+        }
+    };
+    let focus = app.hovered.or(app.selected).or(d.chosen);
+    let Some(i) = focus.filter(|&i| i < d.candidates.len()) else {
+        ui.label(format!("{} candidates; none ranked. Move the robot or lower τ.", d.candidates.len()));
+        return;
+    };
+    let c = &d.candidates[i];
+    candidate_summary(ui, d, i, c);
+    if !c.waypoints.is_empty() {
+        ui.add_space(6.0);
+        ui.label(egui::RichText::new("Waypoints (u2)").strong());
+        egui::Grid::new("waypoints").striped(true).num_columns(4).show(ui, |ui| {
+            ui.label("s [m]");
+            ui.label("yaw [°]");
+            ui.label("voxels");
+            ui.label("I_w");
+            ui.end_row();
+            for w in &c.waypoints {
+                ui.label(format!("{:.2}{}", w.arc_length_m, if w.is_goal { " (goal)" } else { "" }));
+                ui.label(format!("{:.0}", w.yaw_rad.to_degrees()));
+                ui.label(w.voxels_seen.to_string());
+                ui.label(format!("{:.1}", w.info));
+                ui.end_row();
+            }
+        });
+    }
+    ui.add_space(6.0);
+    ui.label(format!(
+        "Robot ({:.2}, {:.2}) m, yaw {:.0}°{}",
+        d.robot.x_m,
+        d.robot.y_m,
+        d.robot.yaw_rad.to_degrees(),
+        if d.start_snapped { " — start snapped to a free cell" } else { "" }
+    ));
+    ui.label(format!("{} candidates, {} ranked", d.candidates.len(), d.ranking().len()));
+}
+
+/// Sortable columns of the candidate table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Column {
+    Index,
+    Rank,
+    Rho,
+    DeltaE,
+    ThetaStar,
+    U1,
+    Ip,
+    U2,
+}
+
+impl Column {
+    const ALL: [Column; 8] = [Column::Index, Column::Rank, Column::Rho, Column::DeltaE, Column::ThetaStar, Column::U1, Column::Ip, Column::U2];
+
+    fn title(self) -> &'static str {
+        match self {
+            Column::Index => "#",
+            Column::Rank => "rank",
+            Column::Rho => "ρ [m]",
+            Column::DeltaE => "ΔE [bits]",
+            Column::ThetaStar => "Θ* [°]",
+            Column::U1 => "u1",
+            Column::Ip => "I_p",
+            Column::U2 => "u2",
+        }
+    }
+
+    fn key(self, i: usize, c: &CandidateReport) -> Option<f64> {
+        match self {
+            Column::Index => Some(i as f64),
+            Column::Rank => c.rank.map(|r| r as f64),
+            Column::Rho => c.rho_m,
+            Column::DeltaE => c.delta_e_bits,
+            Column::ThetaStar => c.theta_star_rad,
+            Column::U1 => c.u1,
+            Column::Ip => c.path_info,
+            Column::U2 => c.u2,
+        }
+    }
+}
+
+/// Sort state of the table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TableState {
+    pub column: Column,
+    pub descending: bool,
+}
+
+impl Default for TableState {
+    fn default() -> Self {
+        Self { column: Column::Rank, descending: false }
+    }
+}
+
+/// Row order for `state`: missing values last, ties by index.
+pub fn sorted_rows(d: &Decision, state: TableState) -> Vec<usize> {
+    let mut rows: Vec<usize> = (0..d.candidates.len()).collect();
+    rows.sort_by(|&a, &b| {
+        let ka = state.column.key(a, &d.candidates[a]);
+        let kb = state.column.key(b, &d.candidates[b]);
+        match (ka, kb) {
+            (Some(x), Some(y)) => {
+                let o = x.total_cmp(&y);
+                if state.descending { o.reverse() } else { o }
+            }
+            (Some(_), None) => std::cmp::Ordering::Less,
+            (None, Some(_)) => std::cmp::Ordering::Greater,
+            (None, None) => std::cmp::Ordering::Equal,
+        }
+        .then(a.cmp(&b))
+    });
+    rows
+}
+
+/// The candidate table: click a header to sort (again to reverse), a row to select.
+pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
+    let Some(Ok(d)) = app.pipeline.decision() else {
+        ui.label("No ranking.");
+        return;
+    };
+    ui.horizontal(|ui| {
+        ui.label(egui::RichText::new("Candidates").strong());
+        ui.label(format!("({} · strategy {} · score: {})", d.candidates.len(), strategy_name(d.strategy), match d.strategy {
+            Strategy::Fit => "u2",
+            Strategy::Greedy => "ρ",
+            Strategy::U1 | Strategy::Random => "u1",
+        }));
+        if ui.small_button("CSV").on_hover_text("Export the ranking as CSV").clicked() {
+            app.export_ranking(false);
+        }
+        if ui.small_button("JSON").on_hover_text("Export the ranking as JSON").clicked() {
+            app.export_ranking(true);
+        }
+    });
+    let Some(Ok(d)) = app.pipeline.decision() else { return };
+    let rows = sorted_rows(d, app.table);
+    let mut new_sort = None;
+    let mut new_sel = None;
+    egui::ScrollArea::both().auto_shrink([false, false]).show(ui, |ui| {
+        egui::Grid::new("candidates").striped(true).min_col_width(48.0).show(ui, |ui| {
+            for col in Column::ALL {
+                let arrow = if app.table.column == col { if app.table.descending { " ⏷" } else { " ⏶" } } else { "" };
+                if ui.button(format!("{}{arrow}", col.title())).clicked() {
+                    new_sort = Some(col);
+                }
+            }
+            ui.label("dropped");
+            ui.end_row();
+            for &i in &rows {
+                let c = &d.candidates[i];
+                let selected = app.selected == Some(i);
+                let chosen = if d.chosen == Some(i) { " ★" } else { "" };
+                if ui.selectable_label(selected, format!("{i}{chosen}")).clicked() {
+                    new_sel = Some(if selected { None } else { Some(i) });
+                }
+                ui.label(c.rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into()));
+                ui.label(fmt(c.rho_m, 2));
+                ui.label(fmt(c.delta_e_bits, 2));
+                ui.label(fmt(c.theta_star_rad.map(f64::to_degrees), 0));
+                ui.label(fmt(c.u1, 3));
+                ui.label(fmt(c.path_info, 3));
+                ui.label(fmt(c.u2, 3));
+                ui.label(drop_text(c.dropped));
+                ui.end_row();
+            }
+        });
+    });
+    let _ = final_score;
+    let _ = export::ordered;
+    if let Some(col) = new_sort {
+        if app.table.column == col {
+            app.table.descending = !app.table.descending;
+        } else {
+            app.table = TableState { column: col, descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE) };
+        }
+    }
+    if let Some(sel) = new_sel {
+        app.selected = sel;
+    }
+}

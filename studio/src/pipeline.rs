@@ -1,0 +1,149 @@
+//! Scene + parameters → decision, through `fitslam_core` only, with each stage cached so that a
+//! change re-runs only what depends on it:
+//!
+//! | stage | core call | re-run when |
+//! |---|---|---|
+//! | thresholded grid | `traversability::to_occupancy(score, τ)` | map, τ |
+//! | landmark voxels | `utility::LandmarkVoxels::new` | landmarks, voxel size, σ_l |
+//! | decision | `select::make_selector(..).select(..)` | any input or parameter |
+//! | inflated grid (display only) | `grid::inflate_lethal` | thresholded grid, robot radius |
+//!
+//! The selector is made afresh for every decision (the random one from its seed), so the same
+//! inputs always give the same decision.
+
+use crate::scene::Scene;
+use fitslam_core::grid::{inflate_lethal, OccupancyGrid};
+use fitslam_core::select::{make_selector, Decision, DecisionInput};
+use fitslam_core::traversability::to_occupancy;
+use fitslam_core::utility::LandmarkVoxels;
+use fitslam_core::{Params, Pose2};
+use web_time::Instant;
+
+/// Revision counters of the scene's parts; the app bumps one whenever it edits that part.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Revisions {
+    pub map: u64,
+    pub landmarks: u64,
+    /// Robot pose, boundary, blacklist.
+    pub layout: u64,
+}
+
+/// Wall-clock time of the last run of each stage, milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timings {
+    pub threshold_ms: f64,
+    pub voxels_ms: f64,
+    pub decision_ms: f64,
+    /// Sum of the stages that ran in the last update (what a slider move cost).
+    pub last_update_ms: f64,
+}
+
+/// The cached stages.
+#[derive(Default)]
+pub struct Pipeline {
+    occupancy: Option<((u64, u64), OccupancyGrid)>,
+    voxels: Option<((u64, u64, u64), Result<LandmarkVoxels, String>)>,
+    decision: Option<((Revisions, Params, [u64; 3]), Result<Decision, String>)>,
+    inflated: Option<((u64, u64, u64), OccupancyGrid)>,
+    /// Incremented whenever the decision is recomputed.
+    pub decision_revision: u64,
+    pub timings: Timings,
+    /// How many decisions were computed (for tests: a cache hit does not count).
+    pub decisions_computed: u64,
+}
+
+fn bits(v: f64) -> u64 {
+    v.to_bits()
+}
+
+impl Pipeline {
+    /// Brings every stage up to date; returns whether the decision was recomputed.
+    pub fn update(&mut self, scene: &Scene, revs: Revisions, params: &Params) -> bool {
+        let mut spent_ms = 0.0;
+        let occ_key = (revs.map, bits(params.traversability.tau));
+        if self.occupancy.as_ref().is_none_or(|(k, _)| *k != occ_key) {
+            let t = Instant::now();
+            let grid = to_occupancy(&scene.map.score, params.traversability.tau);
+            self.timings.threshold_ms = ms_since(t);
+            spent_ms += self.timings.threshold_ms;
+            self.occupancy = Some((occ_key, grid));
+        }
+        let vox_key = (revs.landmarks, bits(params.u2.voxel_m), bits(params.u2.sigma_landmark_m));
+        if self.voxels.as_ref().is_none_or(|(k, _)| *k != vox_key) {
+            let t = Instant::now();
+            let v = LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m)
+                .map_err(|e| format!("landmarks {}: {e}", scene.landmarks.source));
+            self.timings.voxels_ms = ms_since(t);
+            spent_ms += self.timings.voxels_ms;
+            self.voxels = Some((vox_key, v));
+        }
+        let pose = pose_bits(scene.robot);
+        let dec_key = (revs, params.clone(), pose);
+        let mut recomputed = false;
+        if self.decision.as_ref().is_none_or(|(k, _)| *k != dec_key) {
+            let t = Instant::now();
+            let result = match (&self.occupancy, &self.voxels) {
+                (Some((_, grid)), Some((_, Ok(voxels)))) => {
+                    let input = DecisionInput::new(grid, voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
+                    make_selector(&params.selector).select(&input, params).map_err(|e| e.to_string())
+                }
+                (_, Some((_, Err(e)))) => Err(e.clone()),
+                _ => Err("internal: stage missing".to_string()),
+            };
+            self.timings.decision_ms = ms_since(t);
+            spent_ms += self.timings.decision_ms;
+            self.decision = Some((dec_key, result));
+            self.decision_revision += 1;
+            self.decisions_computed += 1;
+            recomputed = true;
+        }
+        if spent_ms > 0.0 {
+            self.timings.last_update_ms = spent_ms;
+        }
+        recomputed
+    }
+
+    /// The current decision, or why there is none.
+    pub fn decision(&self) -> Option<&Result<Decision, String>> {
+        self.decision.as_ref().map(|(_, d)| d)
+    }
+
+    /// The current decision if it succeeded.
+    pub fn ok_decision(&self) -> Option<&Decision> {
+        self.decision().and_then(|d| d.as_ref().ok())
+    }
+
+    /// The thresholded grid (after [`Self::update`]).
+    pub fn occupancy(&self) -> Option<&OccupancyGrid> {
+        self.occupancy.as_ref().map(|(_, g)| g)
+    }
+
+    /// The voxels (after [`Self::update`]).
+    pub fn voxels(&self) -> Option<&LandmarkVoxels> {
+        self.voxels.as_ref().and_then(|(_, v)| v.as_ref().ok())
+    }
+
+    /// Revision key of the thresholded grid, for texture caching.
+    pub fn occupancy_key(&self) -> Option<(u64, u64)> {
+        self.occupancy.as_ref().map(|(k, _)| *k)
+    }
+
+    /// The thresholded grid inflated by the robot radius (computed on demand, for display: the
+    /// selector inflates internally).
+    pub fn inflated(&mut self, radius_m: f64) -> Option<(&OccupancyGrid, (u64, u64, u64))> {
+        let ((m, t), occ) = self.occupancy.as_ref()?;
+        let key = (*m, *t, bits(radius_m));
+        if self.inflated.as_ref().is_none_or(|(k, _)| *k != key) {
+            self.inflated = Some((key, inflate_lethal(occ, radius_m)));
+        }
+        self.inflated.as_ref().map(|(k, g)| (g, *k))
+    }
+}
+
+fn pose_bits(p: Pose2) -> [u64; 3] {
+    [bits(p.x_m), bits(p.y_m), bits(p.yaw_rad)]
+}
+
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}

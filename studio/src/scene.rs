@@ -1,0 +1,130 @@
+//! What the studio shows: a map (traversability score layer), a landmark set, the robot, the
+//! exploration boundary and the blacklist. Everything computed from it goes through
+//! `fitslam_core`; this module only holds the inputs and caches each stage's output so that a
+//! slider re-runs only the stages it affects (see [`crate::pipeline`]).
+
+use fitslam_core::frontier::{Blacklist, Boundary};
+use fitslam_core::grid::{CellClass, Grid, GridGeometry, OccupancyGrid};
+use fitslam_core::{Pose2, PointCloud};
+
+/// A map as the studio holds it: one traversability score per cell in [0, 1] (1 traversable,
+/// 0 lethal), NaN where unknown. Thresholding by τ gives the binary grid (notes §2).
+#[derive(Clone, Debug)]
+pub struct MapLayers {
+    /// The score layer (NaN = unknown).
+    pub score: Grid<f32>,
+    /// Where it came from (file name or built-in asset name).
+    pub source: String,
+    /// How it was made, shown in the status line.
+    pub kind: MapKind,
+}
+
+/// How a map was obtained.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapKind {
+    /// A ROS occupancy grid (map_server YAML + PGM/PNG): score = 1 − occupancy/100.
+    Occupancy,
+    /// Computed from a 3D point cloud by the traversability estimator.
+    Traversability,
+    /// Made by the studio itself.
+    Synthetic,
+}
+
+impl MapLayers {
+    /// From a ROS occupancy grid: free 0 → score 1, lethal 100 → 0, p% → 1 − p/100, unknown
+    /// (−1) → NaN. A trinary map then thresholds to itself for any τ in (0, 1].
+    pub fn from_occupancy(grid: &OccupancyGrid, source: impl Into<String>) -> Self {
+        let data = grid
+            .data
+            .iter()
+            .map(|&v| match CellClass::of(v) {
+                CellClass::Unknown => f32::NAN,
+                _ => 1.0 - f32::from(v.clamp(0, 100)) / 100.0,
+            })
+            .collect();
+        Self { score: Grid { geometry: grid.geometry, data }, source: source.into(), kind: MapKind::Occupancy }
+    }
+
+    pub fn geometry(&self) -> GridGeometry {
+        self.score.geometry
+    }
+
+    /// Number of known cells.
+    pub fn known_cells(&self) -> usize {
+        self.score.data.iter().filter(|s| !s.is_nan()).count()
+    }
+}
+
+/// The landmark set used by u2 (notes §6).
+#[derive(Clone, Debug, Default)]
+pub struct Landmarks {
+    pub cloud: PointCloud,
+    pub source: String,
+}
+
+/// All inputs of one decision besides the parameters.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub map: MapLayers,
+    pub landmarks: Landmarks,
+    pub robot: Pose2,
+    pub boundary: Boundary,
+    pub blacklist: Blacklist,
+}
+
+impl Scene {
+    /// A scene with the robot on the free cell nearest the map's centre (or the given pose if
+    /// it is free), the whole map as boundary and an empty blacklist.
+    pub fn new(map: MapLayers, landmarks: Landmarks, robot: Option<Pose2>, blacklist_radius_m: f64) -> Self {
+        let (x0, y0, x1, y1) = map.geometry().bounds_m();
+        let boundary = Boundary::from_bounds(x0, y0, x1, y1);
+        let mut scene = Self { map, landmarks, robot: Pose2::new(0.0, 0.0, 0.0), boundary, blacklist: Blacklist::new(blacklist_radius_m) };
+        let start = robot.unwrap_or(Pose2::new(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0));
+        scene.robot = scene.nearest_free_pose(start, 0.5).unwrap_or(start);
+        scene
+    }
+
+    /// The free cell (score ≥ `min_score`) nearest to `pose`, searched in growing square rings;
+    /// keeps the yaw. `None` if the map has no such cell.
+    pub fn nearest_free_pose(&self, pose: Pose2, min_score: f32) -> Option<Pose2> {
+        let g = self.map.geometry();
+        let c = g.cell_unchecked(pose.x_m, pose.y_m)?;
+        let max_r = g.width.max(g.height) as i32;
+        let ok = |col: i32, row: i32| {
+            let cell = fitslam_core::Cell::new(col, row);
+            self.map.score.get(cell).is_some_and(|s| *s >= min_score)
+        };
+        for r in 0..=max_r {
+            let mut best: Option<(i64, i32, i32)> = None;
+            for dr in -r..=r {
+                for dc in -r..=r {
+                    if dr.abs() != r && dc.abs() != r {
+                        continue;
+                    }
+                    let (col, row) = (c.col + dc, c.row + dr);
+                    if ok(col, row) {
+                        let d2 = i64::from(dc) * i64::from(dc) + i64::from(dr) * i64::from(dr);
+                        if best.is_none_or(|(b, _, _)| d2 < b) {
+                            best = Some((d2, col, row));
+                        }
+                    }
+                }
+            }
+            if let Some((_, col, row)) = best {
+                if r == 0 {
+                    return Some(pose);
+                }
+                let (x, y) = g.center_of(fitslam_core::Cell::new(col, row));
+                return Some(Pose2::new(x, y, pose.yaw_rad));
+            }
+        }
+        None
+    }
+
+    /// Landmark height range (min z, max z), for colouring; `None` without landmarks.
+    pub fn landmark_z_range(&self) -> Option<(f64, f64)> {
+        let mut it = self.landmarks.cloud.points.iter();
+        let first = it.next()?;
+        Some(it.fold((first.z, first.z), |(lo, hi), p| (lo.min(p.z), hi.max(p.z))))
+    }
+}
