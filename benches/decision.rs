@@ -1,1 +1,97 @@
-fn main() {}
+//! One full FIT-SLAM decision on the synthetic 100 m × 100 m world at 0.05 m (2000 × 2000 cells,
+//! partially explored with a ragged frontier, obstacles, 50,000 landmarks): median of several
+//! runs, single-threaded, with a per-stage breakdown.
+//!
+//! `cargo bench --bench decision` (optionally `-- RUNS`).
+
+use fitslam_core::fixtures::{synthetic_world, SyntheticWorldSpec};
+use fitslam_core::frontier::Blacklist;
+use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
+use fitslam_core::params::{Params, Strategy};
+use fitslam_core::select::candidates::{distances, frontier_clusters, prepare, rank_and_choose, score_u1, score_u2};
+use fitslam_core::select::{DecisionInput, FitSlam, GoalSelector};
+use fitslam_core::utility::LandmarkVoxels;
+use std::time::Instant;
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[v.len() / 2]
+}
+
+fn main() {
+    let runs: usize = std::env::args().skip(1).find_map(|a| a.parse().ok()).unwrap_or(9);
+    let t = Instant::now();
+    let spec = SyntheticWorldSpec::benchmark();
+    let world = synthetic_world(&spec);
+    let build_world_s = t.elapsed().as_secs_f64();
+    let params = Params::default();
+    let g = world.grid.geometry;
+    let count = |v: i8| world.grid.data.iter().filter(|&&x| x == v).count();
+    println!(
+        "world: {} x {} cells at {} m ({:.1} s to build); free {:.1} %, lethal {:.1} %, unknown {:.1} %; {} landmarks",
+        g.width,
+        g.height,
+        g.resolution_m,
+        build_world_s,
+        100.0 * count(FREE) as f64 / g.len() as f64,
+        100.0 * count(LETHAL) as f64 / g.len() as f64,
+        100.0 * count(UNKNOWN) as f64 / g.len() as f64,
+        world.landmarks.len()
+    );
+
+    let t = Instant::now();
+    let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m).expect("voxels");
+    println!("landmark voxels: {} (built once per landmark set in {:.2} ms)", voxels.len(), 1e3 * t.elapsed().as_secs_f64());
+
+    let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
+
+    let names = ["inflate + robot cell", "frontiers (WFD + clusters)", "Dijkstra", "u1 (paths, rays, Θ*)", "u2 (waypoints, FIM)", "total (stages)", "FitSlam::select"];
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut summary = String::new();
+    for run in 0..runs {
+        let t0 = Instant::now();
+        let prepared = prepare(&input, &params).expect("prepare");
+        let t1 = Instant::now();
+        let clusters = frontier_clusters(&input, &prepared, &params).expect("frontiers");
+        let t2 = Instant::now();
+        let field = distances(&prepared, &params).expect("dijkstra");
+        let t3 = Instant::now();
+        let mut d = score_u1(&input, &prepared, clusters, &field, &params, Strategy::Fit).expect("u1");
+        let t4 = Instant::now();
+        score_u2(&mut d, &input, &params);
+        let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
+        rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
+        let t5 = Instant::now();
+        let full = FitSlam.select(&input, &params).expect("select");
+        let t6 = Instant::now();
+        assert_eq!(full.chosen, d.chosen);
+        for (k, (a, b)) in [(t0, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5), (t0, t5), (t5, t6)].iter().enumerate() {
+            times[k].push(1e3 * (*b - *a).as_secs_f64());
+        }
+        if run == 0 {
+            let scored = d.candidates.iter().filter(|c| c.is_scored()).count();
+            let top: Vec<_> = d.candidates.iter().filter(|c| c.u2.is_some()).collect();
+            let wps: usize = top.iter().map(|c| c.waypoints.len()).sum();
+            let seen: usize = top.iter().flat_map(|c| c.waypoints.iter()).map(|w| w.voxels_seen).sum();
+            let reached = (0..g.len()).filter(|&i| field.reachable(g.cell_at(i))).count();
+            summary = format!(
+                "candidates {} (scored {}), reachable cells {}, top-{} waypoints {} seeing {} voxels in all; chosen {:?} at ({:.2}, {:.2}) m",
+                d.candidates.len(),
+                scored,
+                reached,
+                params.u2.top_n,
+                wps,
+                seen,
+                d.chosen,
+                d.goal.map_or(f64::NAN, |p| p.x_m),
+                d.goal.map_or(f64::NAN, |p| p.y_m),
+            );
+        }
+    }
+    println!("{summary}");
+    println!("median of {runs} runs, one thread:");
+    for (name, v) in names.iter().zip(times.iter_mut()) {
+        println!("  {name:<28} {:>9.2} ms", median(v));
+    }
+}

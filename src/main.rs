@@ -1,6 +1,7 @@
 //! `fitslam`: the command-line face of fitslam-core. Thin: it reads files, calls the core, and
 //! prints or writes the result. Errors print one line and exit non-zero.
 
+mod asset_cmd;
 mod load;
 mod traversability_cmd;
 
@@ -19,12 +20,15 @@ struct Cli {
 enum Command {
     /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
     Traversability(traversability_cmd::TraversabilityArgs),
+    /// Build a planning scene (map + landmarks) from a real DEM scaled to rover size.
+    BuildAsset(asset_cmd::BuildAssetArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Traversability(a) => traversability_cmd::run(a),
+        Command::BuildAsset(a) => asset_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -322,7 +322,7 @@ impl StudioApp {
         });
         if ui.button("Tour").clicked() {
             self.tour.start();
-            self.tour.apply_step(self);
+            Tour::apply_step(self);
         }
         if ui.button("About").clicked() {
             self.show_about = true;
@@ -406,7 +406,7 @@ impl StudioApp {
         }
         if let Some(step) = action {
             self.tour.step = step;
-            self.tour.apply_step(self);
+            Tour::apply_step(self);
         }
     }
 

@@ -12,7 +12,7 @@ use fitslam_core::{Pose2, PointCloud};
 use nalgebra::Point3;
 
 /// A built-in scene the user can pick.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug)]
 pub struct BuiltIn {
     /// Name shown in the menu (also accepted by `?asset=` on the web).
     pub name: &'static str,

@@ -2,7 +2,7 @@
 //! candidate table. They edit `app.params` / `app.selected` and read the core's `Decision`.
 
 use crate::app::StudioApp;
-use crate::export::{self, drop_text, final_score};
+use crate::export::drop_text;
 use fitslam_core::params::{InfoNormalisation, Strategy};
 use fitslam_core::select::{CandidateReport, Decision};
 
@@ -272,13 +272,14 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
         ui.label("No ranking.");
         return;
     };
+    let header = format!("({} · strategy {} · score: {})", d.candidates.len(), strategy_name(d.strategy), match d.strategy {
+        Strategy::Fit => "u2",
+        Strategy::Greedy => "ρ",
+        Strategy::U1 | Strategy::Random => "u1",
+    });
     ui.horizontal(|ui| {
         ui.label(egui::RichText::new("Candidates").strong());
-        ui.label(format!("({} · strategy {} · score: {})", d.candidates.len(), strategy_name(d.strategy), match d.strategy {
-            Strategy::Fit => "u2",
-            Strategy::Greedy => "ρ",
-            Strategy::U1 | Strategy::Random => "u1",
-        }));
+        ui.label(header);
         if ui.small_button("CSV").on_hover_text("Export the ranking as CSV").clicked() {
             app.export_ranking(false);
         }
@@ -319,8 +320,6 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
             }
         });
     });
-    let _ = final_score;
-    let _ = export::ordered;
     if let Some(col) = new_sort {
         if app.table.column == col {
             app.table.descending = !app.table.descending;

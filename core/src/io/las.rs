@@ -1,12 +1,14 @@
 //! LAS point clouds (ASPRS LAS 1.0–1.4) through the `las` crate, read from a `Cursor` over the
 //! bytes; LAZ when the crate's `laz` feature is enabled (see `core/Cargo.toml`), otherwise a
-//! clear "unsupported" error. Coordinates are `raw · scale + offset` in the file's units (no
+//! clear "unsupported" error (the feature is on by default: it builds for
+//! `wasm32-unknown-unknown`). Coordinates are `raw · scale + offset` in the file's units (no
 //! reprojection, no unit conversion); the ASPRS classification is kept. O(points).
 //!
 //! Before handing the bytes to the crate, the public header is checked here, because the crate
 //! trusts it: the point records (offset + count × record length) must lie inside the input for
 //! LAS, an extended VLR must fit in the input, and for LAZ the declared count may not exceed
-//! [`LAZ_MAX_POINTS_PER_BYTE`] × the file size. Points are then read in batches, so memory
+//! [`LAZ_MAX_POINTS_PER_BYTE`] × the file size and the chunk table (which the `laz` crate
+//! reserves for up front) may not declare more chunks than the file has bytes. Points are then read in batches, so memory
 //! follows the points actually present.
 
 use super::CloudError;
@@ -16,8 +18,8 @@ use std::io::Cursor;
 
 /// Points read per batch.
 const BATCH_POINTS: u64 = 65_536;
-/// LAZ compresses a point to a few bytes; a thousand points per byte is beyond any real file.
-pub const LAZ_MAX_POINTS_PER_BYTE: u64 = 1_000;
+/// LAZ compresses a real point to a few bytes; a hundred points per byte is beyond any real file.
+pub const LAZ_MAX_POINTS_PER_BYTE: u64 = 100;
 
 fn las_err(name: &str, detail: impl Into<String>) -> CloudError {
     CloudError::Las { name: name.to_string(), detail: detail.into() }
@@ -71,6 +73,7 @@ fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
         if count > len.saturating_mul(LAZ_MAX_POINTS_PER_BYTE) {
             return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found: 0 });
         }
+        check_chunk_table(bytes, offset_to_points, name)?;
     } else {
         let end = count.checked_mul(record_len).and_then(|b| b.checked_add(offset_to_points));
         if end.is_none_or(|e| e > len) {
@@ -79,6 +82,23 @@ fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
         }
     }
     Ok((count, compressed))
+}
+
+/// Mirrors laz's `ChunkTable::read_offset`: the i64 at the start of the point data (or, when it
+/// does not point forward, the file's last 8 bytes) locates the table `[u32 version, u32 count]`.
+fn check_chunk_table(bytes: &[u8], data_start: u64, name: &str) -> Result<(), CloudError> {
+    let i64_at = |at: usize| u64_at(bytes, at).map(|v| v as i64);
+    let Ok(start) = usize::try_from(data_start) else { return Ok(()) };
+    let forward = |v: Option<i64>| v.filter(|&o| o > data_start as i64);
+    let offset = forward(i64_at(start)).or_else(|| forward(bytes.len().checked_sub(8).and_then(i64_at)));
+    if let Some(table) = offset.and_then(|o| usize::try_from(o).ok()) {
+        if let Some(chunks) = table.checked_add(4).and_then(|at| u32_at(bytes, at)) {
+            if chunks as usize > bytes.len() {
+                return Err(las_err(name, format!("LAZ chunk table declares {chunks} chunks in a {} byte file", bytes.len())));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Loads a LAS (or, with the `laz` feature, LAZ) point cloud; `name` is used in messages.
@@ -146,6 +166,59 @@ mod tests {
         let mut m = VEG[..4_000].to_vec();
         m[107..111].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(matches!(load_las(&m, "v.las"), Err(CloudError::WrongPointCount { .. })));
+    }
+
+    /// The vegetation file re-encoded as LAZ by the las crate's writer.
+    #[cfg(feature = "laz")]
+    fn vegetation_laz() -> Vec<u8> {
+        let mut reader = las::Reader::new(Cursor::new(VEG.to_vec())).unwrap();
+        let points = reader.read_all().unwrap();
+        let mut builder = las::Builder::from(reader.header().version());
+        builder.point_format = *reader.header().point_format();
+        builder.point_format.is_compressed = true;
+        builder.transforms = *reader.header().transforms();
+        let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+        writer.write_points(&points).unwrap();
+        writer.close().unwrap();
+        writer.into_inner().unwrap().into_inner()
+    }
+
+    #[cfg(feature = "laz")]
+    #[test]
+    fn laz_reads_like_las() {
+        let laz = vegetation_laz();
+        assert!(laz.len() < VEG.len(), "LAZ {} bytes vs LAS {}", laz.len(), VEG.len());
+        assert_eq!(load_las(&laz, "v.laz").unwrap(), load_las(VEG, "v.las").unwrap());
+        assert!(load_las(&laz[..laz.len() / 2], "v.laz").is_err());
+    }
+
+    #[cfg(feature = "laz")]
+    #[test]
+    fn laz_hostile_chunk_table_is_refused() {
+        let mut laz = vegetation_laz();
+        let start = u32::from_le_bytes(laz[96..100].try_into().unwrap()) as usize;
+        let table = u64::from_le_bytes(laz[start..start + 8].try_into().unwrap()) as usize;
+        laz[table + 4..table + 8].copy_from_slice(&u32::MAX.to_le_bytes());
+        let e = load_las(&laz, "v.laz").unwrap_err();
+        assert!(e.to_string().contains("chunk table declares 4294967295 chunks"), "{e}");
+    }
+
+    #[cfg(feature = "laz")]
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(3000))]
+        #[test]
+        fn mutated_laz_never_panics(edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..4), cut in any::<prop::sample::Index>()) {
+            thread_local!(static LAZ: Vec<u8> = vegetation_laz());
+            LAZ.with(|laz| {
+                let mut m = laz.clone();
+                for (pos, byte) in &edits {
+                    let i = pos.index(m.len());
+                    m[i] = *byte;
+                }
+                let _ = load_las(&m, "x.laz");
+                let _ = load_las(&laz[..cut.index(laz.len())], "x.laz");
+            });
+        }
     }
 
     proptest! {

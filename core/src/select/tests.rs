@@ -1,1 +1,263 @@
+use super::candidates::{distances, frontier_clusters, prepare, score_u1};
+use super::*;
+use crate::fixtures::{corridor_two_frontiers, synthetic_world, SyntheticWorldSpec};
+use crate::frontier::{BlacklistReason, FrontierCluster};
+use crate::grid::{Grid, GridGeometry, FREE, LETHAL, UNKNOWN};
+use crate::pose::wrap_pi;
+use std::f64::consts::PI;
 
+fn params() -> Params {
+    let mut p = Params::default();
+    p.grid.resolution_m = 0.1;
+    p
+}
+
+fn voxels(w: &crate::fixtures::SyntheticWorld, p: &Params) -> LandmarkVoxels {
+    LandmarkVoxels::new(&w.landmarks, p.u2.voxel_m, p.u2.sigma_landmark_m).unwrap()
+}
+
+/// The corridor's two candidates: (west index, east index).
+fn ends(d: &Decision) -> (usize, usize) {
+    assert_eq!(d.candidates.len(), 2, "{:?}", d.candidates.iter().map(|c| c.cell).collect::<Vec<_>>());
+    if d.candidates[0].x_m < d.candidates[1].x_m { (0, 1) } else { (1, 0) }
+}
+
+#[test]
+fn fit_slam_and_greedy_differ_for_a_stated_reason() {
+    // Two frontiers at the corridor's ends, 7.5 m west and 8.0 m east; landmarks only along
+    // the east half. Greedy takes the nearer (west). FIT-SLAM's u1 is nearly tied (same
+    // unknown beyond each end, path term 1 vs 7.5/8), but only the east path sees landmarks,
+    // so I_p,west = 0 and I_p,east = 1 after normalisation: u2 picks east.
+    let w = corridor_two_frontiers(true);
+    let p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(p.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+
+    let g = Greedy.select(&input, &p).unwrap();
+    let (west, east) = ends(&g);
+    assert_eq!(g.chosen, Some(west));
+    assert!((g.candidates[west].rho_m.unwrap() - 7.5).abs() < 1e-9);
+    assert!((g.candidates[east].rho_m.unwrap() - 8.0).abs() < 1e-9);
+    assert_eq!(g.candidates[west].rank, Some(1));
+    assert_eq!(g.candidates[east].rank, Some(2));
+
+    let f = FitSlam.select(&input, &p).unwrap();
+    let (west, east) = ends(&f);
+    assert_eq!(f.chosen, Some(east));
+    let (cw, ce) = (&f.candidates[west], &f.candidates[east]);
+    assert_eq!(cw.path_info_raw, Some(0.0));
+    assert!(ce.path_info_raw.unwrap() > 0.0);
+    assert_eq!(ce.path_info, Some(1.0));
+    assert!(ce.waypoints.iter().any(|wp| wp.voxels_seen > 0));
+    // u2 = β u1 + (1 − β) I_p, by hand from the reported u1 and I_p.
+    let beta = p.u2.beta;
+    assert!((cw.u2.unwrap() - beta * cw.u1.unwrap()).abs() < 1e-12);
+    assert!((ce.u2.unwrap() - (beta * ce.u1.unwrap() + (1.0 - beta))).abs() < 1e-12);
+    // Θ* looks into the unknown: west for the west end, east for the east end.
+    assert!(wrap_pi(cw.theta_star_rad.unwrap() - PI).abs() <= 0.5 * p.camera.hfov_rad);
+    assert!(wrap_pi(ce.theta_star_rad.unwrap()).abs() <= 0.5 * p.camera.hfov_rad);
+    assert_eq!(f.goal.unwrap().x_m, ce.x_m);
+    assert_eq!(f.goal.unwrap().yaw_rad, ce.theta_star_rad.unwrap());
+    // Waypoints: every d_max = 3 m from the robot, then the goal: 3, 6 and 8 m east.
+    let arcs: Vec<f64> = ce.waypoints.iter().map(|w| w.arc_length_m).collect();
+    assert_eq!(arcs.len(), 3);
+    assert!((arcs[0] - 3.0).abs() < 1e-9 && (arcs[1] - 6.0).abs() < 1e-9 && (arcs[2] - 8.0).abs() < 1e-9);
+
+    // Without landmarks both paths carry no information and FIT-SLAM follows u1.
+    let w0 = corridor_two_frontiers(false);
+    let lv0 = voxels(&w0, &p);
+    let f0 = FitSlam.select(&DecisionInput::new(&w0.grid, &lv0, w0.robot, &bl), &p).unwrap();
+    let best_u1 = (0..2).max_by(|&a, &b| f0.candidates[a].u1.partial_cmp(&f0.candidates[b].u1).unwrap().then(b.cmp(&a))).unwrap();
+    assert_eq!(f0.chosen, Some(best_u1));
+}
+
+#[test]
+fn u1_only_and_top_n() {
+    let w = corridor_two_frontiers(true);
+    let mut p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(0.5);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let u = U1Only.select(&input, &p).unwrap();
+    let top = u.candidates.iter().position(|c| c.u1_rank == Some(1)).unwrap();
+    assert_eq!(u.chosen, Some(top));
+    assert!(u.candidates.iter().all(|c| c.u2.is_none() && c.waypoints.is_empty()));
+    // N = 1: FIT-SLAM only scores u1's best, the other is dropped NotInTopN.
+    p.u2.top_n = 1;
+    let f = FitSlam.select(&input, &p).unwrap();
+    assert_eq!(f.chosen, Some(top));
+    assert_eq!(f.candidates[1 - top].dropped, Some(DropReason::NotInTopN));
+    assert_eq!(f.candidates[1 - top].rank, None);
+    // With N = 1, the single normalised I_p is 1 (or 0 if it saw nothing).
+    assert!(matches!(f.candidates[top].path_info, Some(v) if v == 1.0 || v == 0.0));
+}
+
+#[test]
+fn blacklisted_candidates_are_dropped_with_their_reason() {
+    let w = corridor_two_frontiers(true);
+    let p = params();
+    let lv = voxels(&w, &p);
+    let mut bl = Blacklist::new(0.5);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let first = FitSlam.select(&input, &p).unwrap();
+    let (west, east) = ends(&first);
+    let ce = &first.candidates[east];
+    bl.add(ce.x_m + 0.3, ce.y_m, BlacklistReason::Failed);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let d = FitSlam.select(&input, &p).unwrap();
+    assert_eq!(d.candidates[east].dropped, Some(DropReason::Blacklisted(BlacklistReason::Failed)));
+    assert_eq!(d.candidates[east].u1, None);
+    assert_eq!(d.chosen, Some(west));
+    // Blacklist both: end of mission, not an error.
+    let cw = &first.candidates[west];
+    bl.add(cw.x_m, cw.y_m, BlacklistReason::Reselected);
+    let d = FitSlam.select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
+    assert_eq!(d.chosen, None);
+    assert_eq!(d.goal, None);
+}
+
+#[test]
+fn unreachable_candidates_are_reported_for_the_blacklist() {
+    // A sealed room's frontier cannot be reached: feed it to score_u1 by hand.
+    let w = corridor_two_frontiers(false);
+    let p = params();
+    let mut grid = w.grid.clone();
+    // A free pocket at columns 5..15, rows 15..25 in the unknown west part, walled off.
+    for r in 15..25 {
+        for c in 5..15 {
+            grid.data[r * 240 + c] = FREE;
+        }
+    }
+    let lv = LandmarkVoxels::empty(0.25);
+    let bl = Blacklist::new(0.5);
+    let input = DecisionInput::new(&grid, &lv, w.robot, &bl);
+    let prepared = prepare(&input, &p).unwrap();
+    let mut clusters = frontier_clusters(&input, &prepared, &p).unwrap();
+    assert_eq!(clusters.len(), 2);
+    clusters.insert(0, FrontierCluster::from_ordered_cells(vec![Cell::new(10, 20)]).unwrap());
+    let field = distances(&prepared, &p).unwrap();
+    let d = score_u1(&input, &prepared, clusters, &field, &p, Strategy::Fit).unwrap();
+    assert_eq!(d.candidates[0].dropped, Some(DropReason::NoPath));
+    assert_eq!(d.candidates[0].rho_m, None);
+    assert!(d.candidates[0].path_m.is_empty());
+    let u = d.unreachable_m();
+    assert_eq!(u.len(), 1);
+    assert!((u[0][0] - 1.05).abs() < 1e-12 && (u[0][1] - 2.05).abs() < 1e-12);
+    assert!(d.candidates[1..].iter().all(|c| c.u1.is_some()));
+}
+
+#[test]
+fn random_is_reproducible_per_seed() {
+    let w = synthetic_world(&SyntheticWorldSpec::small(11));
+    let p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(0.5);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let draw = |seed: u64| {
+        let mut s = RandomSelector::new(seed);
+        (0..12).map(|_| s.select(&input, &p).unwrap().chosen.unwrap()).collect::<Vec<_>>()
+    };
+    let n = Greedy.select(&input, &p).unwrap().candidates.iter().filter(|c| c.is_scored()).count();
+    assert!(n >= 3, "only {n} candidates");
+    let a = draw(5);
+    assert_eq!(a, draw(5));
+    assert_ne!(a, draw(6));
+    // Each draw is a scored candidate ranked 1, and nothing else is ranked.
+    let mut s = make_selector(&SelectorParams { strategy: Strategy::Random, seed: 5 });
+    assert_eq!(s.strategy(), Strategy::Random);
+    let d = s.select(&input, &p).unwrap();
+    assert_eq!(d.chosen, Some(a[0]));
+    assert_eq!(d.candidates.iter().filter(|c| c.rank.is_some()).count(), 1);
+    assert!(d.candidates[a[0]].is_scored());
+}
+
+#[test]
+fn ranks_are_complete_and_deterministic_on_a_bigger_world() {
+    let w = synthetic_world(&SyntheticWorldSpec::small(2));
+    let p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(0.5);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let d = FitSlam.select(&input, &p).unwrap();
+    let d2 = FitSlam.select(&input, &p).unwrap();
+    assert_eq!(d, d2);
+    // Candidates sorted by flat cell index.
+    let g = w.grid.geometry;
+    assert!(d.candidates.windows(2).all(|c| g.index(c[0].cell) <= g.index(c[1].cell)));
+    // Exactly min(N, scored) candidates carry u2, ranked 1..=N by decreasing u2.
+    let scored = d.candidates.iter().filter(|c| c.is_scored()).count();
+    let ranked = d.ranking();
+    assert_eq!(ranked.len(), scored.min(p.u2.top_n));
+    assert!(ranked.windows(2).all(|r| d.candidates[r[0]].u2 >= d.candidates[r[1]].u2));
+    assert_eq!(d.chosen, ranked.first().copied());
+    // The top N by u2 are the top N by u1.
+    assert!(ranked.iter().all(|&i| d.candidates[i].u1_rank.unwrap() <= p.u2.top_n));
+    // Greedy ranks every scored candidate by increasing ρ.
+    let gr = Greedy.select(&input, &p).unwrap();
+    let order = gr.ranking();
+    assert_eq!(order.len(), scored);
+    assert!(order.windows(2).all(|r| gr.candidates[r[0]].rho_m <= gr.candidates[r[1]].rho_m));
+}
+
+#[test]
+fn robot_cell_errors_and_snapping() {
+    let w = corridor_two_frontiers(false);
+    let p = params();
+    let lv = LandmarkVoxels::empty(0.25);
+    let bl = Blacklist::new(0.5);
+    let at = |x: f64, y: f64| DecisionInput::new(&w.grid, &lv, Pose2::new(x, y, 0.0), &bl);
+    assert_eq!(Greedy.select(&at(f64::NAN, 1.0), &p).unwrap_err(), SelectError::RobotPoseNotFinite);
+    assert!(matches!(Greedy.select(&at(-1.0, 1.0), &p).unwrap_err(), SelectError::RobotOutsideMap { .. }));
+    // Row 11 (y = 1.15) is within 0.25 m of the wall on row 9: lethal after inflation (rows
+    // 10–11). The nearest free cell within 0.25 + 0.1 m is on row 12, straight up.
+    let d = Greedy.select(&at(11.55, 1.15), &p).unwrap();
+    assert!(d.start_snapped);
+    assert_eq!(d.requested_robot_cell, Cell::new(115, 11));
+    assert_eq!(d.robot_cell, Cell::new(115, 12));
+    // Deep inside unknown space: no free cell within reach.
+    assert!(matches!(Greedy.select(&at(1.0, 1.0), &p).unwrap_err(), SelectError::RobotBlocked { .. }));
+    let mut bad = p.clone();
+    bad.u1.alpha = 2.0;
+    assert!(matches!(Greedy.select(&at(11.55, 2.05), &bad).unwrap_err(), SelectError::InvalidParams(_)));
+}
+
+#[test]
+fn no_frontier_is_not_an_error() {
+    let g = Grid::filled(GridGeometry::new(0.0, 0.0, 0.1, 30, 30), FREE);
+    let lv = LandmarkVoxels::empty(0.25);
+    let bl = Blacklist::new(0.5);
+    let d = FitSlam.select(&DecisionInput::new(&g, &lv, Pose2::new(1.5, 1.5, 0.0), &bl), &params()).unwrap();
+    assert!(d.candidates.is_empty());
+    assert_eq!(d.chosen, None);
+    let _ = (LETHAL, UNKNOWN);
+}
+
+#[test]
+fn decision_json_has_the_keys() {
+    let w = corridor_two_frontiers(true);
+    let p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(0.5);
+    let mut sel = make_selector(&p.selector);
+    assert_eq!(sel.strategy(), Strategy::Fit);
+    let d = sel.select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
+    let v = serde_json::to_value(&d).unwrap();
+    for k in ["strategy", "chosen", "goal", "robot", "robot_cell", "requested_robot_cell", "start_snapped", "ray_angles_rad", "candidates"] {
+        assert!(v.get(k).is_some(), "decision lacks {k}");
+    }
+    assert_eq!(v["strategy"], "fit");
+    let c = &v["candidates"][0];
+    for k in [
+        "cell", "x_m", "y_m", "cluster_size", "cluster_cells", "rho_m", "path_m", "delta_e_bits", "theta_star_rad",
+        "ray_gains_bits", "u1", "u1_rank", "waypoints", "path_info_raw", "path_info", "u2", "rank", "dropped",
+    ] {
+        assert!(c.get(k).is_some(), "candidate lacks {k}");
+    }
+    let wp = &v["candidates"][d.chosen.unwrap()]["waypoints"][0];
+    for k in ["x_m", "y_m", "z_m", "yaw_rad", "arc_length_m", "is_goal", "voxels_seen", "info"] {
+        assert!(wp.get(k).is_some(), "waypoint lacks {k}");
+    }
+    assert_eq!(serde_json::to_value(DropReason::Blacklisted(BlacklistReason::NoPath)).unwrap(), serde_json::json!({"blacklisted": "no_path"}));
+    assert_eq!(serde_json::to_value(DropReason::NotInTopN).unwrap(), serde_json::json!("not_in_top_n"));
+}

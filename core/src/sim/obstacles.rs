@@ -52,11 +52,10 @@ pub fn scatter_rocks(
     rocks
 }
 
-/// Raises the cells under `rock` to a flat top at the rock's base height + its height.
+/// Raises the cells under `rock` to a half-ellipsoid dome: base height + h·sqrt(1 − (r/R)²).
 fn stamp_rock(field: &mut Heightfield, rock: &Rock) {
     let g = field.geometry;
     let base = field.height_at(rock.x_m, rock.y_m).unwrap_or(0.0);
-    let top = base + rock.height_m;
     let r_cells = (rock.radius_m / g.resolution_m).ceil() as i32 + 1;
     let Some(center) = g.cell_unchecked(rock.x_m, rock.y_m) else { return };
     for dr in -r_cells..=r_cells {
@@ -64,7 +63,9 @@ fn stamp_rock(field: &mut Heightfield, rock: &Rock) {
             let cell = crate::grid::Cell::new(center.col + dc, center.row + dr);
             let Some(i) = g.index(cell) else { continue };
             let (x, y) = g.center_of(cell);
-            if (x - rock.x_m).hypot(y - rock.y_m) <= rock.radius_m {
+            let r = (x - rock.x_m).hypot(y - rock.y_m) / rock.radius_m;
+            if r <= 1.0 {
+                let top = base + rock.height_m * (1.0 - r * r).sqrt();
                 field.heights_m[i] = field.heights_m[i].max(top);
             }
         }

@@ -319,6 +319,43 @@ impl Se2 {
     pub fn is_finite(&self) -> bool {
         self.x_m.is_finite() && self.y_m.is_finite() && self.yaw_rad.is_finite()
     }
+
+    /// `Log(self⁻¹ · other)`.
+    pub fn local(&self, other: &Self) -> Vector3<f64> {
+        self.between(other).log()
+    }
+
+    /// `Ad_T = [[R, (y, −x)ᵀ], [0, 1]]`, with `T · Exp(ξ) · T⁻¹ = Exp(Ad_T ξ)`.
+    pub fn adjoint(&self) -> Matrix3<f64> {
+        let r = self.rotation_matrix();
+        Matrix3::new(r[(0, 0)], r[(0, 1)], self.y_m, r[(1, 0)], r[(1, 1)], -self.x_m, 0.0, 0.0, 1.0)
+    }
+}
+
+/// SE(2) right Jacobian `J_r(ξ)`, ξ = (ρ1, ρ2, θ) (Solà et al. 2018, eq. 163):
+/// `Log(Exp(ξ + δ)) ≈ ...`, `Exp(ξ + δ) ≈ Exp(ξ) Exp(J_r(ξ) δ)`.
+pub fn se2_right_jacobian(xi: &Vector3<f64>) -> Matrix3<f64> {
+    let (r1, r2, t) = (xi.x, xi.y, xi.z);
+    // a = sin θ/θ, b = (1 − cos θ)/θ, c = (θ − sin θ)/θ², d = (1 − cos θ)/θ²
+    let (a, b, c, d) = if t.abs() < SMALL_ANGLE_RAD {
+        let t2 = t * t;
+        (1.0 - t2 / 6.0, t * (0.5 - t2 / 24.0), t * (1.0 / 6.0 - t2 / 120.0), 0.5 - t2 / 24.0)
+    } else {
+        let (s, co) = t.sin_cos();
+        (s / t, (1.0 - co) / t, (t - s) / (t * t), (1.0 - co) / (t * t))
+    };
+    Matrix3::new(a, b, r1 * c - r2 * d, -b, a, r1 * d + r2 * c, 0.0, 0.0, 1.0)
+}
+
+/// SE(2) inverse right Jacobian: `Log(Exp(ξ) Exp(δ)) ≈ ξ + J_r⁻¹(ξ) δ`. The 2×2 block
+/// `[[a, b], [−b, a]]` is inverted in closed form (det = a² + b² > 0 for |θ| < 2π).
+pub fn se2_right_jacobian_inv(xi: &Vector3<f64>) -> Matrix3<f64> {
+    let j = se2_right_jacobian(xi);
+    let (a, b) = (j[(0, 0)], j[(0, 1)]);
+    let det = a * a + b * b;
+    let inv2 = Matrix2::new(a, -b, b, a) / det;
+    let top = -(inv2 * Vector2::new(j[(0, 2)], j[(1, 2)]));
+    Matrix3::new(inv2[(0, 0)], inv2[(0, 1)], top.x, inv2[(1, 0)], inv2[(1, 1)], top.y, 0.0, 0.0, 1.0)
 }
 
 impl Mul for Se2 {
@@ -420,6 +457,29 @@ mod tests {
             // J_l and J_l⁻¹ are inverses.
             let prod = se3_left_jacobian(&xi) * se3_left_jacobian_inv(&xi);
             assert!((prod - Matrix6::identity()).norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn se2_adjoint_and_right_jacobian_inverse() {
+        let t = Se2::new(0.3, -1.0, 2.0);
+        let xi = Vector3::new(0.1, -0.4, 0.7);
+        let lhs = t * Se2::exp(&xi) * t.inverse();
+        let rhs = Se2::exp(&(t.adjoint() * xi));
+        assert!((lhs.to_vector() - rhs.to_vector()).norm() < 1e-12);
+        for xi in [Vector3::new(0.3, -1.0, 2.0), Vector3::new(1.0, 2.0, 1e-6), Vector3::new(-0.5, 0.2, -2.8)] {
+            let jinv = se2_right_jacobian_inv(&xi);
+            let x = Se2::exp(&xi);
+            let h = 1e-6;
+            for k in 0..3 {
+                let mut d = Vector3::zeros();
+                d[k] = h;
+                let plus = (x * Se2::exp(&d)).log();
+                d[k] = -h;
+                let minus = (x * Se2::exp(&d)).log();
+                let col = (plus - minus) / (2.0 * h);
+                assert!((col - jinv.column(k)).norm() < 1e-7, "column {k} of J_r⁻¹({xi:?})");
+            }
         }
     }
 

@@ -1,10 +1,12 @@
 //! Between (odometry / loop-closure) factors: measurement `z ≈ x_i⁻¹ x_j` (g2o `EDGE_SE2`,
 //! `EDGE_SE3:QUAT`; GTSAM `BetweenFactor`). O(1).
 //!
-//! SE(2): `e = toVector(z⁻¹ x_i⁻¹ x_j) = (R_zᵀ(t_D − t_z), θ_D − θ_z)` with `D = x_i⁻¹ x_j`:
-//! g2o's `EdgeSE2` error and GTSAM's (default `Pose2` chart), so χ² agrees with both. Under
-//! right perturbations: `∂e/∂ξ_j = [[R_zᵀ R_D, 0], [0, 1]]`,
-//! `∂e/∂ξ_i = [[−R_zᵀ, −R_zᵀ J t_D], [0, −1]]` with `J = [[0, −1], [1, 0]]`.
+//! SE(2), `D = x_i⁻¹ x_j`: by default `e = Log(z⁻¹ D)` (GTSAM 4.3's error: its `Pose2` chart
+//! is the Lie log), `∂e/∂ξ_j = J_r⁻¹(e)`, `∂e/∂ξ_i = −J_r⁻¹(e) Ad(D⁻¹)`. With
+//! [`Se2Residual::Vector`], g2o's `EdgeSE2` error `e = toVector(z⁻¹ D) = (R_zᵀ(t_D − t_z),
+//! θ_D − θ_z)`, `∂e/∂ξ_j = [[R_zᵀ R_D, 0], [0, 1]]`, `∂e/∂ξ_i = [[−R_zᵀ, −R_zᵀ J t_D], [0, −1]]`
+//! with `J = [[0, −1], [1, 0]]`. The two agree to first order; their χ² at a minimum differ
+//! slightly, so compare χ² only between solvers using the same residual.
 //!
 //! SE(3): `e = Log(z⁻¹ x_i⁻¹ x_j)` (GTSAM's error with `Pose3` expmap, its default), with
 //! `∂e/∂ξ_j = J_r⁻¹(e)`, `∂e/∂ξ_i = −J_r⁻¹(e) Ad(D⁻¹)`. g2o's own `EdgeSE3` uses
@@ -15,8 +17,8 @@
 
 use nalgebra::Matrix2;
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
-use crate::slam::lie::{se3_right_jacobian_inv, Se2, Se3};
+use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, Se2Residual, MAX_FACTOR_KEYS};
+use crate::slam::lie::{se2_right_jacobian_inv, se3_right_jacobian_inv, Se2, Se3};
 use crate::slam::values::{VarId, Values};
 
 /// Relative SE(2) pose measurement between `x_i` and `x_j`.
@@ -25,12 +27,19 @@ pub struct BetweenSe2 {
     keys: [VarId; 2],
     measured: Se2,
     noise: GaussianNoise,
+    residual: Se2Residual,
 }
 
 impl BetweenSe2 {
     /// `measured` = `i_from_j`; `noise` 3-dimensional, ordered (x, y, θ).
     pub fn new(i: VarId, j: VarId, measured: Se2, noise: GaussianNoise) -> Self {
-        Self { keys: [i, j], measured, noise }
+        Self { keys: [i, j], measured, noise, residual: Se2Residual::Log }
+    }
+
+    /// Chooses the residual (default [`Se2Residual::Log`]).
+    pub fn with_residual(mut self, residual: Se2Residual) -> Self {
+        self.residual = residual;
+        self
     }
 
     pub fn measured(&self) -> &Se2 {
@@ -39,7 +48,11 @@ impl BetweenSe2 {
 
     fn eval(&self, xi: &Se2, xj: &Se2) -> (Residual, Se2) {
         let d = xi.between(xj);
-        let e = self.measured.between(&d).to_vector();
+        let zd = self.measured.between(&d);
+        let e = match self.residual {
+            Se2Residual::Log => zd.log(),
+            Se2Residual::Vector => zd.to_vector(),
+        };
         (Residual::new(e.x, e.y, e.z, 0.0, 0.0, 0.0), d)
     }
 }
@@ -63,6 +76,15 @@ impl Factor for BetweenSe2 {
         let xi = fetch!(values, self.keys[0], se2, "SE2");
         let xj = fetch!(values, self.keys[1], se2, "SE2");
         let (e, d) = self.eval(&xi, &xj);
+        if self.residual == Se2Residual::Log {
+            let jr_inv = se2_right_jacobian_inv(&e.fixed_rows::<3>(0).into_owned());
+            let [ji, jj] = jac;
+            ji.fill(0.0);
+            jj.fill(0.0);
+            ji.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-(jr_inv * d.inverse().adjoint())));
+            jj.fixed_view_mut::<3, 3>(0, 0).copy_from(&jr_inv);
+            return Ok(e);
+        }
         let rzt = self.measured.rotation_matrix().transpose();
         let j_t = Matrix2::new(0.0, -1.0, 1.0, 0.0) * d.translation();
         let [ji, jj] = jac;
@@ -136,7 +158,7 @@ mod tests {
         let a = values.push(Variable::Se2(Se2::new(0.0, 0.0, std::f64::consts::FRAC_PI_2)));
         let b = values.push(Variable::Se2(Se2::new(0.0, 1.0, std::f64::consts::FRAC_PI_2)));
         let noise = GaussianNoise::isotropic(3, 1.0).unwrap();
-        let f = BetweenSe2::new(a, b, Se2::new(0.9, 0.0, 0.1), noise);
+        let f = BetweenSe2::new(a, b, Se2::new(0.9, 0.0, 0.1), noise).with_residual(Se2Residual::Vector);
         let e = f.error(&values).unwrap();
         let expected = [0.1 * 0.1f64.cos(), -0.1 * 0.1f64.sin(), -0.1];
         for k in 0..3 {

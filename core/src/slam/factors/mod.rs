@@ -17,6 +17,7 @@ pub mod prior;
 pub use bearing_range::BearingRange2;
 pub use between::{BetweenSe2, BetweenSe3};
 pub use noise::{GaussianNoise, NoiseError};
+
 pub use point_observation::PointObservation3;
 pub use prior::{PriorSe2, PriorSe3};
 
@@ -24,6 +25,16 @@ use nalgebra::{Matrix6, Vector6};
 use thiserror::Error;
 
 use super::values::{VarId, Values};
+
+/// How an SE(2) pose difference `D = a⁻¹ b` becomes a residual.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Se2Residual {
+    /// `Log(D)` on SE(2) (GTSAM ≥ 4.3, whose `Pose2` chart is the Lie log). Default.
+    #[default]
+    Log,
+    /// `(x, y, θ)` of D (g2o's `EdgeSE2` error, GTSAM < 4.3's default `Pose2` chart).
+    Vector,
+}
 
 /// Largest residual dimension of any factor.
 pub const MAX_RESIDUAL_DIM: usize = 6;
@@ -152,7 +163,9 @@ pub(crate) mod fixtures {
         let z2 = Se2::new(0.3, -0.2, 0.4 * s - 1.0);
         let noise3 = GaussianNoise::from_information(&info3).unwrap_or_else(|e| panic!("{e}"));
         out.push((Box::new(PriorSe2::new(a, z2, noise3)), v2.clone()));
+        out.push((Box::new(PriorSe2::new(a, z2, noise3).with_residual(Se2Residual::Vector)), v2.clone()));
         out.push((Box::new(BetweenSe2::new(a, b, z2, noise3)), v2.clone()));
+        out.push((Box::new(BetweenSe2::new(a, b, z2, noise3).with_residual(Se2Residual::Vector)), v2.clone()));
         let br = GaussianNoise::from_sigmas(&[0.1, 0.5]).unwrap_or_else(|e| panic!("{e}"));
         out.push((Box::new(BearingRange2::new(b, l, 0.3 + s, 5.0, br)), v2));
 
@@ -183,7 +196,7 @@ mod tests {
     fn every_factor_has_correct_jacobians() {
         for seed in [0.0, 0.37, -0.81, 1.3] {
             let all = fixtures::all_factors(seed);
-            assert_eq!(all.len(), 6, "one fixture per factor type");
+            assert_eq!(all.len(), 8, "one fixture per factor type and residual kind");
             for (factor, values) in &all {
                 let worst = check_factor_jacobians(factor.as_ref(), values, 1e-6)
                     .unwrap_or_else(|e| panic!("{factor:?}: {e}"));
@@ -196,7 +209,7 @@ mod tests {
     fn wrong_variable_kind_is_a_typed_error() {
         let all = fixtures::all_factors(0.0);
         // The SE(3) prior evaluated on the SE(2) values: variable 0 is an SE2.
-        let (prior3, _) = &all[3];
+        let (prior3, _) = &all[5];
         let (_, values2) = &all[0];
         assert_eq!(
             prior3.error(values2),

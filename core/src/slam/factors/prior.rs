@@ -1,11 +1,11 @@
 //! Prior factors on a pose: `e = Local(z, x)`, the GTSAM `PriorFactor` error.
 //!
-//! SE(2): `e = (x, y, θ)` of `z⁻¹ x` (GTSAM's default `Pose2` chart, g2o's `toVector`); its
-//! Jacobian under `x · Exp(ξ)` is `[[R_zᵀ R_x, 0], [0, 1]]`.
-//! SE(3): `e = Log(z⁻¹ x)`, Jacobian `J_r⁻¹(e)`. Both O(1).
+//! SE(2): `e = Log(z⁻¹ x)` with Jacobian `J_r⁻¹(e)` under `x · Exp(ξ)` (default, GTSAM 4.3),
+//! or with [`Se2Residual::Vector`] `e = (x, y, θ)` of `z⁻¹ x` with Jacobian
+//! `[[R_zᵀ R_x, 0], [0, 1]]`. SE(3): `e = Log(z⁻¹ x)`, Jacobian `J_r⁻¹(e)`. All O(1).
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
-use crate::slam::lie::{se3_right_jacobian_inv, Se2, Se3};
+use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, Se2Residual, MAX_FACTOR_KEYS};
+use crate::slam::lie::{se2_right_jacobian_inv, se3_right_jacobian_inv, Se2, Se3};
 use crate::slam::values::{VarId, Values};
 
 /// Prior on an SE(2) pose.
@@ -14,12 +14,19 @@ pub struct PriorSe2 {
     keys: [VarId; 1],
     prior: Se2,
     noise: GaussianNoise,
+    residual: Se2Residual,
 }
 
 impl PriorSe2 {
     /// `noise` must be 3-dimensional, ordered (x, y, θ).
     pub fn new(key: VarId, prior: Se2, noise: GaussianNoise) -> Self {
-        Self { keys: [key], prior, noise }
+        Self { keys: [key], prior, noise, residual: Se2Residual::Log }
+    }
+
+    /// Chooses the residual (default [`Se2Residual::Log`]).
+    pub fn with_residual(mut self, residual: Se2Residual) -> Self {
+        self.residual = residual;
+        self
     }
 
     pub fn prior(&self) -> &Se2 {
@@ -27,8 +34,12 @@ impl PriorSe2 {
     }
 
     fn eval(&self, x: &Se2) -> Residual {
-        let d = self.prior.between(x).to_vector();
-        Residual::new(d.x, d.y, d.z, 0.0, 0.0, 0.0)
+        let d = self.prior.between(x);
+        let e = match self.residual {
+            Se2Residual::Log => d.log(),
+            Se2Residual::Vector => d.to_vector(),
+        };
+        Residual::new(e.x, e.y, e.z, 0.0, 0.0, 0.0)
     }
 }
 
@@ -47,12 +58,21 @@ impl Factor for PriorSe2 {
 
     fn linearize(&self, values: &Values, jac: &mut [Jacobian; MAX_FACTOR_KEYS]) -> Result<Residual, FactorError> {
         let x = fetch!(values, self.keys[0], se2, "SE2");
-        let r = self.prior.rotation_matrix().transpose() * x.rotation_matrix();
+        let e = self.eval(&x);
         let j = &mut jac[0];
         j.fill(0.0);
-        j.fixed_view_mut::<2, 2>(0, 0).copy_from(&r);
-        j[(2, 2)] = 1.0;
-        Ok(self.eval(&x))
+        match self.residual {
+            Se2Residual::Log => {
+                let jr = se2_right_jacobian_inv(&e.fixed_rows::<3>(0).into_owned());
+                j.fixed_view_mut::<3, 3>(0, 0).copy_from(&jr);
+            }
+            Se2Residual::Vector => {
+                let r = self.prior.rotation_matrix().transpose() * x.rotation_matrix();
+                j.fixed_view_mut::<2, 2>(0, 0).copy_from(&r);
+                j[(2, 2)] = 1.0;
+            }
+        }
+        Ok(e)
     }
 }
 
@@ -106,10 +126,17 @@ mod tests {
         let mut values = Values::new();
         let k = values.push(Variable::Se2(Se2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2 + 0.1)));
         let noise = GaussianNoise::from_sigmas(&[1.0, 1.0, 0.1]).unwrap();
-        let f = PriorSe2::new(k, Se2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2), noise);
+        let f = PriorSe2::new(k, Se2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2), noise)
+            .with_residual(Se2Residual::Vector);
         let e = f.error(&values).unwrap();
         assert!((e.x - 2.0).abs() < 1e-12 && e.y.abs() < 1e-12 && (e.z - 0.1).abs() < 1e-12);
         // χ² = 4 + (0.1/0.1)² = 5.
         assert!((f.chi2(&values).unwrap() - 5.0).abs() < 1e-9);
+        // Log residual: V(0.1)⁻¹ (2, 0) with a = sin 0.1/0.1, b = (1 − cos 0.1)/0.1.
+        let g = PriorSe2::new(k, Se2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2), noise);
+        let (a, b) = (0.1f64.sin() / 0.1, (1.0 - 0.1f64.cos()) / 0.1);
+        let e = g.error(&values).unwrap();
+        let det = a * a + b * b;
+        assert!((e.x - 2.0 * a / det).abs() < 1e-12 && (e.y + 2.0 * b / det).abs() < 1e-12);
     }
 }
