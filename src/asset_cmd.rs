@@ -79,6 +79,9 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
     field.heights_m.iter_mut().for_each(|z| *z *= args.relief_scale);
     let start = viewpoints[0];
     let rocks = scatter_rocks(&mut field, args.seed, 1.6, 0.3, (0.15, 0.45), (0.25, 0.7), start, 1.2);
+    // The map frame is where a SLAM would put it: z = 0 at the ground under the start pose.
+    let z0 = field.height_at(start.0, start.1).with_context(|| format!("start {start:?} is outside the world"))?;
+    field.heights_m.iter_mut().for_each(|z| *z -= z0);
 
     // Ground seen by the LiDAR (mounted 0.3 m up) from each viewpoint.
     let mut ground = Vec::new();

@@ -3,6 +3,7 @@
 
 mod asset_cmd;
 mod load;
+mod select_cmd;
 mod traversability_cmd;
 
 use clap::{Parser, Subcommand};
@@ -19,6 +20,8 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
+    /// Rank the frontier candidates of a map and pick the next goal.
+    Select(select_cmd::SelectArgs),
     Traversability(traversability_cmd::TraversabilityArgs),
     /// Build a planning scene (map + landmarks) from a real DEM scaled to rover size.
     BuildAsset(asset_cmd::BuildAssetArgs),
@@ -27,6 +30,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
+        Command::Select(a) => select_cmd::run(a),
         Command::Traversability(a) => traversability_cmd::run(a),
         Command::BuildAsset(a) => asset_cmd::run(a),
     };

@@ -106,6 +106,12 @@ pub struct TraversabilityParams {
     /// notes §2 (false). Default true: the raw step counts a ramp's rise across the disc (8 cm
     /// for 15° over 0.3 m) as a step, so no `max_step_m` accepts the ramp and rejects a kerb.
     pub step_relative_to_plane: bool,
+    /// Smallest horizontal spread of the disc's points — the standard deviation along their
+    /// narrowest horizontal direction — as a fraction of `disc_radius_m`; below it the plane's
+    /// tilt is undetermined and the cell is unknown (not in the paper). Default 0.2: a full disc
+    /// of points has 0.5, a half disc 0.26, a one-cell strip at the edge of the data 0.1 (on
+    /// laspy's plane.ply such strips gave 20–90° slopes from 1 cm z quantisation).
+    pub min_spread_ratio: f64,
     /// Roughness (RMS distance to the plane) at which hazard reaches 1, metres. Default 0.05.
     pub max_roughness_m: f64,
     /// Fewer points than this in the disc: the cell is unknown. Default 5.
@@ -121,6 +127,7 @@ impl Default for TraversabilityParams {
             max_slope_rad: 35f64.to_radians(),
             max_step_m: 0.15,
             step_relative_to_plane: true,
+            min_spread_ratio: 0.2,
             max_roughness_m: 0.05,
             min_points: 5,
             tau: 0.5,
@@ -331,6 +338,9 @@ impl Params {
         pos("traversability.max_step_m", self.traversability.max_step_m)?;
         pos("traversability.max_roughness_m", self.traversability.max_roughness_m)?;
         unit("traversability.tau", self.traversability.tau)?;
+        if !(self.traversability.min_spread_ratio >= 0.0 && self.traversability.min_spread_ratio.is_finite()) {
+            return Err("traversability.min_spread_ratio must be ≥ 0".into());
+        }
         if self.frontier.max_cluster_cells == 0 || self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
             return Err("frontier: need 0 < min_cluster_cells ≤ max_cluster_cells".into());
         }

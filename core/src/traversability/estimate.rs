@@ -14,6 +14,10 @@
 //!   resolution·tan θ·√2 (1.9 cm at 15° and 5 cm cells).
 //! - hazard = clamp(max(slope/max_slope, step/max_step, roughness/max_roughness), 0, 1);
 //!   score = 1 − hazard; unknown (NaN) where the disc holds fewer than `min_points` points.
+//! - Also unknown (not in the notes): discs whose points do not span the disc horizontally —
+//!   standard deviation along their narrowest horizontal direction below
+//!   `min_spread_ratio · disc_radius_m` — since the tilt across such a strip (typically the edge
+//!   of the data) is undetermined: quantisation and noise alone give it any slope.
 //!
 //! Complexity: O(cells × disc cells) for [`TraversabilityMap::compute`] (one fusion per disc cell
 //! plus one 3×3 eigendecomposition per cell), no allocation per cell;
@@ -170,10 +174,19 @@ fn estimate_cell(
     if fused.count == 0 || fused.count < u64::from(p.min_points) {
         return unknown;
     }
+    // Horizontal spread: smallest eigenvalue of the 2×2 xy covariance.
+    let k = 1.0 / fused.count as f64;
+    let (a, b, c) = (fused.scatter[0] * k, fused.scatter[1] * k, fused.scatter[3] * k);
+    let lambda_xy = 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let min_spread = p.min_spread_ratio * p.disc_radius_m;
+    if min_spread > 0.0 && !(lambda_xy.max(0.0).sqrt() >= min_spread) {
+        return unknown;
+    }
     let Some(plane) = fit_plane(&fused) else {
         return unknown;
     };
-    let mut step_m = fused.z_max - fused.z_min;
+    let raw_step_m = fused.z_max - fused.z_min;
+    let mut step_m = raw_step_m;
     if p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some() {
         let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
         for &(dx, dy) in offsets {
@@ -186,8 +199,10 @@ fn estimate_cell(
             hi = hi.max(m.z_max - z);
             lo = lo.min(m.z_min - z);
         }
+        // Never more than the raw height range: a steep plane's heights are ill-conditioned
+        // (its slope makes the cell lethal anyway).
         if hi >= lo {
-            step_m = hi - lo;
+            step_m = (hi - lo).min(raw_step_m);
         }
     }
     let hazard = ratio(plane.slope_rad, p.max_slope_rad)

@@ -147,23 +147,40 @@ fn plus_minus_sigma_points_give_roughness_sigma() {
 }
 
 #[test]
-fn sparse_cells_are_unknown_and_stay_unknown_in_the_occupancy() {
+fn sparse_or_strip_shaped_discs_are_unknown() {
     let g = GridGeometry::new(0.0, 0.0, RES, 20, 20);
-    let mut map = TraversabilityMap::new(g).unwrap();
-    // Four points in cell (5, 5), nothing else: min_points = 5 → the whole map is unknown.
-    map.insert_points((0..4).map(|k| Point3::new(0.26 + k as f64 * 0.005, 0.26, 0.0)));
     let p = TraversabilityParams::default();
+    let mut map = TraversabilityMap::new(g).unwrap();
+    // Four points at the corners of a 0.1 m square around (0.5, 0.5), in cells (9|11, 9|11):
+    // fewer than min_points = 5 in any disc, so the whole map is unknown.
+    map.insert_points([(0.45, 0.45), (0.55, 0.45), (0.45, 0.55), (0.55, 0.55)].map(|(x, y)| Point3::new(x, y, 0.0)));
     let layers = map.compute(&p);
     assert_eq!(layers.known_cells(), 0);
     assert!(layers.to_occupancy(p.tau).data.iter().all(|&v| v == UNKNOWN));
-    assert_eq!(*layers.cell_points.get(Cell::new(5, 5)).unwrap(), 4);
-    assert_eq!(*layers.disc_points.get(Cell::new(7, 5)).unwrap(), 4);
-    // A fifth, collinear point: every cell whose disc holds the cell becomes known (29 cells),
-    // with the least-sloped plane through the line (horizontal), hence free.
-    map.insert_points([Point3::new(0.28, 0.26, 0.0)]);
+    assert_eq!(*layers.cell_points.get(Cell::new(9, 9)).unwrap(), 1);
+    assert_eq!(*layers.disc_points.get(Cell::new(10, 10)).unwrap(), 4);
+    // A fifth point at the centre, cell (10, 10). Horizontal spread: σ_x = σ_y = √(4·0.05²/5)
+    // = 4.5 cm ≥ 0.2 · 0.15 m. The discs holding all five cells are those of the 3 × 3 block
+    // around (10, 10) (from (10, 12), cell (9, 9) is 1² + 3² = 10 > 9 cells² away): 9 known cells.
+    map.insert_points([Point3::new(0.5, 0.5, 0.0)]);
     let layers = map.compute(&p);
-    assert_eq!(layers.known_cells(), 29);
-    assert_eq!(*layers.to_occupancy(p.tau).get(Cell::new(5, 5)).unwrap(), FREE);
+    assert_eq!(layers.known_cells(), 9);
+    let occ = layers.to_occupancy(p.tau);
+    for r in 9..=11 {
+        for c in 9..=11 {
+            assert_eq!(*occ.get(Cell::new(c, r)).unwrap(), FREE);
+        }
+    }
+    // Thirty points on a line (one scan ring crossing the discs): spread 0 across it, so the
+    // tilt across the line is undetermined and every cell stays unknown.
+    let mut line = TraversabilityMap::new(g).unwrap();
+    line.insert_points((0..30).map(|k| Point3::new(0.2 + k as f64 * 0.02, 0.51, 0.0)));
+    assert_eq!(line.compute(&p).known_cells(), 0);
+    // Without the spread test the least-sloped plane through the line is used: horizontal, free.
+    let lax = TraversabilityParams { min_spread_ratio: 0.0, ..p.clone() };
+    let layers = line.compute(&lax);
+    assert!(layers.known_cells() > 0);
+    assert_eq!(*layers.to_occupancy(p.tau).get(Cell::new(10, 10)).unwrap(), FREE);
 }
 
 #[test]
@@ -244,6 +261,7 @@ fn bad_parameters_do_not_panic() {
         min_points: 0,
         tau: 2.0,
         step_relative_to_plane: true,
+        min_spread_ratio: f64::NAN,
     };
     let layers = layers_of(&pts, &p);
     // Zero limits: any positive slope is fully hazardous.
@@ -431,5 +449,27 @@ fn explore_hag() {
     eprintln!("bins <-.5 <-.2 <-.1 <0 <.1 <.2 <.5 <1 <2 <5 <10 >=10");
     eprintln!("class2 {:?}", hist[0]);
     eprintln!("class1 {:?}", hist[1]);
+}
+
+#[test]
+#[ignore]
+fn explore_plane() {
+    let c = load("plane.ply");
+    let p = Params::default();
+    let m = TraversabilityMap::from_cloud(&c, &p).unwrap();
+    let l = m.compute(&p.traversability);
+    let g = m.geometry();
+    let mut cp: Vec<u32> = l.cell_points.data.iter().copied().filter(|&n| n > 0).collect();
+    cp.sort();
+    eprintln!("cells with points {} p5 {} p50 {} p95 {}", cp.len(), cp[cp.len()/20], cp[cp.len()/2], cp[cp.len()*19/20]);
+    for i in 0..g.len() {
+        let s = l.score.data[i];
+        if !s.is_nan() && s < 0.5 {
+            eprintln!("{:?} score {:.2} slope {:.1} step {:.3} rough {:.4} disc {} cell {}", g.cell_at(i), s, l.slope_rad.data[i].to_degrees(), l.step_m.data[i], l.roughness_m.data[i], l.disc_points.data[i], l.cell_points.data[i]);
+        }
+    }
+    let mut img = crate::traversability::score_to_rgb(&l);
+    let _ = &mut img;
+    std::fs::write("/tmp/plane_score.png", io::write_png_rgb8(g.width, g.height, &img).unwrap()).unwrap();
 }
 }
