@@ -3,6 +3,7 @@
 
 mod asset_cmd;
 mod load;
+mod optimize;
 mod select_cmd;
 mod traversability_cmd;
 
@@ -25,6 +26,8 @@ enum Command {
     Traversability(traversability_cmd::TraversabilityArgs),
     /// Build a planning scene (map + landmarks) from a real DEM scaled to rover size.
     BuildAsset(asset_cmd::BuildAssetArgs),
+    /// Optimise a pose graph (g2o or Victoria Park) and report chi2, time and the last pose's marginal.
+    Optimize(optimize::OptimizeArgs),
 }
 
 fn main() -> ExitCode {
@@ -33,6 +36,7 @@ fn main() -> ExitCode {
         Command::Select(a) => select_cmd::run(a),
         Command::Traversability(a) => traversability_cmd::run(a),
         Command::BuildAsset(a) => asset_cmd::run(a),
+        Command::Optimize(a) => optimize::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -273,8 +273,16 @@ pub enum ParamsError {
 impl Params {
     /// Parses TOML text; `source_name` (usually the file name) is quoted in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
-        let p: Params = toml::from_str(text)
-            .map_err(|e| ParamsError::Toml { source_name: source_name.into(), message: e.to_string().trim().into() })?;
+        let p: Params = toml::from_str(text).map_err(|e: toml::de::Error| {
+            // One line: "line N: message" (the crate's own Display draws a multi-line caret).
+            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let message = e.message().trim().replace('\n', " ");
+            let message = match line {
+                Some(l) => format!("line {l}: {message}"),
+                None => message,
+            };
+            ParamsError::Toml { source_name: source_name.into(), message }
+        })?;
         p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
         Ok(p)
     }
@@ -282,7 +290,7 @@ impl Params {
     /// Parses YAML text; `source_name` is quoted in errors.
     pub fn from_yaml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
         let p: Params = serde_yaml::from_str(text)
-            .map_err(|e| ParamsError::Yaml { source_name: source_name.into(), message: e.to_string() })?;
+            .map_err(|e| ParamsError::Yaml { source_name: source_name.into(), message: e.to_string().replace('\n', " ") })?;
         p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
         Ok(p)
     }

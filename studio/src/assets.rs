@@ -1,15 +1,34 @@
 //! Built-in scenes: embedded in the binary (the web build has no files), listed in the
 //! "Built-in" menu. The first one is what the studio shows on start.
 //!
-//! The synthetic courtyard is made here, deterministically, so that the studio and its tests
-//! always have a small scene with every feature (walls, rough ground that τ can turn lethal,
-//! unknown space, frontiers, landmarks at several heights).
+//! | name | what |
+//! |---|---|
+//! | jacksboro | the realistic scene of `assets/maps/jacksboro` (real DEM, rocks, LiDAR-built map, landmarks) |
+//! | courtyard | made here: graded traversability scores so that τ visibly changes the map |
+//! | corridor | `fitslam_core::fixtures::corridor_two_frontiers`: greedy goes west, FIT-SLAM east |
+//! | synthetic | `fitslam_core::fixtures::synthetic_world` (small, seed 1) |
+//!
+//! Embedded files are parsed by the same core loaders as user files; a test builds every one.
 
+use crate::loader::{self, Loaded};
+use crate::files::{IncomingFile, Intent};
 use crate::scene::{Landmarks, MapKind, MapLayers, Scene};
+use fitslam_core::fixtures;
 use fitslam_core::grid::{Grid, GridGeometry};
 use fitslam_core::sim::hash_unit;
 use fitslam_core::{Pose2, PointCloud};
 use nalgebra::Point3;
+
+macro_rules! asset {
+    ($path:literal) => {
+        include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/maps/", $path))
+    };
+}
+
+const JACKSBORO_YAML: &[u8] = asset!("jacksboro/map.yaml");
+const JACKSBORO_PGM: &[u8] = asset!("jacksboro/map.pgm");
+const JACKSBORO_LANDMARKS: &[u8] = asset!("jacksboro/landmarks.ply");
+const JACKSBORO_SCENE: &[u8] = asset!("jacksboro/scene.toml");
 
 /// A built-in scene the user can pick.
 #[derive(Clone, Copy, Debug)]
@@ -39,11 +58,76 @@ pub fn builtin(name: &str) -> Option<&'static BuiltIn> {
     BUILTINS.iter().find(|b| b.name.eq_ignore_ascii_case(name))
 }
 
-static BUILTINS: [BuiltIn; 1] = [BuiltIn {
-    name: "synthetic courtyard",
-    description: "16 m × 12 m synthetic courtyard, 0.05 m cells, partly explored, 400 landmarks",
-    build: synthetic_courtyard,
-}];
+static BUILTINS: [BuiltIn; 4] = [
+    BuiltIn {
+        name: "jacksboro",
+        description: "20 m × 20 m of a real DEM (Jacksboro fault) at rover scale, rocks, LiDAR-built traversability map, 1196 landmarks",
+        build: jacksboro,
+    },
+    BuiltIn {
+        name: "courtyard",
+        description: "16 m × 12 m synthetic courtyard with graded scores (τ matters), 400 landmarks",
+        build: synthetic_courtyard,
+    },
+    BuiltIn {
+        name: "corridor",
+        description: "core fixture: a corridor open at both ends, landmarks only to the east (greedy goes west, FIT-SLAM east)",
+        build: corridor,
+    },
+    BuiltIn {
+        name: "synthetic",
+        description: "core fixture: 20 m × 20 m synthetic world at 0.1 m, 2000 landmarks (seed 1)",
+        build: synthetic_small,
+    },
+];
+
+fn file(name: &str, bytes: &[u8], intent: Intent) -> IncomingFile {
+    IncomingFile { name: name.to_string(), bytes: Ok(bytes.to_vec()), intent }
+}
+
+/// The start pose written in a scene.toml (`start = [x, y, yaw]`).
+fn start_pose(scene_toml: &[u8]) -> Option<Pose2> {
+    let v: toml::Value = toml::from_str(std::str::from_utf8(scene_toml).ok()?).ok()?;
+    let s = v.get("start")?.as_array()?;
+    let num = |k: usize| s.get(k).and_then(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)));
+    Some(Pose2::new(num(0)?, num(1)?, num(2).unwrap_or(0.0)))
+}
+
+fn jacksboro(blacklist_radius_m: f64) -> Result<Scene, String> {
+    let files = vec![
+        file("jacksboro/map.yaml", JACKSBORO_YAML, Intent::Map),
+        file("jacksboro/map.pgm", JACKSBORO_PGM, Intent::Map),
+        file("jacksboro/landmarks.ply", JACKSBORO_LANDMARKS, Intent::Landmarks),
+    ];
+    let (mut map, mut landmarks) = (None, None);
+    for r in loader::load_batch(files, &mut Vec::new(), &fitslam_core::Params::default()) {
+        match r? {
+            Loaded::Map(m) => map = Some(m),
+            Loaded::Landmarks(l) => landmarks = Some(l),
+            other => return Err(format!("unexpected {other:?}")),
+        }
+    }
+    let mut map = map.ok_or("jacksboro: no map")?;
+    map.source = "jacksboro".into();
+    let mut landmarks = landmarks.ok_or("jacksboro: no landmarks")?;
+    landmarks.source = "jacksboro landmarks".into();
+    Ok(Scene::new(map, landmarks, start_pose(JACKSBORO_SCENE), blacklist_radius_m))
+}
+
+fn from_fixture(w: fixtures::SyntheticWorld, name: &str, blacklist_radius_m: f64) -> Scene {
+    let mut map = MapLayers::from_occupancy(&w.grid, name);
+    map.kind = MapKind::Synthetic;
+    let landmarks = Landmarks { cloud: w.landmarks, source: format!("{name} landmarks") };
+    Scene::new(map, landmarks, Some(w.robot), blacklist_radius_m)
+}
+
+fn corridor(blacklist_radius_m: f64) -> Result<Scene, String> {
+    Ok(from_fixture(fixtures::corridor_two_frontiers(true), "corridor", blacklist_radius_m))
+}
+
+fn synthetic_small(blacklist_radius_m: f64) -> Result<Scene, String> {
+    Ok(from_fixture(fixtures::synthetic_world(&fixtures::SyntheticWorldSpec::small(1)), "synthetic", blacklist_radius_m))
+}
 
 /// Axis-aligned boxes (min x, min y, max x, max y) of the courtyard's obstacles, metres.
 const OBSTACLES: [[f64; 4]; 7] = [
@@ -86,8 +170,8 @@ fn synthetic_courtyard(blacklist_radius_m: f64) -> Result<Scene, String> {
         }
     }
     let score = Grid::from_vec(geometry, data).ok_or("synthetic map size mismatch")?;
-    let map = MapLayers { score, source: "synthetic courtyard".into(), kind: MapKind::Synthetic };
-    let landmarks = Landmarks { cloud: courtyard_landmarks(w_m, h_m), source: "synthetic courtyard landmarks".into() };
+    let map = MapLayers { score, source: "courtyard".into(), kind: MapKind::Synthetic };
+    let landmarks = Landmarks { cloud: courtyard_landmarks(w_m, h_m), source: "courtyard landmarks".into() };
     Ok(Scene::new(map, landmarks, Some(robot), blacklist_radius_m))
 }
 

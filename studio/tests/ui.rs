@@ -26,3 +26,15 @@ fn dump_tree() {
     let n = h.get_by_label("α");
     println!("{:?} value={:?}", n, n.value());
 }
+
+#[test]
+fn glyphs_probe() {
+    let ctx = egui::Context::default();
+    let _ = ctx.run_ui(egui::RawInput::default(), |_ui| {});
+    let chars = "§°·×ΔΘΦαβγθρστ–—…→↔−≥⏶⏷▶◀★✖⬆📁⭐⏴⏵";
+    ctx.fonts_mut(|f| {
+        for c in chars.chars() {
+            println!("{c} {}", f.has_glyph(&egui::FontId::proportional(14.0), c));
+        }
+    });
+}

@@ -164,8 +164,7 @@ impl Walk {
                 pending[next_start..next_end].sort_unstable();
                 scratch.clear();
                 groups.clear();
-                for k in next_start..next_end {
-                    let s = pending[k];
+                for &s in &pending[next_start..next_end] {
                     if state[s] != NEXT {
                         continue;
                     }

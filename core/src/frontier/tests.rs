@@ -279,10 +279,10 @@ fn synthetic_half_explored() -> OccupancyGrid {
         let rad = 3 + (splitmix(rng) % 15) as i64;
         for dy in -rad..=rad {
             for dx in -rad..=rad {
-                if dx * dx + dy * dy <= rad * rad {
-                    if let Some(v) = g.get_mut(Cell::new((cx + dx) as i32, (cy + dy) as i32)) {
-                        *v = value;
-                    }
+                if dx * dx + dy * dy <= rad * rad
+                    && let Some(v) = g.get_mut(Cell::new((cx + dx) as i32, (cy + dy) as i32))
+                {
+                    *v = value;
                 }
             }
         }

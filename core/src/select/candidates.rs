@@ -67,10 +67,10 @@ pub fn prepare(input: &DecisionInput, params: &Params) -> Result<Prepared, Selec
                 continue;
             }
             let c = Cell::new(requested.col + dc, requested.row + dr);
-            if let (true, Some(i)) = (free(c), g.index(c)) {
-                if best.is_none_or(|(bd, bi, _)| (d2, i) < (bd, bi)) {
-                    best = Some((d2, i, c));
-                }
+            if let (true, Some(i)) = (free(c), g.index(c))
+                && best.is_none_or(|(bd, bi, _)| (d2, i) < (bd, bi))
+            {
+                best = Some((d2, i, c));
             }
         }
     }

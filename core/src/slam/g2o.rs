@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use nalgebra::{Matrix3, Matrix6, Quaternion, SMatrix, UnitQuaternion, Vector3};
 use thiserror::Error;
 
-use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, NoiseError};
+use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, NoiseError, Se2Residual};
 use super::lie::{Se2, Se3};
 use super::problem::{Gauge, GaugeError, Problem};
 use super::values::{VarId, Values, Variable};
@@ -259,7 +259,8 @@ fn write_upper<const D: usize>(s: &mut String, m: &SMatrix<f64, D, D>) {
 
 impl G2oFile {
     /// Builds the factor graph and initial values, then applies `gauge` (and `FIX` lines).
-    pub fn to_problem(&self, gauge: Gauge) -> Result<Problem, G2oError> {
+    /// `se2_residual` chooses the 2D edge error (see [`Se2Residual`]; 3D edges use `Log`).
+    pub fn to_problem(&self, gauge: Gauge, se2_residual: Se2Residual) -> Result<Problem, G2oError> {
         // Initial poses: vertices, then GTSAM-style chaining for edges with missing vertices.
         let mut init: BTreeMap<u64, Variable> = BTreeMap::new();
         for v in &self.vertices {
@@ -299,7 +300,7 @@ impl G2oFile {
         for (k, e) in self.edges.iter().enumerate() {
             let res = match e {
                 G2oEdge::Se2 { from, to, measurement, information } => GaussianNoise::from_information(information)
-                    .map(|n| problem.graph.add(BetweenSe2::new(var(from), var(to), *measurement, n))),
+                    .map(|n| problem.graph.add(BetweenSe2::new(var(from), var(to), *measurement, n).with_residual(se2_residual))),
                 G2oEdge::Se3 { from, to, measurement, information } => GaussianNoise::from_information(information)
                     .map(|n| problem.graph.add(BetweenSe3::new(var(from), var(to), *measurement, n))),
             };
@@ -352,7 +353,7 @@ mod tests {
         assert_eq!(measurement, Se2::new(1.4, 0.0, 0.25));
         assert_eq!(information, Matrix3::new(100.0, 0.0, 0.0, 0.0, 100.0, 0.0, 0.0, 0.0, 400.0));
         // χ² at the file's values by hand: z⁻¹ x₁ = (0.1, 0.1, −0.05) rotated by −0.25
-        let p = f.to_problem(Gauge::FixFirst).unwrap();
+        let p = f.to_problem(Gauge::FixFirst, Se2Residual::Vector).unwrap();
         let (s, c) = (-0.25f64).sin_cos();
         let e = [c * 0.1 - s * 0.1, s * 0.1 + c * 0.1, -0.05];
         let expected = 100.0 * e[0] * e[0] + 100.0 * e[1] * e[1] + 400.0 * e[2] * e[2];
@@ -392,7 +393,7 @@ mod tests {
     fn bare_edges_chain_like_gtsam() {
         // No vertices: x0 = I, x1 = x0 z01, x2 = x1 z12.
         let f = read_g2o(b"EDGE_SE2 0 1 1 0 1.5707963267948966 1 0 0 1 0 1\nEDGE_SE2 1 2 2 0 0 1 0 0 1 0 1\n").unwrap();
-        let p = f.to_problem(Gauge::FixFirst).unwrap();
+        let p = f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
         let x2 = p.values.se2(p.poses[2].1).unwrap();
         assert!((x2.x_m - 1.0).abs() < 1e-12 && (x2.y_m - 2.0).abs() < 1e-12);
         assert!(p.graph.chi2(&p.values).unwrap() < 1e-20);
@@ -445,7 +446,7 @@ mod tests {
         assert_eq!((f.vertices.len(), f.edges.len(), f.is_3d), (1661, 6275, Some(true)));
         let f = read_g2o(&std::fs::read(format!("{dir}CSAIL.g2o")).unwrap()).unwrap();
         assert_eq!((f.vertices.len(), f.edges.len()), (0, 1172));
-        let p = f.to_problem(Gauge::FixFirst).unwrap();
+        let p = f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
         assert_eq!(p.values.len(), 1045);
     }
 }

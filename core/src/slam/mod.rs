@@ -30,8 +30,9 @@ pub mod problem;
 #[cfg(test)]
 mod real_data_tests;
 pub mod values;
+pub mod victoria;
 
-pub use factors::{Factor, FactorError, GaussianNoise};
+pub use factors::{Factor, FactorError, GaussianNoise, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
 pub use lie::{Se2, Se3};
 pub use marginals::{MarginalError, Marginals};

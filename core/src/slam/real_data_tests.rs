@@ -4,6 +4,7 @@
 
 use super::g2o::read_g2o;
 use super::optimizer::{GaussNewton, LevenbergMarquardt, Optimizer, OptimizerParams, Summary, Termination};
+use super::factors::Se2Residual;
 use super::problem::{Gauge, Problem};
 
 fn data(name: &str) -> Vec<u8> {
@@ -12,7 +13,7 @@ fn data(name: &str) -> Vec<u8> {
 }
 
 fn load_g2o(name: &str) -> Problem {
-    read_g2o(&data(name)).unwrap().to_problem(Gauge::FixFirst).unwrap()
+    read_g2o(&data(name)).unwrap().to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap()
 }
 
 /// χ² decreases at every step and the loop ends on a converged criterion.

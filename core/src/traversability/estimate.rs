@@ -25,7 +25,7 @@
 //! O(changed × disc cells²).
 
 use super::map::TraversabilityMap;
-use super::moments::CellMoments;
+use super::moments::{CellMoments, MomentSum};
 use super::plane::fit_plane;
 use crate::grid::{Grid, GridGeometry, OccupancyGrid, FREE, LETHAL, UNKNOWN};
 use crate::params::TraversabilityParams;
@@ -144,24 +144,64 @@ fn ratio(x: f64, limit: f64) -> f64 {
     }
 }
 
+/// The disc's offsets, precomputed once per compute / update, plus a reused buffer of the
+/// non-empty cells of the current disc.
+struct Disc {
+    offsets: Vec<(i32, i32)>,
+    /// Row-major index offsets `dy · width + dx`, valid for cells at least `r_cells` inside.
+    flat: Vec<isize>,
+    r_cells: i32,
+    cells: Vec<u32>,
+}
+
+impl Disc {
+    fn new(radius_m: f64, g: &GridGeometry) -> Self {
+        let offsets = disc_offsets(radius_m, g.resolution_m);
+        let flat = offsets.iter().map(|&(dx, dy)| dy as isize * g.width as isize + dx as isize).collect();
+        let r_cells = offsets.iter().map(|&(dx, dy)| dx.abs().max(dy.abs())).max().unwrap_or(0);
+        let cells = Vec::with_capacity(offsets.len());
+        Self { offsets, flat, r_cells, cells }
+    }
+
+    /// Fills `cells` with the non-empty cells of the disc around `index`, in offset order.
+    #[inline]
+    fn gather(&mut self, moments: &[CellMoments], g: &GridGeometry, index: usize) {
+        self.cells.clear();
+        let (w, h) = (g.width as i32, g.height as i32);
+        let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
+        let r = self.r_cells;
+        if col >= r && row >= r && col + r < w && row + r < h {
+            for &o in &self.flat {
+                let j = (index as isize + o) as usize;
+                if moments[j].count > 0 {
+                    self.cells.push(j as u32);
+                }
+            }
+        } else {
+            for &(dx, dy) in &self.offsets {
+                let (c, r) = (col + dx, row + dy);
+                if c >= 0 && r >= 0 && c < w && r < h {
+                    let j = r as usize * g.width + c as usize;
+                    if moments[j].count > 0 {
+                        self.cells.push(j as u32);
+                    }
+                }
+            }
+        }
+    }
+}
+
 fn estimate_cell(
     moments: &[CellMoments],
     g: &GridGeometry,
     index: usize,
-    offsets: &[(i32, i32)],
+    disc: &mut Disc,
     p: &TraversabilityParams,
 ) -> CellEstimate {
-    let (w, h) = (g.width as i32, g.height as i32);
-    let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
-    let inside = |dx: i32, dy: i32| {
-        let (c, r) = (col + dx, row + dy);
-        (c >= 0 && r >= 0 && c < w && r < h).then(|| r as usize * g.width + c as usize)
-    };
-    let mut fused = CellMoments::EMPTY;
-    for &(dx, dy) in offsets {
-        if let Some(j) = inside(dx, dy) {
-            fused.merge(&moments[j]);
-        }
+    disc.gather(moments, g, index);
+    let mut sum = MomentSum::new();
+    for &j in &disc.cells {
+        sum.add(&moments[j as usize]);
     }
     let unknown = CellEstimate {
         slope_rad: f64::NAN,
@@ -169,11 +209,12 @@ fn estimate_cell(
         roughness_m: f64::NAN,
         hazard: f64::NAN,
         score: f64::NAN,
-        disc_points: fused.count,
+        disc_points: sum.count(),
     };
-    if fused.count == 0 || fused.count < u64::from(p.min_points) {
+    if sum.count() == 0 || sum.count() < u64::from(p.min_points) {
         return unknown;
     }
+    let fused = sum.finish();
     // Horizontal spread: smallest eigenvalue of the 2×2 xy covariance.
     let k = 1.0 / fused.count as f64;
     let (a, b, c) = (fused.scatter[0] * k, fused.scatter[1] * k, fused.scatter[3] * k);
@@ -189,12 +230,8 @@ fn estimate_cell(
     let mut step_m = raw_step_m;
     if p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some() {
         let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
-        for &(dx, dy) in offsets {
-            let Some(j) = inside(dx, dy) else { continue };
-            let m = &moments[j];
-            if m.count == 0 {
-                continue;
-            }
+        for &j in &disc.cells {
+            let m = &moments[j as usize];
             let Some(z) = plane.height_at(m.mean[0], m.mean[1]) else { continue };
             hi = hi.max(m.z_max - z);
             lo = lo.min(m.z_min - z);
@@ -224,9 +261,9 @@ impl TraversabilityMap {
     pub fn compute(&self, params: &TraversabilityParams) -> TraversabilityLayers {
         let g = self.geometry;
         let mut layers = TraversabilityLayers::unknown(g, params);
-        let offsets = disc_offsets(params.disc_radius_m, g.resolution_m);
+        let mut disc = Disc::new(params.disc_radius_m, &g);
         for i in 0..g.len() {
-            let e = estimate_cell(&self.moments, &g, i, &offsets, params);
+            let e = estimate_cell(&self.moments, &g, i, &mut disc, params);
             layers.write(i, self.moments[i].count, &e);
         }
         layers
@@ -243,12 +280,12 @@ impl TraversabilityMap {
             self.take_dirty();
             return g.len();
         }
-        let offsets = disc_offsets(params.disc_radius_m, g.resolution_m);
+        let mut disc = Disc::new(params.disc_radius_m, &g);
         let (w, h) = (g.width as i32, g.height as i32);
         self.affected.clear();
         for &d in &self.dirty {
             let (col, row) = ((d as usize % g.width) as i32, (d as usize / g.width) as i32);
-            for &(dx, dy) in &offsets {
+            for &(dx, dy) in &disc.offsets {
                 let (c, r) = (col + dx, row + dy);
                 if c >= 0 && r >= 0 && c < w && r < h {
                     let j = r as usize * g.width + c as usize;
@@ -261,7 +298,7 @@ impl TraversabilityMap {
         }
         for &j in &self.affected {
             let j = j as usize;
-            let e = estimate_cell(&self.moments, &g, j, &offsets, params);
+            let e = estimate_cell(&self.moments, &g, j, &mut disc, params);
             layers.write(j, self.moments[j].count, &e);
             self.is_affected[j] = false;
         }

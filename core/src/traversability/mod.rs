@@ -40,7 +40,7 @@ mod tests;
 
 pub use estimate::{disc_offsets, to_occupancy, TraversabilityLayers};
 pub use map::{InsertStats, TraversabilityMap, MAX_CELLS};
-pub use moments::CellMoments;
+pub use moments::{CellMoments, MomentSum};
 pub use plane::{fit_plane, PlaneFit};
 pub use render::{score_rgb, score_to_rgb, UNKNOWN_RGB};
 

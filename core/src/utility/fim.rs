@@ -27,12 +27,13 @@ use nalgebra::{Isometry3, Matrix2, Matrix2x3, Matrix3, Matrix3x6, Matrix6, Point
 /// zero total noise.
 #[inline]
 pub fn trace_information(distance_m: f64, sigma_bearing_rad: f64, landmark_var_m2: f64) -> f64 {
-    if !(distance_m > 0.0 && distance_m.is_finite()) {
+    let valid = distance_m > 0.0 && distance_m.is_finite();
+    if !valid {
         return 0.0;
     }
     let inv_d2 = 1.0 / (distance_m * distance_m);
     let noise = sigma_bearing_rad * sigma_bearing_rad + landmark_var_m2 * inv_d2;
-    if !(noise > 0.0) {
+    if noise.is_nan() || noise <= 0.0 {
         return 0.0;
     }
     2.0 * (1.0 + inv_d2) / noise
@@ -204,7 +205,7 @@ mod tests {
             d in 0.2f64..30.0,
             rot in proptest::array::uniform3(-3.0f64..3.0),
             pos in proptest::array::uniform3(-50.0f64..50.0),
-            az in 0.0f64..6.283, z in -0.99f64..0.99,
+            az in 0.0f64..std::f64::consts::TAU, z in -0.99f64..0.99,
             sigma_b in 0.001f64..0.1, sigma_l in 0.0f64..0.5,
         ) {
             let world_from_camera = pose(pos[0], pos[1], pos[2], rot[0], rot[1], rot[2]);

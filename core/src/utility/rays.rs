@@ -145,7 +145,7 @@ fn trace_dda(theta: f64, range_cells: f64, out: &mut Vec<[i32; 2]>) {
             t_max_y += t_delta_y;
             t
         };
-        if !(t_enter < range_cells) {
+        if t_enter >= range_cells || t_enter.is_nan() {
             break;
         }
         out.push([c, r]);

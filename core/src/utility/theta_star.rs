@@ -104,10 +104,10 @@ impl FovWindows {
             return None;
         }
         let mut best = ThetaStar { index: 0, theta_rad: angles_rad[0], delta_e_bits: self.window_sum(0, gains_bits) };
-        for s in 1..self.len() {
+        for (s, &theta_rad) in angles_rad.iter().enumerate().skip(1) {
             let sum = self.window_sum(s, gains_bits);
             if sum > best.delta_e_bits {
-                best = ThetaStar { index: s, theta_rad: angles_rad[s], delta_e_bits: sum };
+                best = ThetaStar { index: s, theta_rad, delta_e_bits: sum };
             }
         }
         Some(best)

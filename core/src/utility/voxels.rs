@@ -68,10 +68,10 @@ impl LandmarkVoxels {
             return Err(UtilityError::InvalidParameter { name: "sigma_landmark_m", value: sigma_landmark_m });
         }
         let covs = cloud.covariances.as_deref();
-        if let Some(c) = covs {
-            if c.len() != cloud.points.len() {
-                return Err(UtilityError::CovarianceCountMismatch { points: cloud.points.len(), covariances: c.len() });
-            }
+        if let Some(c) = covs
+            && c.len() != cloud.points.len()
+        {
+            return Err(UtilityError::CovarianceCountMismatch { points: cloud.points.len(), covariances: c.len() });
         }
         let default_q = Matrix3::identity() * (sigma_landmark_m * sigma_landmark_m);
 
@@ -351,10 +351,10 @@ mod tests {
             let (y0, y1) = (bx[2].min(bx[3]), bx[2].max(bx[3]));
             let mut got = vec![false; v.len()];
             v.for_each_in_box(x0, y0, x1, y1, |i| got[i] = true);
-            for i in 0..v.len() {
+            for (i, &hit) in got.iter().enumerate() {
                 let c = v.centroid_m(i);
                 if c[0] >= x0 && c[0] <= x1 && c[1] >= y0 && c[1] <= y1 {
-                    prop_assert!(got[i], "voxel {i} at {c:?} missed");
+                    prop_assert!(hit, "voxel {i} at {c:?} missed");
                 }
             }
             let total: u32 = (0..v.len()).map(|i| v.count(i)).sum();

@@ -1,0 +1,166 @@
+//! `fitslam optimize`: optimise a real pose graph with the core's SLAM backend and report χ²,
+//! iterations, time and the marginal covariance of the last pose.
+//!
+//! Input: a g2o file (`VERTEX_SE2`/`EDGE_SE2`, `VERTEX_SE3:QUAT`/`EDGE_SE3:QUAT`) or the
+//! Victoria Park text format (`ODOMETRY`/`LANDMARK`, read with GTSAM's `load2D` semantics),
+//! told apart by the first tag. Gauge: the first pose is fixed (g2o), or anchored by a prior
+//! (`--prior-sigma`, GTSAM). `time_ms` covers the optimisation only (not reading, not the
+//! marginal). `last_marginal` is the covariance of the pose with the largest id, row-major, in
+//! our tangent order ξ = (δt, δφ), body frame.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use fitslam_core::slam::g2o::read_g2o;
+use fitslam_core::slam::victoria::read_victoria;
+use fitslam_core::slam::{
+    Gauge, GaussNewton, LevenbergMarquardt, Marginals, OptError, Optimizer, OptimizerParams, Problem,
+    Se2Residual,
+};
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Levenberg-Marquardt (Nielsen damping).
+    Lm,
+    /// Gauss-Newton (a step that raises χ² ends the run).
+    Gn,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Residual2d {
+    /// Log(z⁻¹ x_i⁻¹ x_j) on SE(2) (GTSAM 4.3).
+    Log,
+    /// (x, y, θ) of z⁻¹ x_i⁻¹ x_j (g2o's EdgeSE2).
+    Vector,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct OptimizeArgs {
+    /// Pose graph to optimise: g2o 2D/3D, or Victoria Park (ODOMETRY/LANDMARK) text.
+    #[arg(long)]
+    pub g2o: PathBuf,
+    /// Write the optimised graph here as g2o (g2o inputs only).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print one JSON object: initial_chi2, final_chi2, iterations, time_ms, last_marginal.
+    #[arg(long)]
+    pub json: bool,
+    #[arg(long, value_enum, default_value_t = Method::Lm)]
+    pub method: Method,
+    #[arg(long, default_value_t = 100)]
+    pub max_iterations: usize,
+    /// Stop when the relative χ² decrease of a step falls below this.
+    #[arg(long, default_value_t = 1e-10)]
+    pub relative_tolerance: f64,
+    /// Anchor the first pose with a prior of this standard deviation on every tangent component
+    /// (GTSAM's convention) instead of fixing it (g2o's).
+    #[arg(long)]
+    pub prior_sigma: Option<f64>,
+    /// Residual of 2D between factors.
+    #[arg(long, value_enum, default_value_t = Residual2d::Log)]
+    pub se2_residual: Residual2d,
+    /// Skip the marginal covariance (last_marginal is then empty).
+    #[arg(long)]
+    pub no_marginal: bool,
+}
+
+enum Input {
+    G2o(fitslam_core::slam::g2o::G2oFile),
+    Victoria,
+}
+
+pub fn run(args: &OptimizeArgs) -> Result<()> {
+    let bytes = std::fs::read(&args.g2o).with_context(|| format!("reading {}", args.g2o.display()))?;
+    let gauge = match args.prior_sigma {
+        Some(sigma) => Gauge::PriorOnFirst { sigma },
+        None => Gauge::FixFirst,
+    };
+    let residual = match args.se2_residual {
+        Residual2d::Log => Se2Residual::Log,
+        Residual2d::Vector => Se2Residual::Vector,
+    };
+    let first_tag = bytes
+        .split(|b| b.is_ascii_whitespace())
+        .find(|t| !t.is_empty())
+        .map(|t| String::from_utf8_lossy(t).into_owned())
+        .unwrap_or_default();
+    let (input, mut problem): (Input, Problem) = if first_tag == "ODOMETRY" || first_tag == "LANDMARK" {
+        let vp = read_victoria(&bytes).with_context(|| format!("{}", args.g2o.display()))?;
+        let p = vp.to_problem(gauge, residual)?;
+        (Input::Victoria, p)
+    } else {
+        let file = read_g2o(&bytes).with_context(|| format!("{}", args.g2o.display()))?;
+        let p = file.to_problem(gauge, residual)?;
+        (Input::G2o(file), p)
+    };
+    let Some(last) = problem.last_pose() else { bail!("{} has no pose", args.g2o.display()) };
+
+    let params = OptimizerParams {
+        max_iterations: args.max_iterations,
+        relative_tolerance: args.relative_tolerance,
+        ..OptimizerParams::default()
+    };
+    let start = Instant::now();
+    let result = match args.method {
+        Method::Lm => LevenbergMarquardt::new(params).optimize(&problem.graph, &mut problem.values),
+        Method::Gn => GaussNewton::new(params).optimize(&problem.graph, &mut problem.values),
+    };
+    let time_ms = start.elapsed().as_secs_f64() * 1e3;
+    let summary = match result {
+        Ok(s) => s,
+        Err(OptError::MaxIterations(s)) => {
+            eprintln!(
+                "warning: no convergence after {} iterations; reporting the best estimate",
+                s.iterations
+            );
+            s
+        }
+        Err(e) => return Err(e).context("optimisation failed"),
+    };
+
+    let marginal: Vec<f64> = if args.no_marginal {
+        Vec::new()
+    } else {
+        let m = Marginals::new(&problem.graph, &problem.values).context("marginal covariance")?;
+        let cov = m.covariance(last).context("marginal covariance")?;
+        // Row-major.
+        (0..cov.nrows()).flat_map(|r| (0..cov.ncols()).map(move |c| (r, c))).map(|(r, c)| cov[(r, c)]).collect()
+    };
+
+    if let Some(out) = &args.out {
+        match &input {
+            Input::G2o(file) => {
+                let text = fitslam_core::slam::g2o::write_g2o(&file.with_poses(&problem, &problem.values));
+                std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
+            }
+            Input::Victoria => bail!("--out writes g2o and needs a g2o input"),
+        }
+    }
+
+    if args.json {
+        let v = serde_json::json!({
+            "initial_chi2": summary.initial_chi2,
+            "final_chi2": summary.final_chi2,
+            "iterations": summary.iterations,
+            "time_ms": time_ms,
+            "last_marginal": marginal,
+        });
+        println!("{v}");
+    } else {
+        println!("file          {}", args.g2o.display());
+        println!("poses         {}  landmarks {}  factors {}", problem.poses.len(), problem.landmarks.len(), problem.graph.len());
+        println!("chi2          {:.9} -> {:.9}", summary.initial_chi2, summary.final_chi2);
+        println!("iterations    {}  ({:?})", summary.iterations, summary.termination);
+        println!("time          {time_ms:.3} ms");
+        if !marginal.is_empty() {
+            let d = (marginal.len() as f64).sqrt() as usize;
+            println!("last pose marginal ({d}x{d}, tangent (dt, dphi), body frame):");
+            for r in 0..d {
+                let row: Vec<String> = (0..d).map(|c| format!("{:>13.6e}", marginal[r * d + c])).collect();
+                println!("  {}", row.join(" "));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,164 @@
+//! The `fitslam` command line, end to end: the documented JSON keys on the built-in asset, and one
+//! clear line with a non-zero exit (never a panic) on every kind of bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_fitslam");
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn asset(rel: &str) -> String {
+    root().join("assets").join(rel).display().to_string()
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().expect("run fitslam")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fitslam-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Asserts a failed run: non-zero exit, no panic, exactly one line on stderr containing `needle`.
+fn assert_clear_error(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "expected failure, got success; stderr: {stderr}");
+    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line expected: {stderr:?}");
+    assert!(stderr.contains(needle), "expected {needle:?} in {stderr:?}");
+}
+
+fn select_json(extra: &[&str]) -> serde_json::Value {
+    let map = asset("maps/jacksboro/map.yaml");
+    let lm = asset("maps/jacksboro/landmarks.ply");
+    let mut args = vec!["select", "--map", &map, "--landmarks", &lm, "--pose", "3,3,0", "--json"];
+    args.extend_from_slice(extra);
+    let out = run(&args);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("valid JSON")
+}
+
+#[test]
+fn select_json_has_the_documented_keys_and_a_consistent_ranking() {
+    let v = select_json(&[]);
+    assert_eq!(v["strategy"], "fit");
+    let cands = v["candidates"].as_array().unwrap();
+    assert!(cands.len() >= 3, "the asset has several frontiers");
+    let chosen = v["chosen"].as_u64().unwrap() as usize;
+    for c in cands {
+        for key in ["x", "y", "theta_star", "rho_m", "delta_e", "u1", "path_info", "u2", "rank", "path", "dropped"] {
+            assert!(c.get(key).is_some(), "missing key {key} in {c}");
+        }
+    }
+    let best = &cands[chosen];
+    assert_eq!(best["rank"], 1);
+    let best_u2 = best["u2"].as_f64().unwrap();
+    for c in cands.iter().filter(|c| !c["u2"].is_null()) {
+        assert!(c["u2"].as_f64().unwrap() <= best_u2 + 1e-12);
+    }
+    // The path runs from the robot's cell to the goal cell.
+    let path = best["path"].as_array().unwrap();
+    let first = &path[0];
+    assert!((first[0].as_f64().unwrap() - 3.0).abs() < 0.05 && (first[1].as_f64().unwrap() - 3.0).abs() < 0.05);
+    let last = path.last().unwrap();
+    assert!((last[0].as_f64().unwrap() - best["x"].as_f64().unwrap()).abs() < 1e-9);
+}
+
+#[test]
+fn greedy_picks_the_shortest_path_and_random_is_reproducible() {
+    let v = select_json(&["--strategy", "greedy"]);
+    let cands = v["candidates"].as_array().unwrap();
+    let chosen = v["chosen"].as_u64().unwrap() as usize;
+    let rho = |c: &serde_json::Value| c["rho_m"].as_f64().unwrap_or(f64::INFINITY);
+    let min = cands.iter().map(rho).fold(f64::INFINITY, f64::min);
+    assert_eq!(rho(&cands[chosen]), min);
+    let a = select_json(&["--strategy", "random"]);
+    let b = select_json(&["--strategy", "random"]);
+    assert_eq!(a["chosen"], b["chosen"]);
+}
+
+#[test]
+fn table_output_names_the_goal() {
+    let map = asset("maps/jacksboro/map.yaml");
+    let lm = asset("maps/jacksboro/landmarks.csv");
+    let out = run(&["select", "--map", &map, "--landmarks", &lm, "--pose", "3,3,0"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("chosen") && text.contains("goal: ("), "{text}");
+}
+
+#[test]
+fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
+    let dir = scratch("bad");
+    let write = |name: &str, bytes: &[u8]| -> String {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).unwrap();
+        p.display().to_string()
+    };
+    let good_map = asset("maps/jacksboro/map.yaml");
+    let good_lm = asset("maps/jacksboro/landmarks.ply");
+    let select = |map: &str, lm: &str, pose: &str| run(&["select", "--map", map, "--landmarks", lm, "--pose", pose]);
+
+    // Truncated PGM.
+    let pgm = std::fs::read(Path::new(&asset("maps/jacksboro/map.pgm"))).unwrap();
+    write("trunc.pgm", &pgm[..pgm.len() / 2]);
+    let yaml = write("trunc.yaml", b"image: trunc.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n");
+    assert_clear_error(&select(&yaml, &good_lm, "3,3,0"), "trunc.pgm");
+
+    // YAML without `image`.
+    let yaml = write("noimage.yaml", b"resolution: 0.05\norigin: [0, 0, 0]\n");
+    assert_clear_error(&select(&yaml, &good_lm, "3,3,0"), "image");
+
+    // PCD with a wrong point count.
+    let pcd = write(
+        "wrong.pcd",
+        b"VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\nDATA ascii\n1 2 3\n4 5 6\n",
+    );
+    assert_clear_error(&select(&good_map, &pcd, "3,3,0"), "wrong.pcd");
+
+    // PLY with a missing vertex property.
+    let ply = write("noz.ply", b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n1 2\n3 4\n");
+    assert_clear_error(&select(&good_map, &ply, "3,3,0"), "'z'");
+
+    // NaN coordinates.
+    let csv = write("nan.csv", b"x,y,z\n1,2,3\nnan,2,3\n");
+    assert_clear_error(&select(&good_map, &csv, "3,3,0"), "nan.csv");
+
+    // A pose outside the map, and a pose that is not a pose.
+    assert_clear_error(&select(&good_map, &good_lm, "-50,3,0"), "outside the map");
+    assert_clear_error(&select(&good_map, &good_lm, "3,nan,0"), "--pose");
+    assert_clear_error(&select(&good_map, &good_lm, "3,3"), "--pose");
+
+    // Missing files, unknown extensions, bad parameter files.
+    assert_clear_error(&select("/nonexistent/map.yaml", &good_lm, "3,3,0"), "cannot read");
+    let txt = write("cloud.txt", b"1 2 3\n");
+    assert_clear_error(&select(&good_map, &txt, "3,3,0"), "cloud.txt");
+    let params = write("bad.toml", b"[u1]\nalpah = 0.3\n");
+    let out = run(&["select", "--map", &good_map, "--landmarks", &good_lm, "--pose", "3,3,0", "--params", &params]);
+    assert_clear_error(&out, "alpah");
+
+    // Traversability with a malformed cloud.
+    let out = run(&["traversability", "--cloud", &ply, "--out", &dir.join("t.yaml").display().to_string()]);
+    assert_clear_error(&out, "noz.ply");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn traversability_writes_a_map_server_map_that_select_can_read() {
+    let dir = scratch("trav");
+    let out_yaml = dir.join("plane.yaml");
+    let out = run(&["traversability", "--cloud", &asset("data/lidar/plane.ply"), "--out", &out_yaml.display().to_string()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for f in ["plane.yaml", "plane.pgm", "plane_score.png"] {
+        assert!(dir.join(f).exists(), "{f} not written");
+    }
+    let yaml = std::fs::read_to_string(&out_yaml).unwrap();
+    assert!(yaml.contains("image: plane.pgm") && yaml.contains("resolution: 0.05"), "{yaml}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
