@@ -13,73 +13,6 @@ use fitslam_core::select::{DecisionInput, FitSlam, GoalSelector};
 use fitslam_core::utility::LandmarkVoxels;
 use std::time::Instant;
 
-// PROTOTYPE (not wired): exact Dijkstra for 8-connected octile grids with costs {1, √2}, using a
-// bucket queue of width 1 cell (= the smallest edge cost): a node popped from bucket k = ⌊cost⌋
-// cannot be improved by another node of the same bucket (any edge adds ≥ 1), so buckets can be
-// processed in any internal order; √2 < 2 so three rotating buckets suffice. O(n).
-// Same move rules as path::step (inside, passable, diagonal needs both orthogonals passable).
-pub fn bucket_dijkstra(grid: &fitslam_core::OccupancyGrid, start: fitslam_core::Cell, allow_unknown: bool) -> (Vec<f64>, Vec<u32>) {
-    use fitslam_core::path::passable;
-    let g = grid.geometry;
-    let (w, h) = (g.width, g.height);
-    let pw = w + 2;
-    // Padded passability: border cells impassable, so no bounds checks in the loop.
-    let mut ok = vec![false; pw * (h + 2)];
-    for r in 0..h {
-        for c in 0..w {
-            ok[(r + 1) * pw + c + 1] = passable(grid.data[r * w + c], allow_unknown);
-        }
-    }
-    let mut cost = vec![f64::INFINITY; pw * (h + 2)];
-    let mut parent = vec![u32::MAX; pw * (h + 2)];
-    let mut done = vec![false; pw * (h + 2)];
-    let s = (start.row as usize + 1) * pw + start.col as usize + 1;
-    let mut buckets: [Vec<u32>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    cost[s] = 0.0;
-    buckets[0].push(s as u32);
-    let mut k = 0usize;
-    let pwi = pw as isize;
-    let orth = [1isize, -1, pwi, -pwi];
-    let diag = [(pwi + 1, 1isize, pwi), (pwi - 1, -1, pwi), (-pwi + 1, 1, -pwi), (-pwi - 1, -1, -pwi)];
-    let mut empty_rounds = 0;
-    while empty_rounds < 3 {
-        let b = k % 3;
-        if buckets[b].is_empty() {
-            empty_rounds += 1;
-            k += 1;
-            continue;
-        }
-        empty_rounds = 0;
-        while let Some(i) = buckets[b].pop() {
-            let i = i as usize;
-            if done[i] || (cost[i] as usize) != k {
-                continue;
-            }
-            done[i] = true;
-            let ci = cost[i];
-            for &d in &orth {
-                let j = (i as isize + d) as usize;
-                if ok[j] && ci + 1.0 < cost[j] {
-                    cost[j] = ci + 1.0;
-                    parent[j] = i as u32;
-                    buckets[(cost[j] as usize) % 3].push(j as u32);
-                }
-            }
-            for &(d, dx, dy) in &diag {
-                let j = (i as isize + d) as usize;
-                let c = ci + std::f64::consts::SQRT_2;
-                if ok[j] && ok[(i as isize + dx) as usize] && ok[(i as isize + dy) as usize] && c < cost[j] {
-                    cost[j] = c;
-                    parent[j] = i as u32;
-                    buckets[(c as usize) % 3].push(j as u32);
-                }
-            }
-        }
-        k += 1;
-    }
-    (cost, parent)
-}
-
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     v[v.len() / 2]
@@ -157,18 +90,6 @@ fn main() {
         }
     }
     println!("{summary}");
-    {
-        let prepared = prepare(&input, &params).expect("prepare");
-        let field = distances(&prepared, &params).expect("dijkstra");
-        let mut ts = Vec::new();
-        let mut res = None;
-        for _ in 0..runs { let t = Instant::now(); res = Some(bucket_dijkstra(&prepared.inflated, prepared.robot_cell, false)); ts.push(1e3 * t.elapsed().as_secs_f64()); }
-        let (cost, _) = res.unwrap();
-        let pw = g.width + 2;
-        let mut maxdiff: f64 = 0.0; let mut mism = 0;
-        for i in 0..g.len() { let c = g.cell_at(i); let a = field.distance_m(c); let b = cost[(c.row as usize + 1) * pw + c.col as usize + 1]; match a { Some(a) => maxdiff = maxdiff.max((a - b * g.resolution_m).abs()), None => if b.is_finite() { mism += 1 } } }
-        println!("PROTO bucket dijkstra {:.2} ms, max |diff| {:.3e} m, reachability mismatches {}", median(&mut ts), maxdiff, mism);
-    }
     println!("median of {runs} runs, one thread:");
     for (name, v) in names.iter().zip(times.iter_mut()) {
         println!("  {name:<28} {:>9.2} ms", median(v));

@@ -3,6 +3,7 @@
 
 mod asset_cmd;
 mod load;
+mod params_cmd;
 mod optimize;
 mod select_cmd;
 mod traversability_cmd;
@@ -21,6 +22,8 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
+    /// Print the default parameters (or validate and print a parameter file).
+    Params(params_cmd::ParamsArgs),
     /// Rank the frontier candidates of a map and pick the next goal.
     Select(select_cmd::SelectArgs),
     Traversability(traversability_cmd::TraversabilityArgs),
@@ -33,6 +36,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
+        Command::Params(a) => params_cmd::run(a),
         Command::Select(a) => select_cmd::run(a),
         Command::Traversability(a) => traversability_cmd::run(a),
         Command::BuildAsset(a) => asset_cmd::run(a),

@@ -17,6 +17,7 @@
 //! | [`select`] | goal selectors: FIT-SLAM, greedy, random, u1-only, with the whole ranking (notes §7) |
 //! | [`sim`] | ground-truth world: heightfields (procedural, real DEM), noise |
 //! | [`params`] | every parameter with the paper's defaults |
+//! | [`fixtures`] | shared fixture worlds (synthetic map + landmarks, corridor) for tests, benches, examples |
 
 pub mod cloud;
 pub mod fixtures;

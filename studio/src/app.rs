@@ -284,7 +284,7 @@ impl StudioApp {
             if ui.button("Open landmarks (PCD, PLY, CSV, LAS)…").clicked() {
                 files::open_picker(Intent::Landmarks, &self.inbox, &ctx, &mut self.browser);
             }
-            if ui.button("Open terrain cloud → traversability map…").clicked() {
+            if ui.button("Open terrain cloud (-> traversability map)…").clicked() {
                 files::open_picker(Intent::TerrainCloud, &self.inbox, &ctx, &mut self.browser);
             }
             if ui.button("Open parameters (YAML, TOML)…").clicked() {
@@ -350,7 +350,7 @@ impl StudioApp {
         let mut dismiss = None;
         for (k, m) in self.messages.iter().enumerate().rev().take(3) {
             ui.horizontal(|ui| {
-                if ui.small_button("✖").on_hover_text("Dismiss").clicked() {
+                if ui.small_button("x").on_hover_text("Dismiss").clicked() {
                     dismiss = Some(k);
                 }
                 let color = if m.error { egui::Color32::from_rgb(255, 120, 110) } else { ui.visuals().text_color() };

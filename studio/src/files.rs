@@ -172,7 +172,7 @@ impl FileBrowser {
         let mut go_to: Option<std::path::PathBuf> = None;
         egui::Window::new("Open file").open(&mut open).default_size([460.0, 360.0]).show(ctx, |ui| {
             ui.horizontal(|ui| {
-                if ui.button("⬆ Up").clicked() {
+                if ui.button("Up").clicked() {
                     go_to = self.dir.parent().map(|p| p.to_path_buf());
                 }
                 ui.label(self.dir.display().to_string());
@@ -181,7 +181,7 @@ impl FileBrowser {
             ui.separator();
             egui::ScrollArea::vertical().max_height(240.0).show(ui, |ui| {
                 for (name, is_dir) in &self.entries {
-                    let label = if *is_dir { format!("📁 {name}") } else { name.clone() };
+                    let label = if *is_dir { format!("{name}/") } else { name.clone() };
                     let r = ui.selectable_label(self.path_text == *name, label);
                     if r.clicked() {
                         if *is_dir {

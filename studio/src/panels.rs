@@ -107,7 +107,7 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
 
 pub fn strategy_name(s: Strategy) -> &'static str {
     match s {
-        Strategy::Fit => "FIT-SLAM (u1 → u2)",
+        Strategy::Fit => "FIT-SLAM (u1, then u2)",
         Strategy::Greedy => "greedy (nearest)",
         Strategy::Random => "random",
         Strategy::U1 => "u1 only",
@@ -294,7 +294,7 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
     egui::ScrollArea::both().auto_shrink([false, false]).show(ui, |ui| {
         egui::Grid::new("candidates").striped(true).min_col_width(48.0).show(ui, |ui| {
             for col in Column::ALL {
-                let arrow = if app.table.column == col { if app.table.descending { " ⏷" } else { " ⏶" } } else { "" };
+                let arrow = if app.table.column == col { if app.table.descending { " v" } else { " ^" } } else { "" };
                 if ui.button(format!("{}{arrow}", col.title())).clicked() {
                     new_sort = Some(col);
                 }
@@ -304,7 +304,7 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
             for &i in &rows {
                 let c = &d.candidates[i];
                 let selected = app.selected == Some(i);
-                let chosen = if d.chosen == Some(i) { " ★" } else { "" };
+                let chosen = if d.chosen == Some(i) { " *" } else { "" };
                 if ui.selectable_label(selected, format!("{i}{chosen}")).clicked() {
                     new_sel = Some(if selected { None } else { Some(i) });
                 }

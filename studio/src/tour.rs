@@ -86,7 +86,7 @@ const STEPS: [Step; 7] = [
     Step {
         title: "7 · Your turn",
         text: "Drag the robot (or its white handle to turn it), move τ to make rough ground lethal, switch the strategy to greedy \
-               or random, and export the parameters for the robot with File → Export parameters.",
+               or random, and export the parameters for the robot with File > Export parameters.",
         apply: |app| {
             app.params = Params::default();
             app.overlays = Overlays::default();
@@ -128,11 +128,11 @@ impl Tour {
         ui.add_space(8.0);
         let mut go = None;
         ui.horizontal(|ui| {
-            if ui.add_enabled(k > 0, egui::Button::new("◀ Back")).clicked() {
+            if ui.add_enabled(k > 0, egui::Button::new("< Back")).clicked() {
                 go = Some(k - 1);
             }
             ui.label(format!("{} / {}", k + 1, STEPS.len()));
-            if ui.add_enabled(k + 1 < STEPS.len(), egui::Button::new("Next ▶")).clicked() {
+            if ui.add_enabled(k + 1 < STEPS.len(), egui::Button::new("Next >")).clicked() {
                 go = Some(k + 1);
             }
         });

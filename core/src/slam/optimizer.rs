@@ -24,6 +24,9 @@ use super::graph::FactorGraph;
 use super::linear_system::{LinearSystem, SolveError};
 use super::values::Values;
 
+/// Smallest factor by which an accepted LM step shrinks λ (Nielsen uses 1/3; GTSAM 1/10).
+const LAMBDA_MIN_DECREASE: f64 = 0.1;
+
 /// Stopping rules and damping, with GTSAM-like defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -265,7 +268,7 @@ impl Optimizer for LevenbergMarquardt {
             if chi2_new.is_finite() && chi2_new < chi2 && predicted > 0.0 {
                 std::mem::swap(values, &mut self.trial);
                 let factor = 1.0 - (2.0 * rho - 1.0).powi(3);
-                lambda *= factor.max(1.0 / 3.0);
+                lambda *= factor.max(LAMBDA_MIN_DECREASE);
                 self.nu = 2.0;
                 self.lambda = Some(lambda.max(1e-300));
                 return Ok(StepReport { chi2_before: chi2, chi2_after: chi2_new, accepted: true, lambda, step_norm });
