@@ -15,7 +15,7 @@ use anyhow::{Context, Result, bail};
 use fitslam_core::slam::g2o::read_g2o;
 use fitslam_core::slam::victoria::read_victoria;
 use fitslam_core::slam::{
-    Gauge, GaussNewton, LevenbergMarquardt, Marginals, OptError, Optimizer, OptimizerParams, Problem,
+    Gauge, GaussNewton, LambdaSchedule, LevenbergMarquardt, Marginals, OptError, Optimizer, OptimizerParams, Problem,
     Se2Residual,
 };
 
@@ -25,6 +25,14 @@ pub enum Method {
     Lm,
     /// Gauss-Newton (a step that raises χ² ends the run).
     Gn,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Schedule {
+    /// Nielsen's damping update (g2o-like).
+    Nielsen,
+    /// GTSAM's default (λ₀ = 1e-5, ×10 / ÷10): follows GTSAM's path on non-convex problems.
+    Gtsam,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,6 +65,9 @@ pub struct OptimizeArgs {
     /// (GTSAM's convention) instead of fixing it (g2o's).
     #[arg(long)]
     pub prior_sigma: Option<f64>,
+    /// LM damping schedule.
+    #[arg(long, value_enum, default_value_t = Schedule::Nielsen)]
+    pub lambda_schedule: Schedule,
     /// Residual of 2D between factors.
     #[arg(long, value_enum, default_value_t = Residual2d::Log)]
     pub se2_residual: Residual2d,
@@ -99,6 +110,10 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
     let params = OptimizerParams {
         max_iterations: args.max_iterations,
         relative_tolerance: args.relative_tolerance,
+        lambda_schedule: match args.lambda_schedule {
+            Schedule::Nielsen => LambdaSchedule::Nielsen,
+            Schedule::Gtsam => LambdaSchedule::Gtsam,
+        },
         ..OptimizerParams::default()
     };
     let start = Instant::now();

@@ -23,7 +23,8 @@ fi
 
 flags=()
 if [[ "$profile" == release ]]; then flags+=(--release); fi
-cargo build -p fitslam-studio --lib --target wasm32-unknown-unknown "${flags[@]}"
+# No debug info in the bundle (the workspace release profile keeps some for native profiling).
+CARGO_PROFILE_RELEASE_DEBUG=0 cargo build -p fitslam-studio --lib --target wasm32-unknown-unknown "${flags[@]}"
 
 out=target/studio-web
 rm -rf "$out"

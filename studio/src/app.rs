@@ -366,13 +366,18 @@ impl StudioApp {
         let Some(f) = &self.ask_cloud else { return };
         let name = f.name.clone();
         let mut choice = None;
+        let mut rects = Vec::new();
         egui::Window::new("Point cloud").collapsible(false).resizable(false).show(ctx, |ui| {
             ui.label(format!("What is {}?", loader::base_name(&name)));
             ui.horizontal(|ui| {
-                if ui.button("Landmarks (for u2)").clicked() {
+                let r = ui.button("Landmarks (for u2)");
+                rects.push(("cloud_landmarks", r.rect));
+                if r.clicked() {
                     choice = Some(Intent::Landmarks);
                 }
-                if ui.button("Terrain (compute traversability map)").clicked() {
+                let r = ui.button("Terrain (compute traversability map)");
+                rects.push(("cloud_terrain", r.rect));
+                if r.clicked() {
                     choice = Some(Intent::TerrainCloud);
                 }
                 if ui.button("Cancel").clicked() {
@@ -380,6 +385,7 @@ impl StudioApp {
                 }
             });
         });
+        self.widget_rects.extend(rects);
         if let Some(intent) = choice {
             if let Some(mut f) = self.ask_cloud.take() {
                 if intent != Intent::Any {
@@ -432,7 +438,6 @@ impl StudioApp {
             #[cfg(not(target_arch = "wasm32"))]
             ctx.send_viewport_cmd(egui::ViewportCommand::Title(format!("FIT-SLAM studio — {title}")));
         }
-        let _ = ctx;
         let ranking = self.pipeline.ok_decision().map(export::ranking_brief_json).unwrap_or_else(|| "null".into());
         let g = self.scene.map.geometry();
         let stats = serde_json::json!({
@@ -446,6 +451,16 @@ impl StudioApp {
             "landmark_points": self.scene.landmarks.cloud.len(),
             "error": self.pipeline.decision().and_then(|d| d.as_ref().err()).cloned(),
             "messages": self.messages.iter().map(|m| &m.text).collect::<Vec<_>>(),
+            "robot": [self.scene.robot.x_m, self.scene.robot.y_m, self.scene.robot.yaw_rad],
+            "params": {
+                "alpha": self.params.u1.alpha,
+                "beta": self.params.u2.beta,
+                "tau": self.params.traversability.tau,
+                "top_n": self.params.u2.top_n,
+                "strategy": self.params.selector.strategy,
+            },
+            "slider_width": ctx.global_style().spacing.slider_width,
+            "cloud_question": self.ask_cloud.as_ref().map(|f| f.name.clone()),
         })
         .to_string();
         let widgets: BTreeMap<&str, [f32; 4]> =

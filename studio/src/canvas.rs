@@ -284,7 +284,8 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
 
     // Interaction.
     if response.drag_started() {
-        if let Some(p) = response.interact_pointer_pos() {
+        // Hit-test where the button went down, not where the drag was recognised.
+        if let Some(p) = ui.input(|i| i.pointer.press_origin()).or(response.interact_pointer_pos()) {
             app.canvas.drag = if p.distance(handle_px) <= 9.0 {
                 Drag::RotateRobot
             } else if p.distance(robot_px) <= body_r + 3.0 {

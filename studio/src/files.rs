@@ -232,7 +232,7 @@ impl FileBrowser {
 pub fn read_sibling(name: &str, sibling: &str) -> Option<(String, Result<Vec<u8>, String>)> {
     #[cfg(not(target_arch = "wasm32"))]
     {
-        let base = std::path::Path::new(name).parent()?;
+        let base = std::path::Path::new(name).parent().filter(|p| !p.as_os_str().is_empty())?;
         let path = if std::path::Path::new(sibling).is_absolute() { std::path::PathBuf::from(sibling) } else { base.join(sibling) };
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()));
         Some((path.display().to_string(), bytes))

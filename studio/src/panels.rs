@@ -304,11 +304,11 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
             for &i in &rows {
                 let c = &d.candidates[i];
                 let selected = app.selected == Some(i);
-                let chosen = if d.chosen == Some(i) { " *" } else { "" };
-                if ui.selectable_label(selected, format!("{i}{chosen}")).clicked() {
+                let chosen = if d.chosen == Some(i) { " (chosen)" } else { "" };
+                if ui.selectable_label(selected, format!("#{i}")).clicked() {
                     new_sel = Some(if selected { None } else { Some(i) });
                 }
-                ui.label(c.rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into()));
+                ui.label(c.rank.map(|r| format!("{r}{chosen}")).unwrap_or_else(|| "—".into()));
                 ui.label(fmt(c.rho_m, 2));
                 ui.label(fmt(c.delta_e_bits, 2));
                 ui.label(fmt(c.theta_star_rad.map(f64::to_degrees), 0));

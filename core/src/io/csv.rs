@@ -93,7 +93,7 @@ pub fn load_csv(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
             _ => {
                 let m = Matrix3::from_row_slice(c);
                 let asym = (m - m.transpose()).abs().max();
-                if !(asym <= 1e-9 * m.abs().max().max(1.0)) {
+                if asym.is_nan() || asym > 1e-9 * m.abs().max().max(1.0) {
                     return Err(line_err(line_no, "the 3×3 covariance is not symmetric".to_string()));
                 }
                 Some((m + m.transpose()) * 0.5)

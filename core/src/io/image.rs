@@ -139,7 +139,7 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
     let count = width
         .checked_mul(height)
         .ok_or_else(|| image_err(name, format!("PGM size {width} × {height} is too large")))?;
-    let need = count.checked_mul(bytes_per_sample).unwrap_or(usize::MAX);
+    let need = count.saturating_mul(bytes_per_sample);
     let data = if binary {
         // Exactly one whitespace byte separates maxval from the samples.
         let start = cur.pos + 1;
@@ -174,10 +174,12 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
         if let Some(k) = data.iter().position(|&v| u32::from(v) > maxval) {
             return Err(image_err(name, format!("PGM data: sample {k} is {}, above maxval {maxval}", data[k])));
         }
-    } else if binary && bytes_per_sample == 2 && maxval < 65_535 {
-        if let Some(k) = data.chunks_exact(2).position(|c| u32::from(u16::from_be_bytes([c[0], c[1]])) > maxval) {
-            return Err(image_err(name, format!("PGM data: sample {k} is above maxval {maxval}")));
-        }
+    } else if binary
+        && bytes_per_sample == 2
+        && maxval < 65_535
+        && let Some(k) = data.chunks_exact(2).position(|c| u32::from(u16::from_be_bytes([c[0], c[1]])) > maxval)
+    {
+        return Err(image_err(name, format!("PGM data: sample {k} is above maxval {maxval}")));
     }
     Ok(Raster { width, height, channels: 1, bytes_per_sample, max_value: f64::from(maxval), data })
 }

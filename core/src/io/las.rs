@@ -77,7 +77,7 @@ fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
     } else {
         let end = count.checked_mul(record_len).and_then(|b| b.checked_add(offset_to_points));
         if end.is_none_or(|e| e > len) {
-            let found = if record_len == 0 { 0 } else { len.saturating_sub(offset_to_points) / record_len };
+            let found = len.saturating_sub(offset_to_points).checked_div(record_len).unwrap_or(0);
             return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found });
         }
     }
@@ -91,12 +91,9 @@ fn check_chunk_table(bytes: &[u8], data_start: u64, name: &str) -> Result<(), Cl
     let Ok(start) = usize::try_from(data_start) else { return Ok(()) };
     let forward = |v: Option<i64>| v.filter(|&o| o > data_start as i64);
     let offset = forward(i64_at(start)).or_else(|| forward(bytes.len().checked_sub(8).and_then(i64_at)));
-    if let Some(table) = offset.and_then(|o| usize::try_from(o).ok()) {
-        if let Some(chunks) = table.checked_add(4).and_then(|at| u32_at(bytes, at)) {
-            if chunks as usize > bytes.len() {
-                return Err(las_err(name, format!("LAZ chunk table declares {chunks} chunks in a {} byte file", bytes.len())));
-            }
-        }
+    let chunks = offset.and_then(|o| usize::try_from(o).ok()).and_then(|t| t.checked_add(4)).and_then(|at| u32_at(bytes, at));
+    if let Some(chunks) = chunks.filter(|&c| c as usize > bytes.len()) {
+        return Err(las_err(name, format!("LAZ chunk table declares {chunks} chunks in a {} byte file", bytes.len())));
     }
     Ok(())
 }

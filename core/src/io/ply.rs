@@ -230,6 +230,28 @@ fn read_binary(data: &[u8], header: &Header, vertex_index: usize, map: FieldMap,
             let left = data.len() - pos;
             let capacity = usize::try_from(vertex.count).unwrap_or(usize::MAX).min(left / min_size);
             let mut builder = CloudBuilder::new(name, map, capacity);
+            if let Some(size) = vertex.fixed_size() {
+                // Fast path: fixed-size records, only the used properties decoded.
+                let available = (left / size) as u64;
+                if available < vertex.count {
+                    return Err(wrong_count(name, vertex.count, available as usize));
+                }
+                let mut offsets = Vec::with_capacity(vertex.properties.len());
+                let mut scalars = Vec::with_capacity(vertex.properties.len());
+                let mut o = 0;
+                for p in &vertex.properties {
+                    if let PropKind::Scalar(s) = p.kind {
+                        offsets.push(o);
+                        scalars.push(s);
+                        o += s.size();
+                    }
+                }
+                let records = &data[pos..pos + size * capacity];
+                for rec in records.chunks_exact(size) {
+                    builder.push(|i| scalars[i].read(&rec[offsets[i]..], big_endian))?;
+                }
+                return Ok(builder.finish());
+            }
             let mut values = vec![0.0f64; vertex.properties.len()];
             for _ in 0..vertex.count {
                 for (slot, p) in values.iter_mut().zip(&vertex.properties) {

@@ -9,6 +9,25 @@
 //! | [`greedy`] | smallest ρ |
 //! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
 //! | [`u1_only`] | ablation: u1 alone |
+//!
+//! ```
+//! use fitslam_core::fixtures::corridor_two_frontiers;
+//! use fitslam_core::frontier::Blacklist;
+//! use fitslam_core::select::{make_selector, DecisionInput};
+//! use fitslam_core::utility::LandmarkVoxels;
+//! use fitslam_core::Params;
+//!
+//! let world = corridor_two_frontiers(true); // landmarks only east of the robot
+//! let params = Params::default(); // strategy: fit
+//! let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m)?;
+//! let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+//! let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
+//! let decision = make_selector(&params.selector).select(&input, &params)?;
+//! let goal = decision.goal.expect("a frontier is left");
+//! assert!(goal.x_m > world.robot.x_m); // FIT-SLAM goes east, where the landmarks are
+//! println!("{}", serde_json::to_string(&decision)?); // the whole ranking
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod candidates;
 pub mod fit;

@@ -21,6 +21,7 @@
 
 pub mod factors;
 pub mod graph;
+pub mod graph_slam;
 pub mod lie;
 pub mod linear_system;
 pub mod marginals;
@@ -34,8 +35,9 @@ pub mod victoria;
 
 pub use factors::{Factor, FactorError, GaussianNoise, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
+pub use graph_slam::{CovarianceTraces, GraphSlam, GraphSlamParams, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
 pub use lie::{Se2, Se3};
 pub use marginals::{MarginalError, Marginals};
 pub use problem::{Gauge, Problem};
-pub use optimizer::{GaussNewton, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination};
+pub use optimizer::{GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination};
 pub use values::{VarId, Values, Variable};

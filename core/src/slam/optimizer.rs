@@ -3,9 +3,10 @@
 //!
 //! Each [`Optimizer::step`] linearises once (`H = JᵀΩJ`, `g = JᵀΩe`), solves
 //! `(H + λI) δ = −g` by sparse Cholesky (λ = 0 for Gauss-Newton) and retracts `x ⊕ δ`. LM uses
-//! Nielsen's damping update (as g2o and Ceres): λ₀ = τ · max diag(H); a step is accepted when
-//! the gain ratio ρ = (χ² − χ²_new) / (δᵀ(λδ − g)) is positive, then λ ← λ · max(1/3,
-//! 1 − (2ρ − 1)³); otherwise λ ← λ·ν, ν ← 2ν and the solve is retried. Gauss-Newton accepts a
+//! Nielsen's damping update (as g2o): λ₀ = τ · max diag(H); a step is accepted when the gain
+//! ratio ρ = (χ² − χ²_new) / (δᵀ(λδ − g)) is positive, then λ ← λ · max(1/10,
+//! 1 − (2ρ − 1)³) (Nielsen's floor is 1/3; 1/10, GTSAM's factor, halves the iterations on the
+//! SE-Sync graphs); otherwise λ ← λ·ν, ν ← 2ν and the solve is retried. Gauss-Newton accepts a
 //! step only if χ² does not increase. [`Optimizer::optimize`] loops `step` until the relative χ²
 //! decrease falls below `relative_tolerance`, χ² below `absolute_tolerance`, no decreasing step
 //! exists, or `max_iterations` is reached (an error that still leaves the best estimate in
@@ -27,6 +28,23 @@ use super::values::Values;
 /// Smallest factor by which an accepted LM step shrinks λ (Nielsen uses 1/3; GTSAM 1/10).
 const LAMBDA_MIN_DECREASE: f64 = 0.1;
 
+/// How Levenberg-Marquardt adapts its damping λ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LambdaSchedule {
+    /// λ₀ = τ · max diag(H) (τ = `lambda_initial_factor`); accept when the gain ratio ρ > 0,
+    /// then λ ← λ · max(1/10, 1 − (2ρ − 1)³); reject: λ ← λ·ν, ν ← 2ν (Nielsen, as g2o).
+    #[default]
+    Nielsen,
+    /// GTSAM's default: λ₀ = `lambda_initial_factor` (absolute); accept when ρ > 10⁻³, then
+    /// λ ← λ/10; reject: λ ← 10 λ; give up the linearisation when λ exceeds 10⁵. Following the
+    /// same path as GTSAM matters on non-convex problems started far from the optimum (MIT,
+    /// Victoria Park), where the local minimum reached depends on the path.
+    Gtsam,
+}
+
+/// GTSAM's `lambdaUpperBound`.
+const GTSAM_LAMBDA_UPPER: f64 = 1e5;
+
 /// Stopping rules and damping, with GTSAM-like defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -41,6 +59,8 @@ pub struct OptimizerParams {
     pub lambda_initial_factor: f64,
     /// LM: give up on a linearisation (no decreasing step) when λ exceeds this. Default 1e16.
     pub lambda_max: f64,
+    /// LM damping schedule. Default Nielsen.
+    pub lambda_schedule: LambdaSchedule,
 }
 
 impl Default for OptimizerParams {
@@ -51,6 +71,7 @@ impl Default for OptimizerParams {
             absolute_tolerance: 1e-12,
             lambda_initial_factor: 1e-5,
             lambda_max: 1e16,
+            lambda_schedule: LambdaSchedule::Nielsen,
         }
     }
 }
@@ -237,8 +258,10 @@ impl Optimizer for LevenbergMarquardt {
     fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
         let system = ensure_system(&mut self.system, graph, values)?;
         let chi2 = system.linearize(graph, values)?;
+        let gtsam = self.params.lambda_schedule == LambdaSchedule::Gtsam;
         let mut lambda = match self.lambda {
             Some(l) => l,
+            None if gtsam => self.params.lambda_initial_factor,
             None => {
                 let max_diag = system.diagonal().fold(0.0f64, f64::max);
                 (self.params.lambda_initial_factor * max_diag).max(1e-12)
@@ -247,12 +270,13 @@ impl Optimizer for LevenbergMarquardt {
         if self.nu < 2.0 {
             self.nu = 2.0;
         }
+        let lambda_max = if gtsam { GTSAM_LAMBDA_UPPER } else { self.params.lambda_max };
         let mut step_norm = 0.0;
-        while lambda <= self.params.lambda_max {
+        while lambda <= lambda_max {
             match system.solve_step(lambda, &mut self.delta) {
                 Ok(()) => {}
                 Err(SolveError::NotPositiveDefinite) => {
-                    lambda *= self.nu;
+                    lambda = if gtsam { lambda * 10.0 } else { lambda * self.nu };
                     self.nu *= 2.0;
                     continue;
                 }
@@ -265,15 +289,22 @@ impl Optimizer for LevenbergMarquardt {
                 self.delta.iter().zip(system.gradient()).map(|(d, g)| d * (lambda * d - g)).sum();
             step_norm = self.delta.iter().map(|v| v * v).sum::<f64>().sqrt();
             let rho = (chi2 - chi2_new) / predicted;
-            if chi2_new.is_finite() && chi2_new < chi2 && predicted > 0.0 {
+            let accept = chi2_new.is_finite()
+                && predicted > 0.0
+                && if gtsam { rho > 1e-3 } else { chi2_new < chi2 };
+            if accept {
                 std::mem::swap(values, &mut self.trial);
-                let factor = 1.0 - (2.0 * rho - 1.0).powi(3);
-                lambda *= factor.max(LAMBDA_MIN_DECREASE);
+                if gtsam {
+                    lambda /= 10.0;
+                } else {
+                    let factor = 1.0 - (2.0 * rho - 1.0).powi(3);
+                    lambda *= factor.max(LAMBDA_MIN_DECREASE);
+                }
                 self.nu = 2.0;
                 self.lambda = Some(lambda.max(1e-300));
                 return Ok(StepReport { chi2_before: chi2, chi2_after: chi2_new, accepted: true, lambda, step_norm });
             }
-            lambda *= self.nu;
+            lambda = if gtsam { lambda * 10.0 } else { lambda * self.nu };
             self.nu *= 2.0;
         }
         self.lambda = Some(lambda);

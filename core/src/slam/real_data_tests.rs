@@ -1,9 +1,13 @@
-//! The optimiser on real pose graphs (assets/data/slam, see assets/data/SOURCES.md). The fast
-//! ones run in every `cargo test`; the large ones are `#[ignore]`d and run in release:
-//! `cargo test -p fitslam-core --release slam::real_data -- --ignored --nocapture`.
+//! The optimiser on real pose graphs (assets/data/slam, see assets/data/SOURCES.md). The g2o
+//! graphs run in every `cargo test` (well under a second each); Victoria Park is `#[ignore]`d
+//! and runs in release: `cargo test -p fitslam-core --release slam::real_data -- --ignored
+//! --nocapture`. Agreement with GTSAM is checked by `scripts/compare_gtsam.py`.
 
 use super::g2o::read_g2o;
-use super::optimizer::{GaussNewton, LevenbergMarquardt, Optimizer, OptimizerParams, Summary, Termination};
+use super::optimizer::{
+    GaussNewton, LambdaSchedule, LevenbergMarquardt, Optimizer, OptimizerParams, Summary, Termination,
+};
+use super::victoria::read_victoria;
 use super::factors::Se2Residual;
 use super::problem::{Gauge, Problem};
 
@@ -31,7 +35,7 @@ fn check_converged(name: &str, summary: &Summary) {
 
 fn run_lm(name: &str) -> (Problem, Summary) {
     let mut p = load_g2o(name);
-    let mut lm = LevenbergMarquardt::new(OptimizerParams::default());
+    let mut lm = LevenbergMarquardt::new(OptimizerParams { max_iterations: 1000, ..OptimizerParams::default() });
     let summary = lm.optimize(&p.graph, &mut p.values).unwrap_or_else(|e| panic!("{name}: {e}"));
     check_converged(name, &summary);
     (p, summary)
@@ -57,13 +61,35 @@ fn small_grid_3d_lm() {
 }
 
 #[test]
-#[ignore = "larger; run in release"]
 fn csail_lm() {
     run_lm("CSAIL.g2o");
 }
 
 #[test]
-#[ignore = "larger; run in release"]
 fn parking_garage_lm() {
     run_lm("parking-garage.g2o");
+}
+
+#[test]
+fn mit_gtsam_schedule_reaches_gtsams_minimum_path() {
+    // MIT from odometry is non-convex: both schedules converge, to different local minima.
+    let mut p = load_g2o("MIT.g2o");
+    let params = OptimizerParams { max_iterations: 1000, lambda_schedule: LambdaSchedule::Gtsam, ..OptimizerParams::default() };
+    let summary = LevenbergMarquardt::new(params).optimize(&p.graph, &mut p.values).unwrap();
+    check_converged("MIT.g2o (GTSAM schedule)", &summary);
+}
+
+#[test]
+#[ignore = "6,969 poses, 151 landmarks, ~200 iterations: run in release"]
+fn victoria_park_lm() {
+    let mut p = read_victoria(&data("victoria_park.txt")).unwrap().to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
+    for schedule in [LambdaSchedule::Gtsam, LambdaSchedule::Nielsen] {
+        let mut values = p.values.clone();
+        let params = OptimizerParams { max_iterations: 1000, lambda_schedule: schedule, ..OptimizerParams::default() };
+        let summary = LevenbergMarquardt::new(params).optimize(&p.graph, &mut values).unwrap();
+        check_converged(&format!("victoria_park.txt ({schedule:?})"), &summary);
+        if schedule == LambdaSchedule::Gtsam {
+            p.values = values;
+        }
+    }
 }

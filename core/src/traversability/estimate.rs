@@ -220,7 +220,8 @@ fn estimate_cell(
     let (a, b, c) = (fused.scatter[0] * k, fused.scatter[1] * k, fused.scatter[3] * k);
     let lambda_xy = 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
     let min_spread = p.min_spread_ratio * p.disc_radius_m;
-    if min_spread > 0.0 && !(lambda_xy.max(0.0).sqrt() >= min_spread) {
+    let spread = lambda_xy.max(0.0).sqrt();
+    if min_spread > 0.0 && (spread.is_nan() || spread < min_spread) {
         return unknown;
     }
     let Some(plane) = fit_plane(&fused) else {

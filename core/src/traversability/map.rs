@@ -52,10 +52,8 @@ pub struct TraversabilityMap {
 impl TraversabilityMap {
     /// An empty map over `geometry`.
     pub fn new(geometry: GridGeometry) -> Result<Self, TraversabilityError> {
-        if !(geometry.resolution_m.is_finite() && geometry.resolution_m > 0.0)
-            || !geometry.origin_x_m.is_finite()
-            || !geometry.origin_y_m.is_finite()
-        {
+        let finite = geometry.origin_x_m.is_finite() && geometry.origin_y_m.is_finite();
+        if !finite || !geometry.resolution_m.is_finite() || geometry.resolution_m <= 0.0 {
             return Err(TraversabilityError::BadGeometry);
         }
         let cells = geometry.width.checked_mul(geometry.height).filter(|&n| n <= MAX_CELLS && n <= u32::MAX as usize);

@@ -132,8 +132,8 @@ impl MomentSum {
         }
         let n = m.count as f64;
         let d = [m.mean[0] - self.origin[0], m.mean[1] - self.origin[1], m.mean[2] - self.origin[2]];
-        for k in 0..3 {
-            self.sum_d[k] += n * d[k];
+        for (s, dk) in self.sum_d.iter_mut().zip(d) {
+            *s += n * dk;
         }
         for (s, o) in self.sum_s.iter_mut().zip(m.scatter) {
             *s += o;

@@ -2,7 +2,8 @@
 //!
 //! Notes §2: the plane's normal is the eigenvector of the smallest eigenvalue λ_min of the
 //! centred covariance C = S/n; slope = angle between that normal and +z; roughness = √λ_min
-//! (the RMS distance of the points to the plane). One 3×3 symmetric eigendecomposition, O(1).
+//! (the RMS distance of the points to the plane). One 3×3 symmetric eigenproblem, O(1): in
+//! closed form when well conditioned, else nalgebra's iterative `SymmetricEigen`.
 //!
 //! Degenerate geometry (not in the notes; chosen so the answer is always defined and never
 //! optimistic for vertical structures): when the points do not span a plane the least-squares
@@ -81,7 +82,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 /// or collinear points, or when λ_min is too close to λ_mid for the cross product to be accurate.
 fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> {
     let s = c.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(s > COINCIDENT_VAR_M2) {
+    if s.is_nan() || s <= COINCIDENT_VAR_M2 {
         return None;
     }
     let a = c.map(|row| row.map(|v| v / s));
@@ -89,7 +90,7 @@ fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> 
     let q = (a[0][0] + a[1][1] + a[2][2]) / 3.0;
     let (d0, d1, d2) = (a[0][0] - q, a[1][1] - q, a[2][2] - q);
     let p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * p1;
-    if !(p2 > 1e-24) {
+    if p2.is_nan() || p2 <= 1e-24 {
         return None; // isotropic: every direction is an eigenvector
     }
     let p = (p2 / 6.0).sqrt();
@@ -120,7 +121,7 @@ fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> 
     }
     // |cross| ≈ (λ_max − λ_min)(λ_mid − λ_min); below 1e-6 the direction error could exceed
     // ~1e-10 rad, so let the iterative solver decide.
-    if !(best_n2 > 1e-12) {
+    if best_n2.is_nan() || best_n2 <= 1e-12 {
         return None;
     }
     let inv = 1.0 / best_n2.sqrt();
@@ -195,8 +196,8 @@ mod tests {
         // Normal ∝ (−tan a cos 30°, −tan a sin 30°, 1).
         let n = [-a.tan() * c, -a.tan() * s, 1.0];
         let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        for k in 0..3 {
-            assert!((p.normal[k] - n[k] / len).abs() < 1e-9);
+        for (got, want) in p.normal.iter().zip(n) {
+            assert!((got - want / len).abs() < 1e-9);
         }
         let h = p.height_at(0.05, 0.1).unwrap();
         assert!((h - (3.0 + a.tan() * (0.05 * c + 0.1 * s))).abs() < 1e-9);

@@ -1,0 +1,498 @@
+//! The simulated world (notes §8): a ground-truth heightfield with its obstacles (rocks, boxes,
+//! walls, ramps all raise the heightfield), visual landmarks, a start pose, an exploration
+//! boundary and a time limit, described by a TOML [`WorldSpec`] and built into a [`World`].
+//!
+//! Terrain sources: a seeded procedural generator (hills, ridges, tilt, ramps), a real DEM image
+//! scaled to rover size, or a 2D map_server map whose occupied (and unknown) pixels are extruded
+//! into walls. Core does no file IO: [`World::build`] takes a loader closure that returns a
+//! named file's bytes (the CLI resolves names relative to the world file).
+//!
+//! Ground truth for the metrics: the traversability of the true heightfield, computed by the same
+//! estimator as the robot's map ([`crate::traversability`]) on dense noise-free points (four per
+//! cell), so "untraversable" means the same thresholds for both; and the *explorable* cells: GT
+//! free cells inside the boundary, 8-connected through GT free cells to the start.
+//! Building is O(cells × disc cells).
+
+use super::{fractal_noise, scatter_landmarks, scatter_rocks, DemScaling, Heightfield, HeightfieldError, LandmarkDensity, Rock};
+use crate::frontier::Boundary;
+use crate::grid::{Cell, GridGeometry, OccupancyGrid, FREE, LETHAL};
+use crate::io::MapError;
+use crate::params::TraversabilityParams;
+use crate::pose::Pose2;
+use crate::traversability::{TraversabilityError, TraversabilityMap};
+use nalgebra::Point3;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Why a world could not be built.
+#[derive(Debug, Error)]
+pub enum WorldError {
+    #[error("{name}: invalid TOML: {message}")]
+    Toml { name: String, message: String },
+    #[error("world: {0}")]
+    Invalid(String),
+    #[error("{name}: {message}")]
+    Load { name: String, message: String },
+    #[error(transparent)]
+    Heightfield(#[from] HeightfieldError),
+    #[error(transparent)]
+    Map(#[from] MapError),
+    #[error(transparent)]
+    Traversability(#[from] TraversabilityError),
+}
+
+/// A world file: everything the simulator needs to build the ground truth.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    /// A short name (plots, summary). Default "".
+    #[serde(default)]
+    pub name: String,
+    /// Seed of rocks and landmarks (the procedural terrain has its own). Default 1.
+    #[serde(default = "one")]
+    pub seed: u64,
+    /// Heightfield cell, metres. Default 0.05 (map_server terrains use the map's resolution).
+    #[serde(default = "default_cell")]
+    pub cell_m: f64,
+    pub terrain: TerrainSpec,
+    /// Rocks scattered by the seed; none if absent.
+    #[serde(default)]
+    pub rocks: Option<RockSpec>,
+    /// Boxes (and straight walls) standing on the terrain.
+    #[serde(default)]
+    pub boxes: Vec<BoxSpec>,
+    /// Ramps: wedges rising from 0 at one end to `height_m` at the other.
+    #[serde(default)]
+    pub ramps: Vec<RampSpec>,
+    /// Visual landmark density. Default [`LandmarkDensity::default`].
+    #[serde(default)]
+    pub landmarks: LandmarkSpec,
+    /// Start pose [x_m, y_m, yaw_rad].
+    pub start: [f64; 3],
+    /// Exploration boundary [min_x_m, min_y_m, max_x_m, max_y_m]; default: the world inset by
+    /// 0.5 m.
+    #[serde(default)]
+    pub boundary: Option<[f64; 4]>,
+    /// Mission time limit, seconds. Default 5000.
+    #[serde(default = "default_time_limit")]
+    pub time_limit_s: f64,
+}
+
+fn one() -> u64 {
+    1
+}
+fn default_cell() -> f64 {
+    0.05
+}
+fn default_time_limit() -> f64 {
+    5000.0
+}
+
+/// Where the terrain comes from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TerrainSpec {
+    /// Seeded value-noise hills and ridges on a tilted plane, `size_m` square.
+    Procedural {
+        seed: u64,
+        size_m: f64,
+        /// Peak-to-trough height of the hills, metres.
+        #[serde(default)]
+        hill_height_m: f64,
+        #[serde(default = "default_hill_wavelength")]
+        hill_wavelength_m: f64,
+        /// Height of the ridges (sharp crests of ridged noise), metres.
+        #[serde(default)]
+        ridge_height_m: f64,
+        #[serde(default = "default_ridge_wavelength")]
+        ridge_wavelength_m: f64,
+        /// Global tilt along +x and +y, degrees.
+        #[serde(default)]
+        tilt_x_deg: f64,
+        #[serde(default)]
+        tilt_y_deg: f64,
+    },
+    /// A grey PNG DEM (pixel value = metres), central crop scaled to `size_m`.
+    Dem {
+        file: String,
+        pixel_x_m: f64,
+        pixel_y_m: f64,
+        size_m: f64,
+        #[serde(default = "default_crop")]
+        crop_fraction: f64,
+        /// Vertical scale relative to the horizontal one. Default 1.
+        #[serde(default = "one_f")]
+        relief_scale: f64,
+    },
+    /// A map_server map (YAML naming a PGM/PNG): occupied and unknown pixels become walls.
+    MapServer {
+        file: String,
+        #[serde(default = "default_wall_height")]
+        wall_height_m: f64,
+    },
+}
+
+fn default_hill_wavelength() -> f64 {
+    8.0
+}
+fn default_ridge_wavelength() -> f64 {
+    6.0
+}
+fn default_crop() -> f64 {
+    0.1
+}
+fn one_f() -> f64 {
+    1.0
+}
+fn default_wall_height() -> f64 {
+    1.0
+}
+
+/// Rocks scattered on a lattice (see [`scatter_rocks`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RockSpec {
+    pub spacing_m: f64,
+    /// Probability of a rock per lattice cell.
+    pub density: f64,
+    pub radius_m: [f64; 2],
+    pub height_m: [f64; 2],
+    /// No rock within this distance of the start, metres. Default 1.2.
+    #[serde(default = "default_keep_clear")]
+    pub keep_clear_m: f64,
+}
+
+fn default_keep_clear() -> f64 {
+    1.2
+}
+
+/// An axis-aligned box (or wall) on the terrain: its top is `height_m` above the ground at its
+/// centre.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    pub min_m: [f64; 2],
+    pub max_m: [f64; 2],
+    pub height_m: f64,
+}
+
+/// An axis-aligned wedge: rises from 0 at `from` side to `height_m` along `axis` ("x" or "-x",
+/// "y", "-y").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RampSpec {
+    pub min_m: [f64; 2],
+    pub max_m: [f64; 2],
+    pub height_m: f64,
+    pub rises_along: String,
+}
+
+/// Serde mirror of [`LandmarkDensity`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LandmarkSpec {
+    pub spacing_m: f64,
+    pub max_probability: f64,
+    pub contrast: f64,
+    pub texture_wavelength_m: f64,
+    pub rock_density_per_m2: f64,
+    pub max_height_m: f64,
+}
+
+impl Default for LandmarkSpec {
+    fn default() -> Self {
+        let d = LandmarkDensity::default();
+        Self {
+            spacing_m: d.spacing_m,
+            max_probability: d.max_probability,
+            contrast: d.contrast,
+            texture_wavelength_m: d.texture_wavelength_m,
+            rock_density_per_m2: d.rock_density_per_m2,
+            max_height_m: d.max_height_m,
+        }
+    }
+}
+
+impl LandmarkSpec {
+    pub fn density(&self) -> LandmarkDensity {
+        LandmarkDensity {
+            spacing_m: self.spacing_m,
+            max_probability: self.max_probability,
+            contrast: self.contrast,
+            texture_wavelength_m: self.texture_wavelength_m,
+            rock_density_per_m2: self.rock_density_per_m2,
+            max_height_m: self.max_height_m,
+        }
+    }
+}
+
+impl WorldSpec {
+    /// Parses a world file; `name` is quoted in errors.
+    pub fn from_toml(text: &str, name: &str) -> Result<Self, WorldError> {
+        let spec: WorldSpec = toml::from_str(text).map_err(|e: toml::de::Error| {
+            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let message = e.message().trim().replace('\n', " ");
+            let message = match line {
+                Some(l) => format!("line {l}: {message}"),
+                None => message,
+            };
+            WorldError::Toml { name: name.into(), message }
+        })?;
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// Checks ranges.
+    pub fn validate(&self) -> Result<(), WorldError> {
+        let bad = |m: String| Err(WorldError::Invalid(m));
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        if !pos(self.cell_m) || self.cell_m > 1.0 {
+            return bad(format!("cell_m must be in (0, 1] (got {})", self.cell_m));
+        }
+        if !pos(self.time_limit_s) {
+            return bad("time_limit_s must be > 0".into());
+        }
+        if !self.start.iter().all(|v| v.is_finite()) {
+            return bad("start must be finite".into());
+        }
+        match &self.terrain {
+            TerrainSpec::Procedural { size_m, hill_wavelength_m, ridge_wavelength_m, .. } => {
+                if !pos(*size_m) || *size_m > 500.0 || !pos(*hill_wavelength_m) || !pos(*ridge_wavelength_m) {
+                    return bad("terrain: size_m in (0, 500] and wavelengths > 0".into());
+                }
+            }
+            TerrainSpec::Dem { size_m, relief_scale, .. } => {
+                if !pos(*size_m) || *size_m > 500.0 || !(relief_scale.is_finite() && *relief_scale >= 0.0) {
+                    return bad("terrain: size_m in (0, 500] and relief_scale ≥ 0".into());
+                }
+            }
+            TerrainSpec::MapServer { wall_height_m, .. } => {
+                if !pos(*wall_height_m) {
+                    return bad("terrain: wall_height_m must be > 0".into());
+                }
+            }
+        }
+        if let Some(r) = &self.rocks {
+            if !pos(r.spacing_m) || !(0.0..=1.0).contains(&r.density) || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1])
+                || !(r.height_m[0] >= 0.0 && r.height_m[0] <= r.height_m[1])
+            {
+                return bad("rocks: spacing_m > 0, density in [0, 1], 0 < min ≤ max for radius_m and height_m".into());
+            }
+        }
+        for r in &self.ramps {
+            if !["x", "-x", "y", "-y"].contains(&r.rises_along.as_str()) {
+                return bad(format!("ramp rises_along must be x, -x, y or -y (got {:?})", r.rises_along));
+            }
+        }
+        if !pos(self.landmarks.spacing_m) || !pos(self.landmarks.texture_wavelength_m) {
+            return bad("landmarks: spacing_m and texture_wavelength_m must be > 0".into());
+        }
+        if let Some(b) = self.boundary {
+            if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
+                return bad("boundary must be [min_x, min_y, max_x, max_y] with min < max".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A built world: ground truth for the simulator and the metrics.
+#[derive(Clone, Debug)]
+pub struct World {
+    pub spec: WorldSpec,
+    /// Ground heights including every obstacle.
+    pub field: Heightfield,
+    pub rocks: Vec<Rock>,
+    /// Landmark positions (their index is their id).
+    pub landmarks: Vec<Point3<f64>>,
+    pub start: Pose2,
+    pub boundary: Boundary,
+    /// Boundary as [min_x, min_y, max_x, max_y].
+    pub boundary_box_m: [f64; 4],
+    /// GT traversability thresholded (not inflated), on `field.geometry`.
+    pub gt_occupancy: OccupancyGrid,
+    /// GT free, inside the boundary, connected to the start.
+    pub explorable: Vec<bool>,
+    pub explorable_count: usize,
+}
+
+impl World {
+    /// Builds a world; `load(name)` returns the bytes of a file the spec names.
+    pub fn build(
+        spec: &WorldSpec,
+        traversability: &TraversabilityParams,
+        tau: f64,
+        mut load: impl FnMut(&str) -> Result<Vec<u8>, String>,
+    ) -> Result<Self, WorldError> {
+        spec.validate()?;
+        let mut fetch = |name: &str| load(name).map_err(|message| WorldError::Load { name: name.into(), message });
+        let mut field = match &spec.terrain {
+            TerrainSpec::Procedural { seed, size_m, hill_height_m, hill_wavelength_m, ridge_height_m, ridge_wavelength_m, tilt_x_deg, tilt_y_deg } => {
+                let n = (size_m / spec.cell_m).round().max(2.0) as usize;
+                let g = GridGeometry::new(0.0, 0.0, size_m / n as f64, n, n);
+                let (tx, ty) = (tilt_x_deg.to_radians().tan(), tilt_y_deg.to_radians().tan());
+                Heightfield::from_fn(g, |x, y| {
+                    let hills = hill_height_m * fractal_noise(x, y, *hill_wavelength_m, 3, *seed);
+                    let ridged = 1.0 - (2.0 * fractal_noise(x, y, *ridge_wavelength_m, 2, seed ^ 0xA5A5) - 1.0).abs();
+                    let ridges = ridge_height_m * ridged.powi(4);
+                    hills + ridges + tx * x + ty * y
+                })
+            }
+            TerrainSpec::Dem { file, pixel_x_m, pixel_y_m, size_m, crop_fraction, relief_scale } => {
+                let bytes = fetch(file)?;
+                let scaling = DemScaling {
+                    pixel_x_m: *pixel_x_m,
+                    pixel_y_m: *pixel_y_m,
+                    world_size_m: *size_m,
+                    cell_m: spec.cell_m,
+                    crop_fraction: *crop_fraction,
+                };
+                let mut f = Heightfield::from_dem_png(&bytes, file, scaling)?;
+                f.heights_m.iter_mut().for_each(|z| *z *= relief_scale);
+                f
+            }
+            TerrainSpec::MapServer { file, wall_height_m } => {
+                let yaml_bytes = fetch(file)?;
+                let yaml = crate::io::MapYaml::parse(&yaml_bytes, file)?;
+                let image = fetch(&yaml.image)?;
+                let grid = crate::io::load_map(&yaml_bytes, file, &image, &yaml.image)?;
+                let g = grid.geometry;
+                let walls = Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() };
+                walls
+            }
+        };
+        let start_xy = (spec.start[0], spec.start[1]);
+        if field.geometry.cell_of(start_xy.0, start_xy.1).is_none() {
+            return Err(WorldError::Invalid(format!("start ({}, {}) is outside the terrain", start_xy.0, start_xy.1)));
+        }
+        for b in &spec.boxes {
+            stamp_box(&mut field, b);
+        }
+        for r in &spec.ramps {
+            stamp_ramp(&mut field, r);
+        }
+        let rocks = match &spec.rocks {
+            Some(r) => scatter_rocks(
+                &mut field,
+                spec.seed,
+                r.spacing_m,
+                r.density,
+                (r.radius_m[0], r.radius_m[1]),
+                (r.height_m[0], r.height_m[1]),
+                start_xy,
+                r.keep_clear_m,
+            ),
+            None => Vec::new(),
+        };
+        // Map frame: z = 0 on the ground under the start.
+        let z0 = field.height_at(start_xy.0, start_xy.1).unwrap_or(0.0);
+        field.heights_m.iter_mut().for_each(|z| *z -= z0);
+        let landmarks = scatter_landmarks(&field, &rocks, &spec.landmarks.density(), spec.seed);
+
+        let (min_x, min_y, max_x, max_y) = field.geometry.bounds_m();
+        let boundary_box_m = spec.boundary.unwrap_or([min_x + 0.5, min_y + 0.5, max_x - 0.5, max_y - 0.5]);
+        let boundary = Boundary::from_bounds(boundary_box_m[0], boundary_box_m[1], boundary_box_m[2], boundary_box_m[3]);
+        let gt_occupancy = ground_truth_occupancy(&field, traversability, tau)?;
+        let start = Pose2 { x_m: spec.start[0], y_m: spec.start[1], yaw_rad: spec.start[2] };
+        let explorable = explorable_cells(&gt_occupancy, &boundary, start);
+        let explorable_count = explorable.iter().filter(|&&e| e).count();
+        Ok(Self { spec: spec.clone(), field, rocks, landmarks, start, boundary, boundary_box_m, gt_occupancy, explorable, explorable_count })
+    }
+
+    /// Whether the ground-truth cell under (x, y) is untraversable (outside the map counts as
+    /// untraversable).
+    pub fn gt_lethal_at(&self, x_m: f64, y_m: f64) -> bool {
+        let g = &self.gt_occupancy.geometry;
+        match g.cell_of(x_m, y_m).and_then(|c| g.index(c)) {
+            Some(i) => self.gt_occupancy.data[i] != FREE,
+            None => true,
+        }
+    }
+}
+
+/// GT traversability: the estimator on four noise-free points per cell.
+pub fn ground_truth_occupancy(field: &Heightfield, params: &TraversabilityParams, tau: f64) -> Result<OccupancyGrid, WorldError> {
+    let g = field.geometry;
+    let mut map = TraversabilityMap::new(g)?;
+    let q = g.resolution_m * 0.25;
+    let points = (0..g.len()).flat_map(|i| {
+        let (x, y) = g.center_of(g.cell_at(i));
+        [(-q, -q), (q, -q), (-q, q), (q, q)].into_iter().map(move |(dx, dy)| (x + dx, y + dy))
+    });
+    map.insert_points(points.filter_map(|(x, y)| field.height_at(x, y).map(|z| Point3::new(x, y, z))));
+    let layers = map.compute(params);
+    let mut occ = layers.to_occupancy(tau);
+    // Cells the estimator leaves unknown (none in practice) are not traversable ground truth.
+    occ.data.iter_mut().for_each(|v| {
+        if *v != FREE {
+            *v = LETHAL
+        }
+    });
+    Ok(occ)
+}
+
+/// GT free cells inside `boundary` 8-connected through GT free cells (inside the boundary) to the
+/// start's cell. O(cells).
+pub fn explorable_cells(gt: &OccupancyGrid, boundary: &Boundary, start: Pose2) -> Vec<bool> {
+    let g = gt.geometry;
+    let mut seen = vec![false; g.len()];
+    let inside = |c: Cell| {
+        let (x, y) = g.center_of(c);
+        boundary.contains(x, y)
+    };
+    let Some(s) = g.cell_of(start.x_m, start.y_m) else { return seen };
+    let Some(si) = g.index(s) else { return seen };
+    if gt.data[si] != FREE {
+        return seen;
+    }
+    let mut stack = vec![s];
+    seen[si] = true;
+    while let Some(c) = stack.pop() {
+        for dr in -1..=1 {
+            for dc in -1..=1 {
+                let n = Cell::new(c.col + dc, c.row + dr);
+                if let Some(j) = g.index(n) {
+                    if !seen[j] && gt.data[j] == FREE && inside(n) {
+                        seen[j] = true;
+                        stack.push(n);
+                    }
+                }
+            }
+        }
+    }
+    // The start cell counts only if inside the boundary.
+    if !inside(s) {
+        seen[si] = false;
+    }
+    seen
+}
+
+fn for_cells_in_box(field: &mut Heightfield, min: [f64; 2], max: [f64; 2], mut f: impl FnMut(f64, f64, &mut f64)) {
+    let g = field.geometry;
+    for i in 0..g.len() {
+        let (x, y) = g.center_of(g.cell_at(i));
+        if x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1] {
+            f(x, y, &mut field.heights_m[i]);
+        }
+    }
+}
+
+fn stamp_box(field: &mut Heightfield, b: &BoxSpec) {
+    let base = field.height_at((b.min_m[0] + b.max_m[0]) / 2.0, (b.min_m[1] + b.max_m[1]) / 2.0).unwrap_or(0.0);
+    for_cells_in_box(field, b.min_m, b.max_m, |_, _, z| *z = z.max(base + b.height_m));
+}
+
+fn stamp_ramp(field: &mut Heightfield, r: &RampSpec) {
+    let base = field.height_at(r.min_m[0], r.min_m[1]).unwrap_or(0.0);
+    let (lx, ly) = (r.max_m[0] - r.min_m[0], r.max_m[1] - r.min_m[1]);
+    let axis = r.rises_along.clone();
+    for_cells_in_box(field, r.min_m, r.max_m, |x, y, z| {
+        let t = match axis.as_str() {
+            "x" => (x - r.min_m[0]) / lx,
+            "-x" => (r.max_m[0] - x) / lx,
+            "y" => (y - r.min_m[1]) / ly,
+            _ => (r.max_m[1] - y) / ly,
+        };
+        *z = z.max(base + r.height_m * t.clamp(0.0, 1.0));
+    });
+}

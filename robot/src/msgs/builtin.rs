@@ -1,0 +1,42 @@
+//! `builtin_interfaces`: Time and Duration.
+
+use serde::{Deserialize, Serialize};
+
+/// `builtin_interfaces/Time`: seconds and nanoseconds since the epoch (or since the start of a
+/// simulation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Time {
+    pub sec: i32,
+    pub nanosec: u32,
+}
+super::ros_message!(Time, "builtin_interfaces", "Time");
+
+impl Time {
+    /// From seconds (saturating at the i32 range; negative and NaN give zero).
+    pub fn from_secs_f64(t_s: f64) -> Self {
+        if !(t_s > 0.0) {
+            return Self::default();
+        }
+        let sec = t_s.floor().min(i32::MAX as f64);
+        let nanosec = (((t_s - sec) * 1e9).round() as u32).min(999_999_999);
+        Self { sec: sec as i32, nanosec }
+    }
+
+    /// Seconds as f64.
+    pub fn as_secs_f64(&self) -> f64 {
+        self.sec as f64 + self.nanosec as f64 * 1e-9
+    }
+
+    /// Whether this is the zero stamp ("latest available" in tf2 and unset in most publishers).
+    pub fn is_zero(&self) -> bool {
+        self.sec == 0 && self.nanosec == 0
+    }
+}
+
+/// `builtin_interfaces/Duration`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Duration {
+    pub sec: i32,
+    pub nanosec: u32,
+}
+super::ros_message!(Duration, "builtin_interfaces", "Duration");

@@ -1,0 +1,236 @@
+// Real-browser test of the studio's web bundle: Debian's chromium, headless, driven by
+// playwright-core. Serves target/studio-web/ from an in-process static server on 127.0.0.1,
+// then, as a user would:
+//   1. opens the page on the built-in courtyard and waits for the first decision;
+//   2. opens a map (map.yaml + map.pgm) through the file picker (Ctrl+O);
+//   3. drops a landmark set (landmarks.ply) on the canvas and answers "Landmarks" in the dialog;
+//   4. drags the α slider to its end and checks that the ranking changed;
+//   5. clicks the best candidate, drags the robot, and times re-ranking over many slider moves.
+// The canvas has no DOM, so the app publishes its state: document.title (a digest of the
+// ranking) and window.fitslam.{ranking, stats, widgets} (JSON; widget rectangles in CSS px).
+// Screenshots go to target/studio-web-test/, with timing.json. Prints "N passed, N failed".
+//
+// Usage: node browser-test.mjs [bundle dir] [output dir]   (env CHROMIUM overrides the binary)
+
+import { chromium } from "playwright-core";
+import http from "node:http";
+import fs from "node:fs";
+import path from "node:path";
+import { fileURLToPath } from "node:url";
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const repo = path.resolve(here, "../..");
+const bundle = path.resolve(process.argv[2] ?? path.join(repo, "target/studio-web"));
+const outDir = path.resolve(process.argv[3] ?? path.join(repo, "target/studio-web-test"));
+const assetDir = path.join(repo, "assets/maps/jacksboro");
+const executablePath = process.env.CHROMIUM ?? "/usr/bin/chromium";
+fs.mkdirSync(outDir, { recursive: true });
+
+let passed = 0;
+let failed = 0;
+function check(name, ok, detail = "") {
+  if (ok) {
+    passed++;
+    console.log(`ok   - ${name}${detail ? ": " + detail : ""}`);
+  } else {
+    failed++;
+    console.log(`FAIL - ${name}${detail ? ": " + detail : ""}`);
+  }
+  return ok;
+}
+
+// --- static server -------------------------------------------------------------------------
+const mime = { ".html": "text/html", ".js": "text/javascript", ".wasm": "application/wasm", ".css": "text/css", ".json": "application/json" };
+const server = http.createServer((req, res) => {
+  const url = new URL(req.url, "http://127.0.0.1");
+  let file = path.normalize(path.join(bundle, decodeURIComponent(url.pathname)));
+  if (!file.startsWith(bundle)) { res.writeHead(403); res.end(); return; }
+  if (fs.existsSync(file) && fs.statSync(file).isDirectory()) file = path.join(file, "index.html");
+  fs.readFile(file, (err, data) => {
+    if (err) { res.writeHead(404); res.end("not found"); return; }
+    res.writeHead(200, { "Content-Type": mime[path.extname(file)] ?? "application/octet-stream" });
+    res.end(data);
+  });
+});
+await new Promise((ok) => server.listen(0, "127.0.0.1", ok));
+const base = `http://127.0.0.1:${server.address().port}/`;
+
+// --- browser -------------------------------------------------------------------------------
+const browser = await chromium.launch({
+  executablePath,
+  headless: true,
+  args: [
+    "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+  ],
+});
+const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
+const consoleErrors = [];
+page.on("console", (m) => { if (m.type() === "error") consoleErrors.push(m.text()); });
+page.on("pageerror", (e) => consoleErrors.push(String(e)));
+
+const state = () => page.evaluate(() => {
+  const f = window.fitslam;
+  if (!f) return null;
+  return { title: document.title, ranking: f.ranking, stats: JSON.parse(f.stats), widgets: JSON.parse(f.widgets) };
+});
+async function waitFor(name, pred, timeoutMs = 30000) {
+  const t0 = Date.now();
+  let s = null;
+  while (Date.now() - t0 < timeoutMs) {
+    s = await state();
+    if (s && pred(s)) return s;
+    await page.waitForTimeout(100);
+  }
+  check(name, false, `timed out; last state: ${JSON.stringify(s?.stats ?? null)}`);
+  return null;
+}
+
+// Screenshot and a measure of how much is drawn: distinct colours (quantised) and the share of
+// pixels that differ from the most common colour.
+async function shot(name) {
+  const file = path.join(outDir, name);
+  const png = await page.screenshot({ path: file });
+  const m = await page.evaluate(async (b64) => {
+    const img = new Image();
+    img.src = "data:image/png;base64," + b64;
+    await img.decode();
+    const c = document.createElement("canvas");
+    c.width = img.width; c.height = img.height;
+    const g = c.getContext("2d");
+    g.drawImage(img, 0, 0);
+    const d = g.getImageData(0, 0, c.width, c.height).data;
+    const counts = new Map();
+    for (let i = 0; i < d.length; i += 4) {
+      const k = ((d[i] >> 3) << 10) | ((d[i + 1] >> 3) << 5) | (d[i + 2] >> 3);
+      counts.set(k, (counts.get(k) ?? 0) + 1);
+    }
+    const n = d.length / 4;
+    const top = Math.max(...counts.values());
+    return { colours: counts.size, nonBackground: 1 - top / n };
+  }, png.toString("base64"));
+  return { file, ...m };
+}
+function notBlank(name, m) {
+  return check(`${name} is not blank`, m.colours >= 50 && m.nonBackground >= 0.2, `${m.colours} colours, ${(100 * m.nonBackground).toFixed(0)}% drawn (${path.relative(repo, m.file)})`);
+}
+const rect = (s, k) => s.widgets[k];
+const center = (r) => [r[0] + r[2] / 2, r[1] + r[3] / 2];
+
+try {
+  // 1. Start on a built-in asset.
+  await page.goto(base + "?asset=courtyard");
+  let s = await waitFor("first decision", (s) => s.ranking !== "null" && s.title.startsWith("fitslam: chosen="));
+  if (!s) throw new Error("the studio did not start");
+  check("starts on the requested built-in asset", s.stats.map === "courtyard", s.stats.map);
+  check("title shows the ranking", /^fitslam: chosen=\d+ top=\[\(\d+,/.test(s.title), s.title);
+  notBlank("start screenshot", await shot("01-start.png"));
+  const startTitle = s.title;
+
+  // 2. Open a map through the file picker (Ctrl+O opens it; the browser's picker is answered).
+  await page.mouse.click(...center(rect(s, "canvas")));
+  const [chooser] = await Promise.all([
+    page.waitForEvent("filechooser", { timeout: 10000 }),
+    page.keyboard.press("Control+o"),
+  ]);
+  check("Ctrl+O opens a multi-file picker", chooser.isMultiple());
+  await chooser.setFiles([path.join(assetDir, "map.yaml"), path.join(assetDir, "map.pgm")]);
+  s = await waitFor("map loaded through the picker", (s) => s.stats.map === "map.yaml");
+  if (s) {
+    check("map from the picker is 400 × 400", JSON.stringify(s.stats.map_cells) === "[400,400]", JSON.stringify(s.stats.map_cells));
+    check("ranking changed with the map", s.title !== startTitle, `${startTitle} -> ${s.title}`);
+  }
+
+  // 3. Drop a landmark set on the canvas; the studio asks what the cloud is.
+  const ply = fs.readFileSync(path.join(assetDir, "landmarks.ply")).toString("base64");
+  await page.evaluate(async (b64) => {
+    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+    const dt = new DataTransfer();
+    dt.items.add(new File([bytes], "landmarks.ply", { type: "application/octet-stream" }));
+    const canvas = document.getElementById("fitslam_canvas");
+    const r = canvas.getBoundingClientRect();
+    const at = { clientX: r.left + r.width / 2, clientY: r.top + r.height / 2 };
+    for (const type of ["dragenter", "dragover", "drop"]) {
+      canvas.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true, ...at }));
+    }
+  }, ply);
+  s = await waitFor("dropped cloud asks what it is", (s) => s.stats.cloud_question === "landmarks.ply" && rect(s, "cloud_landmarks"));
+  if (s) {
+    await page.mouse.click(...center(rect(s, "cloud_landmarks")));
+    s = await waitFor("dropped landmarks loaded", (s) => s.stats.landmarks === "landmarks.ply");
+    if (s) check("1196 landmarks", s.stats.landmark_points === 1196, String(s.stats.landmark_points));
+  }
+  notBlank("loaded screenshot", await shot("02-loaded.png"));
+
+  // 4. Move a parameter: drag α's slider to its right end.
+  s = await state();
+  const before = s;
+  const a = rect(s, "alpha");
+  const width = s.stats.slider_width;
+  const y = a[1] + a[3] / 2;
+  const x0 = a[0] + width * s.stats.params.alpha;
+  await page.mouse.move(x0, y);
+  await page.mouse.down();
+  await page.mouse.move(x0 + 30, y, { steps: 3 });
+  await page.mouse.move(a[0] + width + 40, y, { steps: 5 });
+  await page.mouse.up();
+  s = await waitFor("α moved", (s) => s.stats.params.alpha > 0.99);
+  if (s) {
+    check("α slider reached 1", s.stats.params.alpha === 1, String(s.stats.params.alpha));
+    check("ranking changed after moving α", s.ranking !== before.ranking && s.stats.decision_revision > before.stats.decision_revision,
+      `${before.title} -> ${s.title}`);
+  }
+  notBlank("after-α screenshot", await shot("03-alpha.png"));
+
+  // 5a. Click the best candidate (selects it; its rays and cone are drawn).
+  s = await state();
+  if (rect(s, "rank1")) {
+    await page.mouse.click(...center(rect(s, "rank1")));
+    await page.waitForTimeout(300);
+    notBlank("selected-candidate screenshot", await shot("04-selected.png"));
+  }
+  // 5b. Drag the robot.
+  s = await state();
+  const robotBefore = s.stats.robot;
+  const rc = center(rect(s, "robot"));
+  await page.mouse.move(rc[0], rc[1]);
+  await page.mouse.down();
+  await page.mouse.move(rc[0] + 15, rc[1] - 10, { steps: 3 });
+  await page.mouse.move(rc[0] + 40, rc[1] - 25, { steps: 4 });
+  await page.mouse.up();
+  s = await waitFor("robot moved", (s) => s.stats.robot[0] !== robotBefore[0]);
+  if (s) check("robot moved right and up", s.stats.robot[0] > robotBefore[0] && s.stats.robot[1] > robotBefore[1], `${robotBefore} -> ${s.stats.robot}`);
+
+  // 5c. Re-ranking time in the browser: β moved across its range, one decision per move.
+  const times = [];
+  s = await state();
+  const b = rect(s, "beta");
+  for (let k = 0; k <= 20; k++) {
+    const prev = (await state()).stats.decision_revision;
+    const x = b[0] + width * (k / 20);
+    await page.mouse.click(x, b[1] + b[3] / 2);
+    const t = await waitFor(`decision after β move ${k}`, (s) => s.stats.decision_revision > prev, 10000);
+    if (!t) break;
+    times.push(t.stats.decision_ms);
+  }
+  times.sort((p, q) => p - q);
+  const median = times[Math.floor(times.length / 2)];
+  const max = times[times.length - 1];
+  s = await state();
+  const timing = { map: s.stats.map, map_cells: s.stats.map_cells, landmarks: s.stats.landmark_points, decisions: times.length, median_ms: median, max_ms: max, all_ms: times };
+  fs.writeFileSync(path.join(outDir, "timing.json"), JSON.stringify(timing, null, 2));
+  check("re-ranking timed in the browser", times.length >= 10, `median ${median?.toFixed(2)} ms, max ${max?.toFixed(2)} ms over ${times.length} decisions on ${s.stats.map} ${JSON.stringify(s.stats.map_cells)}`);
+  notBlank("final screenshot", await shot("05-final.png"));
+
+  check("no error messages from the studio", !s.stats.messages.some((m) => /panic|failed/i.test(m)), JSON.stringify(s.stats.messages));
+  check("no errors in the console", consoleErrors.length === 0, consoleErrors.slice(0, 3).join(" | "));
+} catch (e) {
+  check("browser test ran to the end", false, String(e && e.stack || e));
+  try { await shot("99-failure.png"); } catch {}
+} finally {
+  await browser.close();
+  server.close();
+}
+
+console.log(`${passed} passed, ${failed} failed`);
+process.exit(failed === 0 && passed > 0 ? 0 : 1);
