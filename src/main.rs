@@ -2,6 +2,7 @@
 //! prints or writes the result. Errors print one line and exit non-zero.
 
 mod asset_cmd;
+mod explore_cmd;
 mod load;
 mod params_cmd;
 mod optimize;
@@ -31,6 +32,8 @@ enum Command {
     BuildAsset(asset_cmd::BuildAssetArgs),
     /// Optimise a pose graph (g2o or Victoria Park) and report chi2, time and the last pose's marginal.
     Optimize(optimize::OptimizeArgs),
+    /// Run one whole simulated exploration mission in a world file and write metrics, trajectories, maps and plots.
+    Explore(explore_cmd::ExploreArgs),
 }
 
 fn main() -> ExitCode {
@@ -41,6 +44,7 @@ fn main() -> ExitCode {
         Command::Traversability(a) => traversability_cmd::run(a),
         Command::BuildAsset(a) => asset_cmd::run(a),
         Command::Optimize(a) => optimize::run(a),
+        Command::Explore(a) => explore_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

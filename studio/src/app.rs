@@ -151,6 +151,7 @@ impl StudioApp {
                     self.revs.map += 1;
                     self.revs.layout += 1;
                     self.after_scene_change();
+                    self.messages.retain(|m| !m.text.contains("now drop or open its image"));
                     self.info(format!("map {name}: {cells} cells, {known} known"));
                 }
                 Ok(Loaded::Landmarks(lm)) => {
@@ -348,7 +349,7 @@ impl StudioApp {
                 .on_hover_text("Wall-clock time of the last selector run and of everything re-run by the last change.");
         });
         let mut dismiss = None;
-        for (k, m) in self.messages.iter().enumerate().rev().take(3) {
+        for (k, m) in self.messages.iter().enumerate().rev().take(2) {
             ui.horizontal(|ui| {
                 if ui.small_button("x").on_hover_text("Dismiss").clicked() {
                     dismiss = Some(k);

@@ -325,6 +325,19 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
         }
     }
     if response.drag_stopped() {
+        if app.canvas.drag == Drag::MoveRobot {
+            // Dropped on an obstacle or in the unknown: put the robot on the nearest cell the
+            // planner can start from (free on the inflated grid).
+            let radius = app.params.robot.radius_m;
+            let robot = app.scene.robot;
+            let snapped = app.pipeline.inflated(radius).and_then(|(grid, _)| {
+                crate::scene::nearest_pose(grid, robot, |v| CellClass::of(*v) == CellClass::Free)
+            });
+            if let Some(p) = snapped.filter(|p| *p != robot) {
+                app.scene.robot = p;
+                app.layout_changed();
+            }
+        }
         app.canvas.drag = Drag::None;
     }
 

@@ -84,41 +84,10 @@ impl Scene {
         scene
     }
 
-    /// The free cell (score ≥ `min_score`) nearest to `pose`, searched in growing square rings;
-    /// keeps the yaw. `None` if the map has no such cell.
+    /// The free cell (score ≥ `min_score`) nearest to `pose`; keeps the yaw. `None` if the map
+    /// has no such cell.
     pub fn nearest_free_pose(&self, pose: Pose2, min_score: f32) -> Option<Pose2> {
-        let g = self.map.geometry();
-        let c = g.cell_unchecked(pose.x_m, pose.y_m)?;
-        let max_r = g.width.max(g.height) as i32;
-        let ok = |col: i32, row: i32| {
-            let cell = fitslam_core::Cell::new(col, row);
-            self.map.score.get(cell).is_some_and(|s| *s >= min_score)
-        };
-        for r in 0..=max_r {
-            let mut best: Option<(i64, i32, i32)> = None;
-            for dr in -r..=r {
-                for dc in -r..=r {
-                    if dr.abs() != r && dc.abs() != r {
-                        continue;
-                    }
-                    let (col, row) = (c.col + dc, c.row + dr);
-                    if ok(col, row) {
-                        let d2 = i64::from(dc) * i64::from(dc) + i64::from(dr) * i64::from(dr);
-                        if best.is_none_or(|(b, _, _)| d2 < b) {
-                            best = Some((d2, col, row));
-                        }
-                    }
-                }
-            }
-            if let Some((_, col, row)) = best {
-                if r == 0 {
-                    return Some(pose);
-                }
-                let (x, y) = g.center_of(fitslam_core::Cell::new(col, row));
-                return Some(Pose2::new(x, y, pose.yaw_rad));
-            }
-        }
-        None
+        nearest_pose(&self.map.score, pose, |s| *s >= min_score)
     }
 
     /// Landmark height range (min z, max z), for colouring; `None` without landmarks.
@@ -127,4 +96,38 @@ impl Scene {
         let first = it.next()?;
         Some(it.fold((first.z, first.z), |(lo, hi), p| (lo.min(p.z), hi.max(p.z))))
     }
+}
+
+/// The cell of `grid` nearest to `pose` (searched in growing square rings, nearest centre within
+/// a ring) whose value satisfies `ok`, as a pose keeping the yaw; `pose` itself if its own cell
+/// does. `None` if no cell does or the pose is not finite. O(cells) at worst.
+pub fn nearest_pose<T>(grid: &Grid<T>, pose: Pose2, ok: impl Fn(&T) -> bool) -> Option<Pose2> {
+    let g = grid.geometry;
+    let c = g.cell_unchecked(pose.x_m, pose.y_m)?;
+    let max_r = g.width.max(g.height) as i32 + c.col.abs().max(c.row.abs());
+    for r in 0..=max_r {
+        let mut best: Option<(i64, i32, i32)> = None;
+        for dr in -r..=r {
+            for dc in -r..=r {
+                if dr.abs() != r && dc.abs() != r {
+                    continue;
+                }
+                let (col, row) = (c.col + dc, c.row + dr);
+                if grid.get(fitslam_core::Cell::new(col, row)).is_some_and(&ok) {
+                    let d2 = i64::from(dc) * i64::from(dc) + i64::from(dr) * i64::from(dr);
+                    if best.is_none_or(|(b, _, _)| d2 < b) {
+                        best = Some((d2, col, row));
+                    }
+                }
+            }
+        }
+        if let Some((_, col, row)) = best {
+            if r == 0 {
+                return Some(pose);
+            }
+            let (x, y) = g.center_of(fitslam_core::Cell::new(col, row));
+            return Some(Pose2::new(x, y, pose.yaw_rad));
+        }
+    }
+    None
 }

@@ -68,6 +68,9 @@ const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
 const consoleErrors = [];
 page.on("console", (m) => { if (m.type() === "error") consoleErrors.push(m.text()); });
 page.on("pageerror", (e) => consoleErrors.push(String(e)));
+// Arm file-chooser interception before anything can open one (arming is asynchronous).
+const choosers = [];
+page.on("filechooser", (fc) => choosers.push(fc));
 
 const state = () => page.evaluate(() => {
   const f = window.fitslam;
@@ -129,11 +132,12 @@ try {
 
   // 2. Open a map through the file picker (Ctrl+O opens it; the browser's picker is answered).
   await page.mouse.click(...center(rect(s, "canvas")));
-  const [chooser] = await Promise.all([
-    page.waitForEvent("filechooser", { timeout: 10000 }),
-    page.keyboard.press("Control+o"),
-  ]);
-  check("Ctrl+O opens a multi-file picker", chooser.isMultiple());
+  await page.waitForTimeout(300);
+  await page.keyboard.press("Control+o");
+  for (let k = 0; k < 100 && choosers.length === 0; k++) await page.waitForTimeout(100);
+  const chooser = choosers.shift();
+  if (!check("Ctrl+O opens the file picker", chooser !== undefined)) throw new Error("no file picker");
+  check("the picker accepts several files", chooser.isMultiple());
   await chooser.setFiles([path.join(assetDir, "map.yaml"), path.join(assetDir, "map.pgm")]);
   s = await waitFor("map loaded through the picker", (s) => s.stats.map === "map.yaml");
   if (s) {
@@ -205,9 +209,10 @@ try {
   const times = [];
   s = await state();
   const b = rect(s, "beta");
-  for (let k = 0; k <= 20; k++) {
+  for (let k = 0; k < 20; k++) {
     const prev = (await state()).stats.decision_revision;
-    const x = b[0] + width * (k / 20);
+    // Alternate between well separated positions so that every click changes β.
+    const x = b[0] + width * (k % 2 === 0 ? 0.25 + 0.01 * k : 0.75 - 0.01 * k);
     await page.mouse.click(x, b[1] + b[3] / 2);
     const t = await waitFor(`decision after β move ${k}`, (s) => s.stats.decision_revision > prev, 10000);
     if (!t) break;

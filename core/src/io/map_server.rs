@@ -404,6 +404,16 @@ mod tests {
     }
 
     #[test]
+    fn alias_bomb_is_an_error_not_a_blowup() {
+        let mut y = String::from("a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n");
+        for i in 1..12 {
+            let p = i - 1;
+            y.push_str(&format!("a{i}: &a{i} [*a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}]\n"));
+        }
+        assert!(matches!(MapYaml::parse(y.as_bytes(), "bomb.yaml"), Err(MapError::Yaml { .. })));
+    }
+
+    #[test]
     fn rotated_origin_is_refused_but_parse_still_works() {
         let y = YAML.replace("0.0]", "0.3]");
         let parsed = MapYaml::parse(y.as_bytes(), "m.yaml").unwrap();

@@ -10,7 +10,7 @@
 //! | [`ply`] | PLY ascii / binary little- and big-endian; writer: binary little-endian |
 //! | [`pcd`] | PCD v0.6/v0.7 ascii / binary / binary_compressed (LZF); writer: ascii or binary |
 //! | [`csv`] | `x,y,z[,covariance]` text |
-//! | [`las`] | LAS 1.0–1.4 via the `las` crate (LAZ when its `laz` feature is on) |
+//! | [`las`] | LAS 1.0–1.4 via the `las` crate; LAZ through the `laz` feature (on by default) |
 //! | [`map_server`] | ROS map_server YAML + PGM (P2/P5, 8/16-bit) or PNG; writers: YAML+PGM, PNG |
 //!
 //! Point attributes shared by the formats that carry named fields (PLY, PCD):
@@ -34,8 +34,13 @@ pub mod ply;
 #[cfg(test)]
 mod tests;
 
+pub use csv::{load_csv, write_csv};
 pub use image::{write_png_gray8, write_png_rgb8};
+#[cfg(feature = "las")]
+pub use las::load_las;
 pub use map_server::{load_map, load_map_image, save_map, MapMode, MapThresholds, MapYaml};
+pub use pcd::{load_pcd, write_pcd, PcdEncoding};
+pub use ply::{load_ply, write_ply_binary};
 
 use crate::cloud::PointCloud;
 use nalgebra::Matrix3;

@@ -1,11 +1,13 @@
-//! Ground-truth world for simulation and asset building: terrain heightfields (procedural or from
-//! a real DEM), rocks, visible ground points, and deterministic noise. (The mission simulator
-//! builds on this.)
+//! The simulator (notes §8): ground-truth worlds (procedural, real DEM or map_server terrain,
+//! rocks, boxes, ramps, landmarks; [`world`]), the robot ([`robot`]), its sensors ([`lidar`],
+//! [`camera`], [`odometry`]) and whole missions ([`mission`]), plus the asset-building helpers
+//! (visible ground points, deterministic noise).
 
 pub mod camera;
 mod heightfield;
 mod landmarks;
 pub mod lidar;
+pub mod mission;
 mod noise;
 mod obstacles;
 pub mod odometry;
@@ -18,4 +20,7 @@ pub use landmarks::{scatter_landmarks, texture_richness, LandmarkDensity};
 pub use noise::{fractal_noise, hash_unit};
 pub use obstacles::{scatter_rocks, Rock};
 pub use scan::{line_of_sight, visible_ground_points};
+pub use mission::{EndReason, Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary};
 pub use world::{World, WorldError, WorldSpec};
+#[cfg(test)]
+mod tests;

@@ -64,6 +64,8 @@ impl G2oVertex {
 }
 
 /// A relative-pose edge `z ≈ x_from⁻¹ x_to` with its information matrix.
+// Edges live in one Vec read once; boxing the 3D variant would cost an allocation per edge.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum G2oEdge {
     Se2 { from: u64, to: u64, measurement: Se2, information: Matrix3<f64> },

@@ -12,21 +12,16 @@ use super::graph::{FactorGraph, GraphError};
 use super::values::{VarId, Values, Variable};
 
 /// How the global pose of the problem is anchored.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub enum Gauge {
     /// Fix the pose with the smallest id at its initial value (g2o's convention; default).
+    #[default]
     FixFirst,
     /// Add a prior at its initial value on the pose with the smallest id, with standard deviation
     /// `sigma` on every tangent component (GTSAM's convention).
     PriorOnFirst { sigma: f64 },
     /// Leave the gauge free (H is then singular unless other factors fix it).
     Free,
-}
-
-impl Default for Gauge {
-    fn default() -> Self {
-        Self::FixFirst
-    }
 }
 
 /// A problem read from a file.

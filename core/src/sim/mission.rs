@@ -1,0 +1,834 @@
+//! A whole exploration mission, headless (notes §1, §2, §7, §8): sense → localise → map → decide
+//! → move, one control tick per [`Mission::step`]; [`Mission::run`] loops over it.
+//!
+//! Per tick (`dt_s`): the robot follows its path (carrot controller, GT motion with a safety stop
+//! before any ground-truth untraversable cell), odometry integrates the measured motion, and
+//! every `scan_every_*` the LiDAR sweep, the depth camera's ground points and the body's footprint
+//! are registered with the *estimated* pose into the traversability map (incremental update);
+//! every `camera_every_s` the camera observes landmarks, which build the landmark map. The goal
+//! is (re)chosen on arrival (after turning to Θ*), on failure (timeout → blacklist `Failed`),
+//! when the path is blocked, and every `replan_period_s` (then the current goal is kept while it
+//! is still a reachable frontier candidate). Candidates the selector finds unreachable are
+//! blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted `Reselected`. The
+//! mission ends when no candidate is left (`Decision::chosen == None`) or at the time limit.
+//!
+//! Localisation: ground truth (covariance 0) or dead-reckoned odometry with a propagated 3×3
+//! (x, y, θ) covariance. (The graph SLAM backend plugs in here later.)
+//!
+//! Cost per tick: O(path) control; per scan O(rays × march) + O(changed cells × disc²); per
+//! decision the selector's cost (one Dijkstra, rays, u2) plus O(cells) thresholding; per metrics
+//! row O(explorable cells).
+
+use super::camera::{observe_landmarks, CameraNoise, CameraObservation, LandmarkIndex};
+use super::lidar::{gaussian, scan, LidarParams, RayCaster};
+use super::odometry::OdometryNoise;
+use super::robot::{body_on_terrain, integrate, DriveParams, PathFollower, Twist};
+use super::World;
+use crate::frontier::BlacklistReason;
+use crate::frontier::Blacklist;
+use crate::grid::OccupancyGrid;
+use crate::params::{Params, Strategy};
+use crate::pose::{wrap_pi, Pose2};
+use crate::select::{make_selector, DecisionInput, DropReason, GoalSelector};
+use crate::traversability::{TraversabilityLayers, TraversabilityMap};
+use crate::utility::LandmarkVoxels;
+use crate::PointCloud;
+use nalgebra::{Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// How the robot knows where it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Localisation {
+    /// The true pose, covariance 0 (no SLAM).
+    GroundTruth,
+    /// Dead-reckoned wheel odometry + IMU yaw, covariance propagated (no loop closures).
+    Odometry,
+}
+
+/// Simulator parameters (the planner's are [`Params`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MissionParams {
+    /// Control period, seconds. Default 0.1.
+    pub dt_s: f64,
+    pub drive: DriveParams,
+    pub lidar: LidarParams,
+    pub camera_noise: CameraNoise,
+    pub odometry: OdometryNoise,
+    /// Scan when the robot has moved this far since the last scan, metres. Default 0.25.
+    pub scan_every_m: f64,
+    /// … or turned this much, radians. Default 0.5.
+    pub scan_every_rad: f64,
+    /// … or this much time has passed, seconds. Default 2.
+    pub scan_every_s: f64,
+    /// Depth-camera ground rays per frame: columns × rows. Default 24 × 12.
+    pub depth_rays: [usize; 2],
+    /// Landmark observation period, seconds. Default 1.
+    pub camera_every_s: f64,
+    /// Periodic replanning, seconds. Default 15.
+    pub replan_period_s: f64,
+    /// A goal not reached within factor × (ρ / v_max) + extra seconds has failed. Defaults 3, 20.
+    pub goal_timeout_factor: f64,
+    pub goal_timeout_extra_s: f64,
+    /// One metrics row (and trajectory pose) every this many seconds. Default 1.
+    pub metrics_period_s: f64,
+    /// Stop before entering a ground-truth untraversable cell (a bumper). Default true.
+    pub safety_stop: bool,
+    /// Overrides the world's time limit, seconds.
+    pub time_limit_s: Option<f64>,
+}
+
+impl Default for MissionParams {
+    fn default() -> Self {
+        Self {
+            dt_s: 0.1,
+            drive: DriveParams::default(),
+            lidar: LidarParams::default(),
+            camera_noise: CameraNoise::default(),
+            odometry: OdometryNoise::default(),
+            scan_every_m: 0.25,
+            scan_every_rad: 0.5,
+            scan_every_s: 2.0,
+            depth_rays: [24, 12],
+            camera_every_s: 1.0,
+            replan_period_s: 15.0,
+            goal_timeout_factor: 3.0,
+            goal_timeout_extra_s: 20.0,
+            metrics_period_s: 1.0,
+            safety_stop: true,
+            time_limit_s: None,
+        }
+    }
+}
+
+impl MissionParams {
+    /// Parses TOML (unknown keys rejected) and validates; `name` is quoted in errors.
+    pub fn from_toml(text: &str, name: &str) -> Result<Self, String> {
+        let p: Self = toml::from_str(text).map_err(|e: toml::de::Error| format!("{name}: {}", e.message().trim().replace('\n', " ")))?;
+        p.validate().map_err(|m| format!("{name}: {m}"))?;
+        Ok(p)
+    }
+
+    /// Checks ranges; returns a message naming the first bad field.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be > 0 (got {v})")) };
+        pos("dt_s", self.dt_s)?;
+        pos("drive.max_speed_mps", self.drive.max_speed_mps)?;
+        pos("drive.max_turn_rate_radps", self.drive.max_turn_rate_radps)?;
+        pos("drive.lookahead_m", self.drive.lookahead_m)?;
+        pos("drive.goal_tolerance_m", self.drive.goal_tolerance_m)?;
+        pos("lidar.azimuth_step_rad", self.lidar.azimuth_step_rad)?;
+        pos("lidar.max_range_m", self.lidar.max_range_m)?;
+        pos("scan_every_m", self.scan_every_m)?;
+        pos("scan_every_rad", self.scan_every_rad)?;
+        pos("scan_every_s", self.scan_every_s)?;
+        pos("camera_every_s", self.camera_every_s)?;
+        pos("replan_period_s", self.replan_period_s)?;
+        pos("metrics_period_s", self.metrics_period_s)?;
+        if self.lidar.rings == 0 || self.lidar.rings > 256 {
+            return Err("lidar.rings must be in 1..=256".into());
+        }
+        if let Some(t) = self.time_limit_s {
+            pos("time_limit_s", t)?;
+        }
+        Ok(())
+    }
+}
+
+/// One metrics row (notes §8).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MetricsRow {
+    pub time_s: f64,
+    /// Explorable cells still unknown in the robot's map, % of the explorable cells.
+    pub unexplored_pct: f64,
+    pub cov_trace: f64,
+    pub pos_cov_trace: f64,
+    pub rot_cov_trace: f64,
+    /// |estimated − true| position, metres.
+    pub ate_m: f64,
+    pub distance_m: f64,
+    pub loop_closures: u64,
+    /// Wall time of the decisions since the previous row, ms (0 without a clock). Not
+    /// deterministic: keep it out of byte-compared files.
+    pub plan_ms: f64,
+}
+
+/// A timestamped 3D pose for TUM trajectories.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct StampedPose {
+    pub time_s: f64,
+    pub position_m: [f64; 3],
+    /// Quaternion (x, y, z, w).
+    pub quaternion_xyzw: [f64; 4],
+}
+
+/// Why a mission ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EndReason {
+    /// No non-blacklisted reachable frontier candidate left.
+    NoFrontier,
+    TimeLimit,
+}
+
+/// What one [`Mission::step`] did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepOutcome {
+    Running,
+    Finished(EndReason),
+}
+
+/// Final figures.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Summary {
+    pub world: String,
+    pub strategy: Strategy,
+    pub localisation: Localisation,
+    pub seed: u64,
+    pub end_reason: Option<EndReason>,
+    pub time_s: f64,
+    pub unexplored_pct: f64,
+    pub explorable_cells: usize,
+    pub distance_m: f64,
+    pub ate_rmse_m: f64,
+    pub final_cov_trace: f64,
+    pub loop_closures: u64,
+    pub decisions: u64,
+    pub goals_reached: u64,
+    pub goals_failed: u64,
+    pub blacklist_len: usize,
+    pub gt_violations: u64,
+    pub safety_stops: u64,
+    pub planning_errors: u64,
+    pub landmarks_mapped: usize,
+    pub scans: u64,
+    pub total_plan_ms: f64,
+}
+
+#[derive(Clone, Debug)]
+enum Phase {
+    /// No goal: decide on the next tick.
+    Idle,
+    Driving,
+    /// At the goal position, turning to Θ*.
+    Turning(f64),
+    /// Turning in place (initial look-around or after a planning error) until the time.
+    Spinning(f64),
+}
+
+/// A running mission.
+pub struct Mission {
+    pub world: World,
+    pub params: Params,
+    pub mission: MissionParams,
+    pub strategy: Strategy,
+    pub seed: u64,
+    pub localisation: Localisation,
+    selector: Box<dyn GoalSelector>,
+    caster: RayCaster,
+    landmark_index: LandmarkIndex,
+    rng: ChaCha8Rng,
+    clock: Option<Box<dyn FnMut() -> f64>>,
+    time_limit_s: f64,
+
+    pub time_s: f64,
+    pub gt: Pose2,
+    pub est: Pose2,
+    /// (x, y, θ) covariance of the estimate.
+    pub est_cov: Matrix3<f64>,
+    tmap: TraversabilityMap,
+    pub layers: TraversabilityLayers,
+    /// Landmark map: id → (sum of world positions, count).
+    landmark_sums: BTreeMap<u64, (Vector3<f64>, u32)>,
+    pub blacklist: Blacklist,
+    phase: Phase,
+    follower: PathFollower,
+    pub goal: Option<Pose2>,
+    goal_started_s: f64,
+    goal_deadline_s: f64,
+    next_replan_s: f64,
+    last_reached: Option<[f64; 2]>,
+    last_scan: (Pose2, f64),
+    last_camera_s: f64,
+    next_metrics_s: f64,
+    explorable_idx: Vec<u32>,
+    unexplored_cache: Option<f64>,
+
+    pub distance_m: f64,
+    pub rows: Vec<MetricsRow>,
+    pub trajectory_gt: Vec<StampedPose>,
+    pub trajectory_est: Vec<StampedPose>,
+    pending_plan_ms: f64,
+    total_plan_ms: f64,
+    sq_err_sum: f64,
+    decisions: u64,
+    goals_reached: u64,
+    goals_failed: u64,
+    violations: u64,
+    safety_stops: u64,
+    planning_errors: u64,
+    scans: u64,
+    pub end: Option<EndReason>,
+    points: Vec<Point3<f64>>,
+    observations: Vec<CameraObservation>,
+    /// The last decision (for the studio).
+    pub last_decision: Option<crate::select::Decision>,
+}
+
+impl Mission {
+    /// A mission in `world` with planner `params` (its `selector.strategy` and `selector.seed`
+    /// are overridden by `strategy` and `seed`), simulator `mission` parameters, sensor seed
+    /// `seed`.
+    pub fn new(
+        world: World,
+        mut params: Params,
+        mission: MissionParams,
+        strategy: Strategy,
+        seed: u64,
+        localisation: Localisation,
+    ) -> Result<Self, String> {
+        params.validate()?;
+        mission.validate()?;
+        params.selector.strategy = strategy;
+        params.selector.seed = seed;
+        let selector = make_selector(&params.selector);
+        let g = world.field.geometry;
+        let tmap = TraversabilityMap::new(g).map_err(|e| e.to_string())?;
+        let layers = tmap.compute(&params.traversability);
+        let caster = RayCaster::new(&world.field);
+        let landmark_index = LandmarkIndex::new(&world.landmarks, g.bounds_m(), 1.0);
+        let explorable_idx = world.explorable.iter().enumerate().filter(|(_, e)| **e).map(|(i, _)| i as u32).collect();
+        let time_limit_s = mission.time_limit_s.unwrap_or(world.spec.time_limit_s);
+        let start = world.start;
+        let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+        let mut m = Self {
+            selector,
+            caster,
+            landmark_index,
+            rng: ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_51A1),
+            clock: None,
+            time_limit_s,
+            time_s: 0.0,
+            gt: start,
+            est: start,
+            est_cov: Matrix3::zeros(),
+            tmap,
+            layers,
+            landmark_sums: BTreeMap::new(),
+            blacklist,
+            // A full turn in place first: the LiDAR is blind within ~1.1 m, the camera sees it.
+            phase: Phase::Spinning(std::f64::consts::TAU / mission.drive.max_turn_rate_radps),
+            follower: PathFollower::default(),
+            goal: None,
+            goal_started_s: 0.0,
+            goal_deadline_s: 0.0,
+            next_replan_s: 0.0,
+            last_reached: None,
+            last_scan: (start, 0.0),
+            last_camera_s: f64::NEG_INFINITY,
+            next_metrics_s: 0.0,
+            explorable_idx,
+            unexplored_cache: None,
+            distance_m: 0.0,
+            rows: Vec::new(),
+            trajectory_gt: Vec::new(),
+            trajectory_est: Vec::new(),
+            pending_plan_ms: 0.0,
+            total_plan_ms: 0.0,
+            sq_err_sum: 0.0,
+            decisions: 0,
+            goals_reached: 0,
+            goals_failed: 0,
+            violations: 0,
+            safety_stops: 0,
+            planning_errors: 0,
+            scans: 0,
+            end: None,
+            points: Vec::new(),
+            observations: Vec::new(),
+            last_decision: None,
+            world,
+            params,
+            mission,
+            strategy,
+            seed,
+            localisation,
+        };
+        m.sense_geometry();
+        m.sense_landmarks();
+        m.record_metrics();
+        Ok(m)
+    }
+
+    /// A wall clock in milliseconds used only to fill `plan_ms` (core has no clock).
+    pub fn set_clock(&mut self, clock: Box<dyn FnMut() -> f64>) {
+        self.clock = Some(clock);
+    }
+
+    /// The robot's map: thresholded traversability (0 free, 100 lethal, −1 unknown).
+    pub fn occupancy(&self) -> OccupancyGrid {
+        self.layers.to_occupancy(self.params.traversability.tau)
+    }
+
+    /// The landmark map (estimated positions, in id order).
+    pub fn landmark_map(&self) -> PointCloud {
+        let sigma2 = self.params.u2.sigma_landmark_m.powi(2);
+        let points: Vec<Point3<f64>> = self.landmark_sums.values().map(|(s, n)| Point3::from(*s / f64::from(*n))).collect();
+        PointCloud { covariances: Some(vec![Matrix3::identity() * sigma2; points.len()]), points, classification: None }
+    }
+
+    /// Runs to the end and returns the summary.
+    pub fn run(&mut self) -> Summary {
+        while self.step() == StepOutcome::Running {}
+        self.summary()
+    }
+
+    /// One control tick.
+    pub fn step(&mut self) -> StepOutcome {
+        if let Some(r) = self.end {
+            return StepOutcome::Finished(r);
+        }
+        if self.time_s >= self.time_limit_s - 1e-9 {
+            return self.finish(EndReason::TimeLimit);
+        }
+        let replan_due = self.time_s >= self.next_replan_s;
+        match self.phase {
+            Phase::Idle => {
+                if let Some(r) = self.decide(false) {
+                    return self.finish(r);
+                }
+            }
+            Phase::Driving if replan_due => {
+                if let Some(r) = self.decide(true) {
+                    return self.finish(r);
+                }
+            }
+            _ => {}
+        }
+        let dt = self.mission.dt_s;
+        let cmd = match self.phase {
+            Phase::Idle => Twist { v_mps: 0.0, omega_radps: 0.0 },
+            Phase::Driving => self.follower.command(self.est, &self.mission.drive),
+            Phase::Turning(yaw) => {
+                let err = wrap_pi(yaw - self.est.yaw_rad);
+                let w = self.mission.drive.max_turn_rate_radps;
+                Twist { v_mps: 0.0, omega_radps: (err / dt).clamp(-w, w) }
+            }
+            Phase::Spinning(_) => Twist { v_mps: 0.0, omega_radps: self.mission.drive.max_turn_rate_radps },
+        };
+        // Ground-truth motion with the safety stop.
+        let next = integrate(self.gt, cmd, dt);
+        let entering = self.world.gt_lethal_at(next.x_m, next.y_m) && !self.world.gt_lethal_at(self.gt.x_m, self.gt.y_m);
+        let (next, cmd) = if entering && self.mission.safety_stop && cmd.v_mps > 0.0 {
+            self.safety_stops += 1;
+            self.fail_goal();
+            (self.gt, Twist { v_mps: 0.0, omega_radps: 0.0 })
+        } else {
+            if entering {
+                self.violations += 1;
+            }
+            (next, cmd)
+        };
+        let ds = cmd.v_mps * dt;
+        let dth = wrap_pi(next.yaw_rad - self.gt.yaw_rad);
+        self.gt = next;
+        self.distance_m += ds.abs();
+        self.time_s = ((self.time_s + dt) * 1e6).round() / 1e6;
+        self.localise(ds, dth, dt);
+
+        // Phase transitions.
+        match self.phase {
+            Phase::Driving => {
+                if self.follower.arrived(self.est, self.mission.drive.goal_tolerance_m) {
+                    let yaw = self.goal.map(|g| g.yaw_rad).unwrap_or(self.est.yaw_rad);
+                    self.phase = Phase::Turning(yaw);
+                } else if self.time_s > self.goal_deadline_s {
+                    self.fail_goal();
+                }
+            }
+            Phase::Turning(yaw) => {
+                if wrap_pi(yaw - self.est.yaw_rad).abs() < 0.05 {
+                    self.goals_reached += 1;
+                    self.last_reached = self.goal.map(|g| [g.x_m, g.y_m]);
+                    self.goal = None;
+                    self.phase = Phase::Idle;
+                }
+            }
+            Phase::Spinning(until) => {
+                if self.time_s >= until {
+                    self.phase = Phase::Idle;
+                }
+            }
+            Phase::Idle => {}
+        }
+
+        // Sensing.
+        let (p, t) = self.last_scan;
+        let moved = (self.est.x_m - p.x_m).hypot(self.est.y_m - p.y_m);
+        let turned = wrap_pi(self.est.yaw_rad - p.yaw_rad).abs();
+        if moved >= self.mission.scan_every_m || turned >= self.mission.scan_every_rad || self.time_s - t >= self.mission.scan_every_s {
+            self.sense_geometry();
+            if matches!(self.phase, Phase::Driving) && self.path_blocked() {
+                self.next_replan_s = self.time_s;
+            }
+        }
+        if self.time_s - self.last_camera_s >= self.mission.camera_every_s - 1e-9 {
+            self.sense_landmarks();
+        }
+        if self.time_s >= self.next_metrics_s - 1e-9 {
+            self.record_metrics();
+        }
+        StepOutcome::Running
+    }
+
+    fn finish(&mut self, reason: EndReason) -> StepOutcome {
+        self.end = Some(reason);
+        if self.rows.last().map(|r| r.time_s) != Some(self.time_s) {
+            self.record_metrics();
+        }
+        StepOutcome::Finished(reason)
+    }
+
+    fn fail_goal(&mut self) {
+        if let Some(g) = self.goal.take() {
+            self.blacklist.add(g.x_m, g.y_m, BlacklistReason::Failed);
+            self.goals_failed += 1;
+        }
+        self.phase = Phase::Idle;
+    }
+
+    /// Updates the estimate from the odometry of one tick.
+    fn localise(&mut self, ds: f64, dth: f64, dt: f64) {
+        let slope = self.world.field.slope_at(self.gt.x_m, self.gt.y_m).unwrap_or(0.0);
+        let (ms, mth) = self.mission.odometry.measure(ds, dth, dt, slope, &mut self.rng);
+        match self.localisation {
+            Localisation::GroundTruth => self.est = self.gt,
+            Localisation::Odometry => {
+                let th = self.est.yaw_rad + 0.5 * mth;
+                let (c, s) = (th.cos(), th.sin());
+                self.est = Pose2 { x_m: self.est.x_m + ms * c, y_m: self.est.y_m + ms * s, yaw_rad: wrap_pi(self.est.yaw_rad + mth) };
+                let f = Matrix3::new(1.0, 0.0, -ms * s, 0.0, 1.0, ms * c, 0.0, 0.0, 1.0);
+                let (vs, vt) = self.mission.odometry.variances(ds, dth, dt);
+                let l = nalgebra::Matrix3x2::new(c, -0.5 * ms * s, s, 0.5 * ms * c, 0.0, 1.0);
+                let q = nalgebra::Matrix2::new(vs, 0.0, 0.0, vt);
+                self.est_cov = f * self.est_cov * f.transpose() + l * q * l.transpose();
+            }
+        }
+    }
+
+    /// The true and estimated 3D body poses.
+    fn body_poses(&self) -> ((Point3<f64>, Rotation3<f64>), (Point3<f64>, Rotation3<f64>)) {
+        let b = self.mission.drive.body_half_m;
+        let gt = body_on_terrain(&self.world.field, self.gt, b);
+        // The estimate's height and attitude are the terrain's under the estimate (a SLAM would
+        // estimate them; odometry alone does not).
+        let est = body_on_terrain(&self.world.field, self.est, b);
+        (gt, est)
+    }
+
+    /// LiDAR sweep + depth-camera ground rays + footprint, registered with the estimate.
+    fn sense_geometry(&mut self) {
+        let ((gp, gr), (ep, er)) = self.body_poses();
+        self.points.clear();
+        let sensor = gp + gr * Vector3::new(0.0, 0.0, self.mission.lidar.mount_height_m);
+        scan(&self.world.field, &self.caster, sensor, &gr, &self.mission.lidar, &mut self.rng, &mut self.points);
+        // Depth camera ground points.
+        let cam = gp + gr * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
+        let [nc, nr] = self.mission.depth_rays;
+        let (hf, vf) = (self.params.camera.hfov_rad, self.params.camera.vfov_rad);
+        for r in 0..nr {
+            let el = -vf / 2.0 + vf * (r as f64 + 0.5) / nr as f64;
+            for c in 0..nc {
+                let az = -hf / 2.0 + hf * (c as f64 + 0.5) / nc as f64;
+                let dir = gr * Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+                if let Some(d) = self.caster.cast(&self.world.field, cam, dir, self.params.camera.max_depth_m) {
+                    if d >= self.params.camera.min_depth_m {
+                        let noisy = d + self.mission.camera_noise.depth_sigma_coeff * d * d * gaussian(&mut self.rng);
+                        self.points.push(cam + dir * noisy);
+                    }
+                }
+            }
+        }
+        // The ground under the wheels (proprioceptive): the footprint, every 5 cm.
+        let half = self.mission.drive.body_half_m;
+        let n = (half / 0.05).round() as i32;
+        for i in -n..=n {
+            for j in -n..=n {
+                let local = Vector3::new(i as f64 * 0.05, j as f64 * 0.05, 0.0);
+                let w = gr * local + gp.coords;
+                if let Some(z) = self.world.field.height_at(w.x, w.y) {
+                    self.points.push(Point3::new(w.x, w.y, z));
+                }
+            }
+        }
+        // Register with the estimate: p_est = T_est · T_gt⁻¹ · p.
+        let (gt_inv, gp_c) = (gr.inverse(), gp.coords);
+        let same = self.est == self.gt;
+        let pts = self.points.iter().map(|p| if same { *p } else { ep + er * (gt_inv * (p.coords - gp_c)) });
+        self.tmap.insert_points(pts);
+        self.tmap.update(&self.params.traversability, &mut self.layers);
+        self.unexplored_cache = None;
+        self.last_scan = (self.est, self.time_s);
+        self.scans += 1;
+    }
+
+    fn sense_landmarks(&mut self) {
+        let ((gp, gr), (ep, er)) = self.body_poses();
+        let cam = gp + gr * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
+        observe_landmarks(
+            &self.world.field,
+            &self.world.landmarks,
+            &self.landmark_index,
+            cam,
+            gp,
+            &gr,
+            &self.params.camera,
+            &self.mission.camera_noise,
+            &mut self.rng,
+            &mut self.observations,
+        );
+        for o in &self.observations {
+            let w = ep.coords + er * o.point_in_robot;
+            let e = self.landmark_sums.entry(o.landmark_id).or_insert((Vector3::zeros(), 0));
+            e.0 += w;
+            e.1 += 1;
+        }
+        self.last_camera_s = self.time_s;
+    }
+
+    /// Whether the remaining path crosses a lethal cell of the current map within the robot
+    /// radius.
+    fn path_blocked(&self) -> bool {
+        let g = self.layers.geometry();
+        let tau = self.params.traversability.tau as f32;
+        let r = self.params.robot.radius_m;
+        let rc = (r / g.resolution_m).ceil() as i32;
+        let path = &self.follower.path_m;
+        for w in path.windows(2) {
+            let len = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+            let n = (len / g.resolution_m).ceil().max(1.0) as usize;
+            for k in 0..=n {
+                let t = k as f64 / n as f64;
+                let (x, y) = (w[0][0] + t * (w[1][0] - w[0][0]), w[0][1] + t * (w[1][1] - w[0][1]));
+                if (x - self.est.x_m).hypot(y - self.est.y_m) < r {
+                    continue; // under the robot: its own snapping handles it
+                }
+                let Some(c) = g.cell_of(x, y) else { return true };
+                for dr in -rc..=rc {
+                    for dc in -rc..=rc {
+                        let cell = crate::grid::Cell::new(c.col + dc, c.row + dr);
+                        let Some(i) = g.index(cell) else { continue };
+                        let s = self.layers.score.data[i];
+                        if !s.is_nan() && s < tau {
+                            let (cx, cy) = g.center_of(cell);
+                            if (cx - x).hypot(cy - y) <= r {
+                                return true;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        false
+    }
+
+    /// Chooses a goal. `keep_current`: periodic replanning keeps the current goal while it is
+    /// still a reachable candidate. Returns `Some(NoFrontier)` at the end of the mission.
+    fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
+        let grid = self.occupancy();
+        let cloud = self.landmark_map();
+        let voxels = match LandmarkVoxels::new(&cloud, self.params.u2.voxel_m, self.params.u2.sigma_landmark_m) {
+            Ok(v) => v,
+            Err(_) => LandmarkVoxels::empty(self.params.u2.voxel_m),
+        };
+        let ground_z_m = self.world.field.height_at(self.est.x_m, self.est.y_m).unwrap_or(0.0);
+        for _attempt in 0..4 {
+            let t0 = self.clock.as_mut().map(|c| c());
+            let input = DecisionInput {
+                grid: &grid,
+                landmarks: &voxels,
+                robot: self.est,
+                boundary: Some(&self.world.boundary),
+                blacklist: &self.blacklist,
+                ground_z_m,
+            };
+            let result = self.selector.select(&input, &self.params);
+            if let (Some(t0), Some(c)) = (t0, self.clock.as_mut()) {
+                let ms = c() - t0;
+                self.pending_plan_ms += ms;
+                self.total_plan_ms += ms;
+            }
+            self.decisions += 1;
+            let decision = match result {
+                Ok(d) => d,
+                Err(_) => {
+                    // Typically the robot's cell is not free in its own map yet: look around.
+                    self.planning_errors += 1;
+                    self.goal = None;
+                    self.phase = Phase::Spinning(self.time_s + 2.0);
+                    self.next_replan_s = self.time_s + 2.0;
+                    return None;
+                }
+            };
+            for c in &decision.candidates {
+                if c.dropped == Some(DropReason::NoPath) {
+                    self.blacklist.add(c.x_m, c.y_m, BlacklistReason::NoPath);
+                }
+            }
+            // Keep the current goal if it is still a reachable candidate.
+            if keep_current {
+                if let Some(goal) = self.goal {
+                    let r = self.blacklist.radius_m();
+                    let same = decision
+                        .candidates
+                        .iter()
+                        .filter(|c| c.rho_m.is_some() && c.dropped.is_none_or(|d| d == DropReason::NotInTopN))
+                        .min_by(|a, b| {
+                            let da = (a.x_m - goal.x_m).hypot(a.y_m - goal.y_m);
+                            let db = (b.x_m - goal.x_m).hypot(b.y_m - goal.y_m);
+                            da.total_cmp(&db)
+                        })
+                        .filter(|c| (c.x_m - goal.x_m).hypot(c.y_m - goal.y_m) <= r);
+                    if let Some(c) = same {
+                        self.follower = PathFollower::new(c.path_m.clone());
+                        self.next_replan_s = self.time_s + self.mission.replan_period_s;
+                        self.last_decision = Some(decision);
+                        return None;
+                    }
+                }
+            }
+            let Some(chosen) = decision.chosen else {
+                self.last_decision = Some(decision);
+                return Some(EndReason::NoFrontier);
+            };
+            let c = &decision.candidates[chosen];
+            // A goal chosen again right where the robot already went: blacklist and retry.
+            if let Some(prev) = self.last_reached {
+                if (c.x_m - prev[0]).hypot(c.y_m - prev[1]) <= self.blacklist.radius_m() {
+                    self.blacklist.add(prev[0], prev[1], BlacklistReason::Reselected);
+                    self.last_reached = None;
+                    continue;
+                }
+            }
+            let goal = decision.goal.unwrap_or(Pose2 { x_m: c.x_m, y_m: c.y_m, yaw_rad: self.est.yaw_rad });
+            let rho = c.rho_m.unwrap_or(0.0);
+            self.follower = PathFollower::new(c.path_m.clone());
+            self.goal = Some(goal);
+            self.goal_started_s = self.time_s;
+            self.goal_deadline_s = self.time_s
+                + self.mission.goal_timeout_factor * rho / self.mission.drive.max_speed_mps
+                + self.mission.goal_timeout_extra_s;
+            self.next_replan_s = self.time_s + self.mission.replan_period_s;
+            self.phase = Phase::Driving;
+            self.last_decision = Some(decision);
+            return None;
+        }
+        // Every retry re-chose a reached goal: treat as a failure and look around.
+        self.phase = Phase::Spinning(self.time_s + 2.0);
+        self.next_replan_s = self.time_s + 2.0;
+        None
+    }
+
+    fn unexplored_pct(&mut self) -> f64 {
+        if let Some(u) = self.unexplored_cache {
+            return u;
+        }
+        let score = &self.layers.score.data;
+        let unknown = self.explorable_idx.iter().filter(|&&i| score[i as usize].is_nan()).count();
+        let u = if self.explorable_idx.is_empty() { 0.0 } else { 100.0 * unknown as f64 / self.explorable_idx.len() as f64 };
+        self.unexplored_cache = Some(u);
+        u
+    }
+
+    fn record_metrics(&mut self) {
+        let unexplored_pct = self.unexplored_pct();
+        let pos = self.est_cov[(0, 0)] + self.est_cov[(1, 1)];
+        let rot = self.est_cov[(2, 2)];
+        let ate = (self.est.x_m - self.gt.x_m).hypot(self.est.y_m - self.gt.y_m);
+        self.sq_err_sum += ate * ate;
+        self.rows.push(MetricsRow {
+            time_s: self.time_s,
+            unexplored_pct,
+            cov_trace: pos + rot,
+            pos_cov_trace: pos,
+            rot_cov_trace: rot,
+            ate_m: ate,
+            distance_m: self.distance_m,
+            loop_closures: 0,
+            plan_ms: std::mem::take(&mut self.pending_plan_ms),
+        });
+        let ((gp, gr), (ep, er)) = self.body_poses();
+        let stamp = |p: Point3<f64>, r: Rotation3<f64>, t: f64| {
+            let q = UnitQuaternion::from_rotation_matrix(&r);
+            StampedPose { time_s: t, position_m: [p.x, p.y, p.z], quaternion_xyzw: [q.i, q.j, q.k, q.w] }
+        };
+        self.trajectory_gt.push(stamp(gp, gr, self.time_s));
+        self.trajectory_est.push(stamp(ep, er, self.time_s));
+        self.next_metrics_s = self.time_s + self.mission.metrics_period_s;
+    }
+
+    /// The final figures so far.
+    pub fn summary(&self) -> Summary {
+        let last = self.rows.last();
+        Summary {
+            world: self.world.spec.name.clone(),
+            strategy: self.strategy,
+            localisation: self.localisation,
+            seed: self.seed,
+            end_reason: self.end,
+            time_s: self.time_s,
+            unexplored_pct: last.map(|r| r.unexplored_pct).unwrap_or(100.0),
+            explorable_cells: self.explorable_idx.len(),
+            distance_m: self.distance_m,
+            ate_rmse_m: if self.rows.is_empty() { 0.0 } else { (self.sq_err_sum / self.rows.len() as f64).sqrt() },
+            final_cov_trace: last.map(|r| r.cov_trace).unwrap_or(0.0),
+            loop_closures: 0,
+            decisions: self.decisions,
+            goals_reached: self.goals_reached,
+            goals_failed: self.goals_failed,
+            blacklist_len: self.blacklist.len(),
+            gt_violations: self.violations,
+            safety_stops: self.safety_stops,
+            planning_errors: self.planning_errors,
+            landmarks_mapped: self.landmark_sums.len(),
+            scans: self.scans,
+            total_plan_ms: self.total_plan_ms,
+        }
+    }
+
+    /// Metrics as CSV (without `plan_ms`: byte-identical for a seed).
+    pub fn metrics_csv(&self) -> String {
+        let mut s = String::from("time_s,unexplored_pct,cov_trace,pos_cov_trace,rot_cov_trace,ate_m,distance_m,loop_closures\n");
+        for r in &self.rows {
+            s.push_str(&format!(
+                "{:.1},{:.4},{:.6e},{:.6e},{:.6e},{:.5},{:.4},{}\n",
+                r.time_s, r.unexplored_pct, r.cov_trace, r.pos_cov_trace, r.rot_cov_trace, r.ate_m, r.distance_m, r.loop_closures
+            ));
+        }
+        s
+    }
+
+    /// Timing as CSV (`time_s,plan_ms`): wall time, not reproducible.
+    pub fn timing_csv(&self) -> String {
+        let mut s = String::from("time_s,plan_ms\n");
+        for r in &self.rows {
+            s.push_str(&format!("{:.1},{:.3}\n", r.time_s, r.plan_ms));
+        }
+        s
+    }
+
+    /// A trajectory in TUM format (`t x y z qx qy qz qw`).
+    pub fn tum(poses: &[StampedPose]) -> String {
+        let mut s = String::new();
+        for p in poses {
+            let [x, y, z] = p.position_m;
+            let [qx, qy, qz, qw] = p.quaternion_xyzw;
+            s.push_str(&format!("{:.3} {x:.5} {y:.5} {z:.5} {qx:.6} {qy:.6} {qz:.6} {qw:.6}\n", p.time_s));
+        }
+        s
+    }
+}

@@ -1,0 +1,125 @@
+//! Whole-simulator tests: world files, ground truth, and tiny missions (fast in debug).
+
+use super::mission::{EndReason, Localisation, Mission, MissionParams};
+use super::world::{World, WorldSpec};
+use crate::params::{Params, Strategy};
+
+const TINY: &str = include_str!("../../../assets/worlds/tiny_test.toml");
+
+fn tiny_world(params: &Params) -> World {
+    let spec = WorldSpec::from_toml(TINY, "tiny_test.toml").unwrap();
+    World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap()
+}
+
+fn files(name: &str) -> Result<Vec<u8>, String> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/worlds/");
+    std::fs::read(format!("{dir}{name}")).map_err(|e| e.to_string())
+}
+
+#[test]
+fn every_shipped_world_parses_and_the_small_ones_build() {
+    let params = Params::default();
+    for name in ["paper_unstructured_20m.toml", "dem_jacksboro_16m.toml", "indoor_rooms.toml", "tiny_test.toml"] {
+        let text = String::from_utf8(files(name).unwrap()).unwrap();
+        let spec = WorldSpec::from_toml(&text, name).unwrap();
+        assert!(spec.time_limit_s > 0.0, "{name}");
+    }
+    // The indoor world: walls are GT lethal, the start room is explorable, rooms connect by doors.
+    let spec = WorldSpec::from_toml(&String::from_utf8(files("indoor_rooms.toml").unwrap()).unwrap(), "indoor").unwrap();
+    let w = World::build(&spec, &params.traversability, params.traversability.tau, files).unwrap();
+    assert!(w.gt_lethal_at(5.0, 5.0)); // the wall at x = 5
+    assert!(!w.gt_lethal_at(2.0, 2.0));
+    let g = w.gt_occupancy.geometry;
+    let explorable_at = |x: f64, y: f64| w.explorable[g.index(g.cell_of(x, y).unwrap()).unwrap()];
+    assert!(explorable_at(2.0, 2.0) && explorable_at(10.0, 8.0), "all four rooms reachable through doors");
+    assert!(!explorable_at(10.0, 1.9), "the table is not explorable");
+}
+
+#[test]
+fn unknown_keys_and_bad_values_are_rejected() {
+    let e = WorldSpec::from_toml(&TINY.replace("time_limit_s", "time_limt_s"), "w.toml").unwrap_err().to_string();
+    assert!(e.contains("w.toml") && e.contains("time_limt_s"), "{e}");
+    let e = WorldSpec::from_toml(&TINY.replace("hill_wavelength_m = 4.0", "hill_wavelength_m = 4.0\nhils = 1"), "w.toml").unwrap_err().to_string();
+    assert!(e.contains("hils"), "{e}");
+    let e = WorldSpec::from_toml(&TINY.replace("size_m = 5.0", "size_m = -5.0"), "w.toml").unwrap_err().to_string();
+    assert!(e.contains("size_m"), "{e}");
+}
+
+#[test]
+fn ground_truth_marks_boxes_lethal_and_hills_free() {
+    let params = Params::default();
+    let w = tiny_world(&params);
+    assert!(w.gt_lethal_at(2.75, 2.6), "box top edge region");
+    assert!(w.gt_lethal_at(2.5, 2.6), "box edge");
+    assert!(!w.gt_lethal_at(1.0, 1.0), "start");
+    assert!(!w.gt_lethal_at(4.0, 1.0), "gentle hill");
+    // Explorable: inside the boundary (0.5 m inset), so at most 4 × 4 m worth of cells.
+    assert!(w.explorable_count > 0 && w.explorable_count <= 80 * 80, "{}", w.explorable_count);
+    assert!(w.landmarks.len() > 10);
+}
+
+fn tiny_mission(strategy: Strategy, seed: u64, safety_stop: bool, time_limit_s: f64) -> Mission {
+    let params = Params::default();
+    let world = tiny_world(&params);
+    let mp = MissionParams { safety_stop, time_limit_s: Some(time_limit_s), ..MissionParams::default() };
+    Mission::new(world, params, mp, strategy, seed, Localisation::GroundTruth).unwrap()
+}
+
+#[test]
+fn a_tiny_mission_explores_to_completion_without_entering_untraversable_terrain() {
+    let mut m = tiny_mission(Strategy::Fit, 1, true, 300.0);
+    let s = m.run();
+    assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
+    assert_eq!(s.gt_violations, 0);
+    assert!(s.unexplored_pct < 10.0, "{s:?}");
+    assert!(s.goals_reached >= 1 && s.distance_m > 1.0, "{s:?}");
+    let first = m.rows.first().unwrap().unexplored_pct;
+    assert!(first > s.unexplored_pct + 20.0, "{first} → {}", s.unexplored_pct);
+    // Unexplored never grows (points are only added).
+    assert!(m.rows.windows(2).all(|w| w[1].unexplored_pct <= w[0].unexplored_pct + 1e-9));
+    assert_eq!(m.rows.last().unwrap().ate_m, 0.0);
+}
+
+#[test]
+fn no_strategy_drives_into_ground_truth_untraversable_terrain_even_without_the_safety_stop() {
+    for strategy in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {
+        for seed in [3, 4] {
+            let mut m = tiny_mission(strategy, seed, false, 120.0);
+            let s = m.run();
+            assert_eq!(s.gt_violations, 0, "{strategy:?} seed {seed}: {s:?}");
+            assert!(s.distance_m > 0.5, "{strategy:?} seed {seed} did not move: {s:?}");
+        }
+    }
+}
+
+#[test]
+fn same_seed_same_metrics_and_other_seed_other_noise() {
+    let run = |seed: u64| {
+        let params = Params::default();
+        let world = tiny_world(&params);
+        let mp = MissionParams { time_limit_s: Some(60.0), ..MissionParams::default() };
+        let mut m = Mission::new(world, params, mp, Strategy::Random, seed, Localisation::Odometry).unwrap();
+        m.run();
+        (m.metrics_csv(), Mission::tum(&m.trajectory_est))
+    };
+    let a = run(5);
+    assert_eq!(a, run(5));
+    assert_ne!(a.1, run(6).1);
+    // Dead reckoning: the covariance grows and the error is non-zero.
+    assert!(a.0.lines().count() > 10);
+}
+
+#[test]
+fn odometry_localisation_drifts_and_its_covariance_grows() {
+    let params = Params::default();
+    let world = tiny_world(&params);
+    let mp = MissionParams { time_limit_s: Some(60.0), ..MissionParams::default() };
+    let mut m = Mission::new(world, params, mp, Strategy::Greedy, 2, Localisation::Odometry).unwrap();
+    m.run();
+    let last = m.rows.last().unwrap();
+    assert!(last.cov_trace > 0.0 && last.pos_cov_trace > 0.0 && last.rot_cov_trace > 0.0);
+    assert!((last.cov_trace - last.pos_cov_trace - last.rot_cov_trace).abs() < 1e-15);
+    assert!(m.rows.iter().any(|r| r.ate_m > 0.0));
+    let mid = &m.rows[m.rows.len() / 2];
+    assert!(last.pos_cov_trace >= mid.pos_cov_trace);
+}

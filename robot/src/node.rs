@@ -1,0 +1,823 @@
+//! The exploration state machine, free of DDS: messages in (with the caller's clock, seconds),
+//! [`Command`]s out. The ROS adapter (`ros.rs`) only moves messages; everything that decides —
+//! validation, staleness, timeouts, blacklisting, the goal-safety check, the end of mission — is
+//! here and unit-tested with fake inputs.
+//!
+//! One cycle (every `replan_period_s`, or at once after a goal ends):
+//! 1. the latest map (occupancy, or clouds fused by the core, notes §2), the robot pose (tf or
+//!    a pose topic) and the landmark voxels go into `fitslam_core::select` (notes §3–7), which
+//!    ranks every frontier candidate;
+//! 2. candidates with no path are blacklisted (`NoPath`);
+//! 3. the best-ranked candidate whose cell is free on the *latest inflated* grid becomes the
+//!    goal (the selector already plans on the inflated grid; the re-check guards against a map
+//!    that changed in between and is what makes "never a goal in a lethal cell" a local
+//!    invariant of this file);
+//! 4. a running goal is kept while it is still a frontier goal and still free; otherwise it is
+//!    cancelled and replaced.
+//!
+//! Goals that end Aborted, Rejected, Canceled (by someone else) or time out are blacklisted
+//! (`Failed`); reached goals are blacklisted as `Reselected` (notes §3: a goal selected before
+//! and still a frontier goal now is not selected again). The mission ends after
+//! `done_after_empty_decisions` consecutive decisions with no goal and none running.
+//!
+//! Costs per cycle: one selector run (notes §7) plus, once per new map, one inflation
+//! (O(cells · disc)); per poll: O(1) goal checks.
+
+use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
+use crate::convert::{self, ConvertError};
+use crate::msgs;
+use crate::tf::{normalise_frame, TfBuffer};
+use fitslam_core::frontier::{BlacklistReason, Blacklist, Boundary};
+use fitslam_core::grid::{inflate_lethal, CellClass, GridGeometry};
+use fitslam_core::select::{make_selector, Decision, DecisionInput, GoalSelector};
+use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
+use fitslam_core::utility::LandmarkVoxels;
+use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2};
+use nalgebra::{Isometry3, Point3};
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Same warning text under the same key is repeated at most this often, seconds.
+pub const WARN_REPEAT_S: f64 = 10.0;
+
+/// What the adapter must do.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    /// Send this goal (map frame) under this id.
+    SendGoal { id: u64, goal: Pose2 },
+    /// Cancel the goal with this id (no-op for topic goals).
+    CancelGoal { id: u64 },
+    /// No frontier left (or the time limit): the mission is over.
+    MissionComplete,
+}
+
+/// What the navigation stack reported about a goal.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GoalEvent {
+    Accepted,
+    Rejected,
+    Succeeded,
+    /// Aborted by the navigation stack, with its message.
+    Aborted(String),
+    /// Cancelled by someone else.
+    Canceled,
+    /// Communication failure (no answer, undecodable result): dropped, not blacklisted.
+    Lost(String),
+}
+
+/// Log severity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Level {
+    Info,
+    Warn,
+    Error,
+}
+
+/// One log line, drained by the adapter with [`Explorer::drain_log`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LogLine {
+    pub t_s: f64,
+    pub level: Level,
+    pub text: String,
+}
+
+/// The goal being pursued.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ActiveGoal {
+    pub id: u64,
+    pub goal: Pose2,
+    pub sent_s: f64,
+    /// When the server accepted it (topic goals: when sent).
+    pub accepted_s: Option<f64>,
+}
+
+/// Where the node stands (status topic).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    WaitingForMap,
+    WaitingForPose,
+    PoseStale,
+    Planning,
+    Navigating,
+    Done,
+}
+
+/// Counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    pub decisions: u64,
+    pub decision_errors: u64,
+    pub goals_sent: u64,
+    pub succeeded: u64,
+    pub failed: u64,
+    pub rejected: u64,
+    pub timed_out: u64,
+    pub lost: u64,
+    pub replaced: u64,
+    pub maps: u64,
+    pub messages_rejected: u64,
+    pub messages_late: u64,
+    /// Wall time of the last decision, milliseconds.
+    pub last_decision_ms: f64,
+}
+
+/// The status topic's JSON.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Status {
+    pub t_s: f64,
+    pub phase: Phase,
+    pub goal: Option<ActiveGoal>,
+    pub robot: Option<Pose2>,
+    pub candidates: usize,
+    pub ranked: usize,
+    pub blacklisted: usize,
+    pub landmark_voxels: usize,
+    pub map_cells: Option<[usize; 2]>,
+    pub stats: Stats,
+    pub done_reason: Option<String>,
+    pub last_warning: Option<String>,
+}
+
+struct MapState {
+    grid: OccupancyGrid,
+    /// Inflated by the robot radius, computed on first use.
+    inflated: Option<OccupancyGrid>,
+    stamp_s: f64,
+}
+
+struct CloudMapper {
+    map: TraversabilityMap,
+    layers: TraversabilityLayers,
+    dirty: bool,
+}
+
+#[derive(Clone, Copy)]
+struct PoseSample {
+    pose: Pose2,
+    stamp_s: f64,
+    received_s: f64,
+}
+
+/// The exploration node's state.
+pub struct Explorer {
+    cfg: NodeConfig,
+    params: Params,
+    selector: Box<dyn GoalSelector>,
+    tf: TfBuffer,
+    map: Option<MapState>,
+    cloud_mapper: Option<CloudMapper>,
+    landmarks: LandmarkVoxels,
+    landmark_points: Vec<[f64; 3]>,
+    topic_pose: Option<PoseSample>,
+    boundary: Option<Boundary>,
+    blacklist: Blacklist,
+    goal: Option<ActiveGoal>,
+    next_goal_id: u64,
+    last_decision_s: Option<f64>,
+    replan_now: bool,
+    empty_decisions: u32,
+    started_s: Option<f64>,
+    done_reason: Option<String>,
+    phase: Phase,
+    last_decision: Option<Decision>,
+    last_warning: Option<String>,
+    log: Vec<LogLine>,
+    warned: HashMap<&'static str, (String, f64)>,
+    stats: Stats,
+}
+
+impl Explorer {
+    /// A node with this configuration (assumed validated: [`crate::config::ConfigFile::validate`]).
+    pub fn new(cfg: NodeConfig, params: Params) -> Self {
+        let selector = make_selector(&params.selector);
+        Self {
+            landmarks: LandmarkVoxels::empty(params.u2.voxel_m),
+            blacklist: Blacklist::new(params.frontier.blacklist_radius_m),
+            cfg,
+            params,
+            selector,
+            tf: TfBuffer::new(),
+            map: None,
+            cloud_mapper: None,
+            landmark_points: Vec::new(),
+            topic_pose: None,
+            boundary: None,
+            goal: None,
+            next_goal_id: 1,
+            last_decision_s: None,
+            replan_now: false,
+            empty_decisions: 0,
+            started_s: None,
+            done_reason: None,
+            phase: Phase::WaitingForMap,
+            last_decision: None,
+            last_warning: None,
+            log: Vec::new(),
+            warned: HashMap::new(),
+            stats: Stats::default(),
+        }
+    }
+
+    // ---------------------------------------------------------------- logging
+
+    fn info(&mut self, now_s: f64, text: String) {
+        self.log.push(LogLine { t_s: now_s, level: Level::Info, text });
+    }
+
+    /// A warning, repeated under `key` only when its text changes or every [`WARN_REPEAT_S`].
+    fn warn(&mut self, key: &'static str, now_s: f64, text: String) {
+        if let Some((last, t)) = self.warned.get(key)
+            && *last == text
+            && now_s - t < WARN_REPEAT_S
+        {
+            return;
+        }
+        self.warned.insert(key, (text.clone(), now_s));
+        self.last_warning = Some(text.clone());
+        self.log.push(LogLine { t_s: now_s, level: Level::Warn, text });
+    }
+
+    /// Takes the log lines produced since the last call.
+    pub fn drain_log(&mut self) -> Vec<LogLine> {
+        std::mem::take(&mut self.log)
+    }
+
+    // ---------------------------------------------------------------- inputs
+
+    fn reject(&mut self, key: &'static str, now_s: f64, what: &str, e: &ConvertError) {
+        self.stats.messages_rejected += 1;
+        self.warn(key, now_s, format!("{what} rejected: {e}"));
+    }
+
+    /// A `nav_msgs/OccupancyGrid` (used when `map_source: occupancy`).
+    pub fn handle_map(&mut self, msg: &msgs::OccupancyGrid, now_s: f64) {
+        let grid = match convert::occupancy_of_msg(msg) {
+            Ok(g) => g,
+            Err(e) => return self.reject("map", now_s, "map", &e),
+        };
+        let frame = normalise_frame(&msg.header.frame_id);
+        if !frame.is_empty() && frame != normalise_frame(&self.cfg.map_frame) {
+            self.stats.messages_rejected += 1;
+            let text = format!("map rejected: frame '{frame}' is not the map frame '{}'", self.cfg.map_frame);
+            return self.warn("map", now_s, text);
+        }
+        self.set_map(grid, msg.header.stamp.as_secs_f64(), now_s);
+    }
+
+    fn set_map(&mut self, grid: OccupancyGrid, stamp_s: f64, now_s: f64) {
+        if let Some(old) = &self.map {
+            if stamp_s != 0.0 && stamp_s < old.stamp_s {
+                self.stats.messages_late += 1;
+                let text = format!("late map dropped (stamp {stamp_s:.3} s < {:.3} s)", old.stamp_s);
+                return self.warn("map_late", now_s, text);
+            }
+            if old.grid.geometry != grid.geometry {
+                let (a, b) = (old.grid.geometry, grid.geometry);
+                let text = format!(
+                    "map geometry changed: {}×{} cells at {} m from ({}, {}) → {}×{} at {} m from ({}, {})",
+                    a.width, a.height, a.resolution_m, a.origin_x_m, a.origin_y_m, b.width, b.height, b.resolution_m,
+                    b.origin_x_m, b.origin_y_m
+                );
+                self.info(now_s, text);
+            }
+        } else {
+            let g = grid.geometry;
+            self.info(now_s, format!("first map: {}×{} cells at {} m", g.width, g.height, g.resolution_m));
+        }
+        self.stats.maps += 1;
+        self.map = Some(MapState { grid, inflated: None, stamp_s });
+    }
+
+    /// `/tf` (`is_static` false) or `/tf_static` (true).
+    pub fn handle_tf(&mut self, msg: &msgs::TFMessage, is_static: bool, now_s: f64) {
+        for t in &msg.transforms {
+            match self.tf.insert(t, is_static, now_s) {
+                Ok(true) => {}
+                Ok(false) => self.stats.messages_late += 1,
+                Err(e) => {
+                    let what = format!("transform {} → {}", t.header.frame_id, t.child_frame_id);
+                    self.reject("tf", now_s, &what, &e);
+                }
+            }
+        }
+    }
+
+    /// `target_from_source` from the tf buffer.
+    fn lookup(&self, target: &str, source: &str) -> Option<Isometry3<f64>> {
+        self.tf.lookup(target, source).map(|l| l.transform)
+    }
+
+    /// Points of a cloud in the map frame (transformed by tf if it is in another frame).
+    fn cloud_in_map(&mut self, msg: &msgs::PointCloud2, key: &'static str, what: &str, now_s: f64) -> Option<Vec<Point3<f64>>> {
+        let (mut points, stats) = match convert::points_of_cloud(msg) {
+            Ok(p) => p,
+            Err(e) => {
+                self.reject(key, now_s, what, &e);
+                return None;
+            }
+        };
+        if stats.non_finite > 0 {
+            let text = format!("{what}: {} of {} points are not finite (skipped)", stats.non_finite, stats.records);
+            self.warn(key, now_s, text);
+        }
+        let frame = normalise_frame(&msg.header.frame_id).to_owned();
+        let map_frame = self.cfg.map_frame.clone();
+        if !frame.is_empty() && frame != normalise_frame(&map_frame) {
+            let Some(map_from_cloud) = self.lookup(&map_frame, &frame) else {
+                self.stats.messages_rejected += 1;
+                self.warn(key, now_s, format!("{what} dropped: no transform {map_frame} ← {frame}"));
+                return None;
+            };
+            for p in &mut points {
+                *p = map_from_cloud * *p;
+            }
+        }
+        Some(points)
+    }
+
+    /// The landmark map (`sensor_msgs/PointCloud2` of map points): replaces the previous set.
+    pub fn handle_landmarks(&mut self, msg: &msgs::PointCloud2, now_s: f64) {
+        let Some(points) = self.cloud_in_map(msg, "landmarks", "landmark cloud", now_s) else { return };
+        let n = points.len();
+        let cloud = PointCloud::from_points(points);
+        match LandmarkVoxels::new(&cloud, self.params.u2.voxel_m, self.params.u2.sigma_landmark_m) {
+            Ok(v) => {
+                if self.landmarks.is_empty() && !v.is_empty() {
+                    self.info(now_s, format!("first landmark map: {n} points in {} voxels", v.len()));
+                }
+                self.landmarks = v;
+                self.landmark_points = cloud.points.iter().map(|p| [p.x, p.y, p.z]).collect();
+            }
+            Err(e) => {
+                self.stats.messages_rejected += 1;
+                self.warn("landmarks", now_s, format!("landmark cloud rejected: {e}"));
+            }
+        }
+    }
+
+    /// A registered LiDAR cloud (used when `map_source: clouds`): fused into the traversability
+    /// map; the occupancy grid is recomputed before the next decision.
+    pub fn handle_cloud(&mut self, msg: &msgs::PointCloud2, now_s: f64) {
+        let Some(points) = self.cloud_in_map(msg, "cloud", "LiDAR cloud", now_s) else { return };
+        if self.cloud_mapper.is_none() {
+            let c = &self.cfg.cloud_map;
+            let res = self.params.grid.resolution_m;
+            let geometry = GridGeometry::new(
+                c.origin_x_m,
+                c.origin_y_m,
+                res,
+                (c.size_x_m / res).ceil() as usize,
+                (c.size_y_m / res).ceil() as usize,
+            );
+            match TraversabilityMap::new(geometry) {
+                Ok(map) => {
+                    let layers = map.compute(&self.params.traversability);
+                    self.cloud_mapper = Some(CloudMapper { map, layers, dirty: true });
+                }
+                Err(e) => {
+                    self.stats.messages_rejected += 1;
+                    return self.warn("cloud", now_s, format!("cannot build the cloud map: {e}"));
+                }
+            }
+        }
+        if let Some(m) = &mut self.cloud_mapper {
+            let s = m.map.insert_points(points);
+            m.dirty |= s.inserted > 0;
+        }
+    }
+
+    /// `geometry_msgs/PoseWithCovarianceStamped` (used when `pose_source: topic`).
+    pub fn handle_pose(&mut self, msg: &msgs::PoseWithCovarianceStamped, now_s: f64) {
+        let iso = match convert::isometry_of_pose(&msg.pose.pose) {
+            Ok(i) => i,
+            Err(e) => return self.reject("pose", now_s, "pose", &e),
+        };
+        let frame = normalise_frame(&msg.header.frame_id).to_owned();
+        let map_frame = self.cfg.map_frame.clone();
+        let map_from_body = if frame.is_empty() || frame == normalise_frame(&map_frame) {
+            iso
+        } else {
+            match self.lookup(&map_frame, &frame) {
+                Some(t) => t * iso,
+                None => {
+                    self.stats.messages_rejected += 1;
+                    return self.warn("pose", now_s, format!("pose dropped: no transform {map_frame} ← {frame}"));
+                }
+            }
+        };
+        let stamp_s = msg.header.stamp.as_secs_f64();
+        if let Some(old) = self.topic_pose
+            && stamp_s != 0.0
+            && stamp_s < old.stamp_s
+        {
+            self.stats.messages_late += 1;
+            return self.warn("pose_late", now_s, format!("late pose dropped (stamp {stamp_s:.3} s < {:.3} s)", old.stamp_s));
+        }
+        let pose = convert::pose2_of_isometry(&map_from_body);
+        self.topic_pose = Some(PoseSample { pose, stamp_s, received_s: now_s });
+    }
+
+    /// `geometry_msgs/PolygonStamped`: the exploration boundary; an empty polygon clears it.
+    pub fn handle_boundary(&mut self, msg: &msgs::PolygonStamped, now_s: f64) {
+        if msg.polygon.points.is_empty() {
+            self.boundary = None;
+            self.info(now_s, "boundary cleared".into());
+            return;
+        }
+        let mut b = match convert::boundary_of_polygon(msg) {
+            Ok(b) => b,
+            Err(e) => return self.reject("boundary", now_s, "boundary", &e),
+        };
+        let frame = normalise_frame(&msg.header.frame_id).to_owned();
+        let map_frame = self.cfg.map_frame.clone();
+        if !frame.is_empty() && frame != normalise_frame(&map_frame) {
+            let Some(t) = self.lookup(&map_frame, &frame) else {
+                self.stats.messages_rejected += 1;
+                return self.warn("boundary", now_s, format!("boundary dropped: no transform {map_frame} ← {frame}"));
+            };
+            for v in &mut b.vertices_m {
+                let p = t * Point3::new(v[0], v[1], 0.0);
+                *v = [p.x, p.y];
+            }
+        }
+        self.info(now_s, format!("boundary: {} vertices, {:.1} m²", b.vertices_m.len(), b.area_m2()));
+        self.boundary = Some(b);
+        self.replan_now = true;
+    }
+
+    /// What the navigation stack said about goal `id`. Events for other ids (an old goal) are
+    /// ignored.
+    pub fn on_goal_event(&mut self, id: u64, event: GoalEvent, now_s: f64) {
+        let Some(g) = self.goal.filter(|g| g.id == id) else { return };
+        let (x, y) = (g.goal.x_m, g.goal.y_m);
+        match event {
+            GoalEvent::Accepted => {
+                if let Some(g) = &mut self.goal {
+                    g.accepted_s.get_or_insert(now_s);
+                }
+            }
+            GoalEvent::Succeeded => {
+                self.stats.succeeded += 1;
+                self.info(now_s, format!("goal {id} at ({x:.2}, {y:.2}) reached"));
+                self.end_goal(Some(BlacklistReason::Reselected), true);
+            }
+            GoalEvent::Rejected => {
+                self.stats.rejected += 1;
+                self.warn("goal", now_s, format!("goal {id} at ({x:.2}, {y:.2}) rejected: blacklisted"));
+                self.end_goal(Some(BlacklistReason::Failed), true);
+            }
+            GoalEvent::Aborted(why) => {
+                self.stats.failed += 1;
+                self.warn("goal", now_s, format!("goal {id} at ({x:.2}, {y:.2}) aborted ({why}): blacklisted"));
+                self.end_goal(Some(BlacklistReason::Failed), true);
+            }
+            GoalEvent::Canceled => {
+                self.stats.failed += 1;
+                self.warn("goal", now_s, format!("goal {id} at ({x:.2}, {y:.2}) cancelled by another client: blacklisted"));
+                self.end_goal(Some(BlacklistReason::Failed), true);
+            }
+            GoalEvent::Lost(why) => {
+                self.stats.lost += 1;
+                self.warn("goal_lost", now_s, format!("goal {id} at ({x:.2}, {y:.2}) lost ({why}): will plan again"));
+                self.end_goal(None, false);
+            }
+        }
+    }
+
+    fn end_goal(&mut self, reason: Option<BlacklistReason>, replan_now: bool) {
+        if let (Some(g), Some(r)) = (self.goal.take(), reason) {
+            self.blacklist.add(g.goal.x_m, g.goal.y_m, r);
+        }
+        self.replan_now |= replan_now;
+    }
+
+    // ---------------------------------------------------------------- state
+
+    /// The robot's pose in the map frame now, or why there is none.
+    fn robot_pose(&self, now_s: f64) -> Result<Pose2, Phase> {
+        let (pose, received_s) = match self.cfg.pose_source {
+            PoseSource::Tf => {
+                let l = self.tf.lookup(&self.cfg.map_frame, &self.cfg.base_frame).ok_or(Phase::WaitingForPose)?;
+                (convert::pose2_of_isometry(&l.transform), l.oldest_received_s.unwrap_or(now_s))
+            }
+            PoseSource::Topic => {
+                let s = self.topic_pose.ok_or(Phase::WaitingForPose)?;
+                (s.pose, s.received_s)
+            }
+        };
+        if now_s - received_s > self.cfg.pose_timeout_s {
+            return Err(Phase::PoseStale);
+        }
+        Ok(pose)
+    }
+
+    /// Age of the pose, seconds (for the stale-pose message).
+    fn pose_age_s(&self, now_s: f64) -> Option<f64> {
+        match self.cfg.pose_source {
+            PoseSource::Tf => self.tf.lookup(&self.cfg.map_frame, &self.cfg.base_frame).map(|l| now_s - l.oldest_received_s.unwrap_or(now_s)),
+            PoseSource::Topic => self.topic_pose.map(|s| now_s - s.received_s),
+        }
+    }
+
+    fn inflated(&mut self) -> Option<&OccupancyGrid> {
+        let radius_m = self.params.robot.radius_m;
+        let m = self.map.as_mut()?;
+        if m.inflated.is_none() {
+            m.inflated = Some(inflate_lethal(&m.grid, radius_m));
+        }
+        m.inflated.as_ref()
+    }
+
+    /// Whether a goal at (x, y) lies on a free cell of the latest inflated grid (not lethal,
+    /// not inflated, not unknown, inside the map).
+    pub fn goal_is_free(&mut self, x_m: f64, y_m: f64) -> bool {
+        self.inflated().and_then(|g| g.at_world(x_m, y_m)).is_some_and(|&v| CellClass::of(v) == CellClass::Free)
+    }
+
+    fn refresh_cloud_map(&mut self, now_s: f64) {
+        let tau = self.params.traversability.tau;
+        let Some(m) = self.cloud_mapper.as_mut().filter(|m| m.dirty) else { return };
+        m.map.update(&self.params.traversability, &mut m.layers);
+        m.dirty = false;
+        let grid = m.layers.to_occupancy(tau);
+        // Cloud maps are built here, so they are never late.
+        let stamp_s = self.map.as_ref().map_or(0.0, |m| m.stamp_s);
+        self.set_map(grid, stamp_s, now_s);
+    }
+
+    fn send(&mut self, goal: Pose2, now_s: f64) -> Command {
+        let id = self.next_goal_id;
+        self.next_goal_id += 1;
+        let accepted_s = (self.cfg.goal_interface == GoalInterface::Topic).then_some(now_s);
+        self.goal = Some(ActiveGoal { id, goal, sent_s: now_s, accepted_s });
+        self.stats.goals_sent += 1;
+        self.info(now_s, format!("goal {id}: ({:.2}, {:.2}) m, heading {:.0}°", goal.x_m, goal.y_m, goal.yaw_rad.to_degrees()));
+        Command::SendGoal { id, goal }
+    }
+
+    fn finish(&mut self, reason: &str, now_s: f64, out: &mut Vec<Command>) {
+        if let Some(g) = self.goal.take() {
+            out.push(Command::CancelGoal { id: g.id });
+        }
+        self.done_reason = Some(reason.to_owned());
+        self.phase = Phase::Done;
+        self.info(now_s, format!("mission complete: {reason}"));
+        out.push(Command::MissionComplete);
+    }
+
+    /// Advances the clock: goal supervision every call, a decision every `replan_period_s` (or
+    /// at once after a goal ended). Call it every poll period.
+    pub fn tick(&mut self, now_s: f64) -> Vec<Command> {
+        let mut out = Vec::new();
+        if self.phase == Phase::Done {
+            return out;
+        }
+        let started = *self.started_s.get_or_insert(now_s);
+        if let Some(max) = self.cfg.max_mission_s
+            && now_s - started >= max
+        {
+            self.finish(&format!("time limit of {max} s reached"), now_s, &mut out);
+            return out;
+        }
+        if self.cfg.map_source == MapSource::Clouds {
+            let due = self.last_decision_s.is_none_or(|t| now_s - t >= self.cfg.replan_period_s);
+            if due || self.replan_now {
+                self.refresh_cloud_map(now_s);
+            }
+        }
+        self.supervise_goal(now_s, &mut out);
+        let due = self.replan_now || self.last_decision_s.is_none_or(|t| now_s - t >= self.cfg.replan_period_s);
+        if due {
+            self.last_decision_s = Some(now_s);
+            self.replan_now = false;
+            self.plan(now_s, &mut out);
+        }
+        out
+    }
+
+    fn supervise_goal(&mut self, now_s: f64, out: &mut Vec<Command>) {
+        let Some(g) = self.goal else { return };
+        let (x, y) = (g.goal.x_m, g.goal.y_m);
+        match g.accepted_s {
+            None if now_s - g.sent_s > self.cfg.goal_response_timeout_s => {
+                self.stats.lost += 1;
+                let text = format!(
+                    "no answer from the navigation server within {} s for goal {} at ({x:.2}, {y:.2}): dropped, will send again",
+                    self.cfg.goal_response_timeout_s, g.id
+                );
+                self.warn("goal_lost", now_s, text);
+                out.push(Command::CancelGoal { id: g.id });
+                self.end_goal(None, false);
+                return;
+            }
+            Some(t) if now_s - t > self.cfg.goal_timeout_s => {
+                self.stats.timed_out += 1;
+                let text = format!("goal {} at ({x:.2}, {y:.2}) not reached within {} s: cancelled, blacklisted", g.id, self.cfg.goal_timeout_s);
+                self.warn("goal", now_s, text);
+                out.push(Command::CancelGoal { id: g.id });
+                self.end_goal(Some(BlacklistReason::Failed), true);
+                return;
+            }
+            _ => {}
+        }
+        if !self.goal_is_free(x, y) {
+            let text = format!("goal {} at ({x:.2}, {y:.2}) is no longer free on the latest map: cancelled", g.id);
+            self.warn("goal_lethal", now_s, text);
+            out.push(Command::CancelGoal { id: g.id });
+            self.stats.replaced += 1;
+            self.end_goal(None, true);
+            return;
+        }
+        if self.cfg.goal_interface == GoalInterface::Topic
+            && let Ok(p) = self.robot_pose(now_s)
+            && (p.x_m - x).hypot(p.y_m - y) <= self.cfg.goal_tolerance_m
+        {
+            self.on_goal_event(g.id, GoalEvent::Succeeded, now_s);
+        }
+    }
+
+    fn plan(&mut self, now_s: f64, out: &mut Vec<Command>) {
+        if self.map.is_none() {
+            self.phase = Phase::WaitingForMap;
+            let topic = match self.cfg.map_source {
+                MapSource::Occupancy => &self.cfg.map_topic,
+                MapSource::Clouds => &self.cfg.cloud_topic,
+            };
+            let text = format!("waiting for the map on {topic}");
+            return self.warn("wait", now_s, text);
+        }
+        let robot = match self.robot_pose(now_s) {
+            Ok(p) => p,
+            Err(phase) => {
+                self.phase = phase;
+                let text = match (phase, self.cfg.pose_source) {
+                    (Phase::PoseStale, _) => format!(
+                        "pose stale: last update {:.1} s ago (limit {} s); not planning",
+                        self.pose_age_s(now_s).unwrap_or(f64::NAN),
+                        self.cfg.pose_timeout_s
+                    ),
+                    (_, PoseSource::Tf) => format!("waiting for tf {} ← {}", self.cfg.map_frame, self.cfg.base_frame),
+                    (_, PoseSource::Topic) => format!("waiting for the pose on {}", self.cfg.pose_topic),
+                };
+                return self.warn("wait", now_s, text);
+            }
+        };
+        let Some(map) = self.map.as_ref() else { return };
+        let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);
+        if let Some(b) = &self.boundary {
+            input = input.with_boundary(b);
+        }
+        let t0 = std::time::Instant::now();
+        let result = self.selector.select(&input, &self.params);
+        self.stats.last_decision_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let decision = match result {
+            Ok(d) => d,
+            Err(e) => {
+                self.stats.decision_errors += 1;
+                self.phase = if self.goal.is_some() { Phase::Navigating } else { Phase::Planning };
+                return self.warn("decision", now_s, format!("no decision: {e}"));
+            }
+        };
+        self.stats.decisions += 1;
+        for [x, y] in decision.unreachable_m() {
+            self.blacklist.add(x, y, BlacklistReason::NoPath);
+        }
+        // The best-ranked candidate on a free cell of the latest inflated grid.
+        let mut picked = None;
+        for i in decision.ranking() {
+            let c = &decision.candidates[i];
+            let goal = match (decision.chosen == Some(i), decision.goal) {
+                (true, Some(g)) => g,
+                _ => Pose2::new(c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0)),
+            };
+            if goal.is_finite() && self.goal_is_free(goal.x_m, goal.y_m) {
+                picked = Some(goal);
+                break;
+            }
+            let text = format!("candidate at ({:.2}, {:.2}) is not free on the inflated map: skipped", goal.x_m, goal.y_m);
+            self.warn("candidate_lethal", now_s, text);
+        }
+        let radius = self.params.frontier.blacklist_radius_m;
+        match (picked, self.goal) {
+            (None, None) => {
+                self.empty_decisions += 1;
+                self.phase = Phase::Planning;
+                if self.empty_decisions >= self.cfg.done_after_empty_decisions {
+                    let reason = format!(
+                        "no reachable, non-blacklisted frontier left ({} candidates, {} blacklisted goals)",
+                        decision.candidates.len(),
+                        self.blacklist.len()
+                    );
+                    self.last_decision = Some(decision);
+                    return self.finish(&reason, now_s, out);
+                }
+            }
+            (None, Some(_)) => self.phase = Phase::Navigating,
+            (Some(new), None) => {
+                self.empty_decisions = 0;
+                out.push(self.send(new, now_s));
+                self.phase = Phase::Navigating;
+            }
+            (Some(new), Some(cur)) => {
+                self.empty_decisions = 0;
+                self.phase = Phase::Navigating;
+                let same = (new.x_m - cur.goal.x_m).hypot(new.y_m - cur.goal.y_m) <= radius;
+                let still_frontier = decision.candidates.iter().any(|c| {
+                    c.is_scored() && (c.x_m - cur.goal.x_m).hypot(c.y_m - cur.goal.y_m) <= radius
+                });
+                if !same && !still_frontier {
+                    let text = format!("goal {} at ({:.2}, {:.2}) is no longer a frontier: replaced", cur.id, cur.goal.x_m, cur.goal.y_m);
+                    self.info(now_s, text);
+                    self.stats.replaced += 1;
+                    out.push(Command::CancelGoal { id: cur.id });
+                    self.goal = None;
+                    out.push(self.send(new, now_s));
+                }
+            }
+        }
+        self.last_decision = Some(decision);
+    }
+
+    // ---------------------------------------------------------------- outputs
+
+    /// The status now.
+    pub fn status(&self, now_s: f64) -> Status {
+        let d = self.last_decision.as_ref();
+        Status {
+            t_s: now_s,
+            phase: self.phase,
+            goal: self.goal,
+            robot: self.robot_pose(now_s).ok(),
+            candidates: d.map_or(0, |d| d.candidates.len()),
+            ranked: d.map_or(0, |d| d.ranking().len()),
+            blacklisted: self.blacklist.len(),
+            landmark_voxels: self.landmarks.len(),
+            map_cells: self.map.as_ref().map(|m| [m.grid.geometry.width, m.grid.geometry.height]),
+            stats: self.stats,
+            done_reason: self.done_reason.clone(),
+            last_warning: self.last_warning.clone(),
+        }
+    }
+
+    /// The last decision (whole ranking).
+    pub fn last_decision(&self) -> Option<&Decision> {
+        self.last_decision.as_ref()
+    }
+
+    /// Number of decisions made so far (the adapter publishes markers when it changes).
+    pub fn decisions(&self) -> u64 {
+        self.stats.decisions
+    }
+
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.phase == Phase::Done
+    }
+
+    pub fn current_goal(&self) -> Option<ActiveGoal> {
+        self.goal
+    }
+
+    pub fn blacklist(&self) -> &Blacklist {
+        &self.blacklist
+    }
+
+    /// The latest (not inflated) map.
+    pub fn map(&self) -> Option<&OccupancyGrid> {
+        self.map.as_ref().map(|m| &m.grid)
+    }
+
+    /// The landmark points (map frame) of the latest landmark map.
+    pub fn landmark_points(&self) -> &[[f64; 3]] {
+        &self.landmark_points
+    }
+
+    pub fn landmark_voxels(&self) -> &LandmarkVoxels {
+        &self.landmarks
+    }
+
+    /// The robot's pose if known and fresh.
+    pub fn robot(&self, now_s: f64) -> Option<Pose2> {
+        self.robot_pose(now_s).ok()
+    }
+
+    pub fn config(&self) -> &NodeConfig {
+        &self.cfg
+    }
+
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+}
+
+#[cfg(test)]
+mod tests;

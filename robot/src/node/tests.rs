@@ -1,0 +1,381 @@
+//! The state machine with fake inputs: no DDS, explicit clock.
+
+use super::*;
+use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
+use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
+use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
+use fitslam_core::fixtures::{corridor_two_frontiers, synthetic_world, SyntheticWorldSpec};
+use fitslam_core::grid::{Grid, FREE, LETHAL, UNKNOWN};
+
+fn header(stamp_s: f64, frame: &str) -> Header {
+    Header::new(Time::from_secs_f64(stamp_s), frame)
+}
+
+fn map_msg(grid: &OccupancyGrid, stamp_s: f64) -> msgs::OccupancyGrid {
+    msg_of_occupancy(grid, header(stamp_s, "map"))
+}
+
+fn tf_msg(parent: &str, child: &str, p: Pose2, stamp_s: f64) -> TFMessage {
+    TFMessage {
+        transforms: vec![TransformStamped {
+            header: header(stamp_s, parent),
+            child_frame_id: child.into(),
+            transform: Transform {
+                translation: Vector3 { x: p.x_m, y: p.y_m, z: 0.0 },
+                rotation: Quaternion::from_yaw(p.yaw_rad),
+            },
+        }],
+    }
+}
+
+/// map → odom (identity) and odom → base_link at `robot`.
+fn feed_pose(e: &mut Explorer, robot: Pose2, now_s: f64) {
+    e.handle_tf(&tf_msg("map", "odom", Pose2::new(0.0, 0.0, 0.0), now_s), false, now_s);
+    e.handle_tf(&tf_msg("odom", "base_link", robot, now_s), false, now_s);
+}
+
+fn goals(cmds: &[Command]) -> Vec<(u64, Pose2)> {
+    cmds.iter().filter_map(|c| if let Command::SendGoal { id, goal } = c { Some((*id, *goal)) } else { None }).collect()
+}
+
+fn cancels(cmds: &[Command]) -> Vec<u64> {
+    cmds.iter().filter_map(|c| if let Command::CancelGoal { id } = c { Some(*id) } else { None }).collect()
+}
+
+fn log_has(e: &mut Explorer, needle: &str) -> bool {
+    e.drain_log().iter().any(|l| l.text.contains(needle))
+}
+
+fn free_on_inflated(grid: &OccupancyGrid, radius_m: f64, g: Pose2) -> bool {
+    let inflated = inflate_lethal(grid, radius_m);
+    inflated.at_world(g.x_m, g.y_m).is_some_and(|&v| CellClass::of(v) == CellClass::Free)
+}
+
+/// The corridor world fed at t = 0; returns the explorer and the world.
+fn corridor_explorer(cfg: NodeConfig) -> (Explorer, fitslam_core::fixtures::SyntheticWorld) {
+    let w = corridor_two_frontiers(true);
+    let mut e = Explorer::new(cfg, Params::default());
+    e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
+    e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
+    feed_pose(&mut e, w.robot, 0.0);
+    (e, w)
+}
+
+#[test]
+fn waits_for_the_map_then_the_pose_then_sends_a_free_goal_east() {
+    let w = corridor_two_frontiers(true);
+    let mut e = Explorer::new(NodeConfig::default(), Params::default());
+    assert!(e.tick(0.0).is_empty());
+    assert_eq!(e.phase(), Phase::WaitingForMap);
+    assert!(log_has(&mut e, "waiting for the map on /map"));
+    e.handle_map(&map_msg(&w.grid, 1.0), 0.5);
+    e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.5);
+    assert!(e.tick(0.6).is_empty(), "not due yet: one decision per second");
+    assert!(e.tick(1.0).is_empty());
+    assert_eq!(e.phase(), Phase::WaitingForPose);
+    assert!(log_has(&mut e, "waiting for tf map ← base_link"));
+    feed_pose(&mut e, w.robot, 1.5);
+    let cmds = e.tick(2.0);
+    let g = goals(&cmds);
+    assert_eq!(g.len(), 1, "{cmds:?}");
+    let (id, goal) = g[0];
+    assert_eq!(id, 1);
+    // FIT-SLAM picks the east frontier, where the landmarks are.
+    assert!(goal.x_m > w.robot.x_m + 5.0, "{goal:?}");
+    assert!(free_on_inflated(&w.grid, 0.25, goal));
+    assert_eq!(e.phase(), Phase::Navigating);
+    // Kept while it is still a frontier goal.
+    feed_pose(&mut e, w.robot, 2.9);
+    assert!(e.tick(3.0).is_empty());
+    assert_eq!(e.current_goal().map(|g| g.id), Some(1));
+}
+
+#[test]
+fn aborted_and_rejected_goals_are_blacklisted_and_not_sent_again() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
+    e.on_goal_event(id1, GoalEvent::Aborted("controller failed".into()), 0.2);
+    assert!(log_has(&mut e, "aborted (controller failed): blacklisted"));
+    assert_eq!(e.blacklist().contains(g1.x_m, g1.y_m), Some(BlacklistReason::Failed));
+    // Replans at once, not after a period.
+    let (id2, g2) = goals(&e.tick(0.25))[0];
+    assert_eq!(id2, 2);
+    assert!((g2.x_m - g1.x_m).hypot(g2.y_m - g1.y_m) > 0.5, "{g1:?} {g2:?}");
+    assert!(g2.x_m < w.robot.x_m, "the other frontier is west");
+    e.on_goal_event(id2, GoalEvent::Rejected, 0.3);
+    assert_eq!(e.blacklist().contains(g2.x_m, g2.y_m), Some(BlacklistReason::Failed));
+    // Both frontiers blacklisted: two empty decisions end the mission.
+    assert!(e.tick(0.35).is_empty());
+    let cmds = e.tick(1.4);
+    assert_eq!(cmds, vec![Command::MissionComplete]);
+    assert!(e.is_done());
+    assert!(e.status(1.4).done_reason.unwrap().contains("no reachable"));
+    assert!(e.tick(5.0).is_empty());
+    // Events for old goals are ignored.
+    e.on_goal_event(id1, GoalEvent::Succeeded, 5.0);
+    assert_eq!(e.stats().succeeded, 0);
+}
+
+#[test]
+fn a_goal_not_reached_in_time_is_cancelled_and_blacklisted() {
+    let cfg = NodeConfig { goal_timeout_s: 30.0, ..NodeConfig::default() };
+    let (mut e, w) = corridor_explorer(cfg);
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.5);
+    for t in 1..=30 {
+        feed_pose(&mut e, w.robot, t as f64);
+        assert!(cancels(&e.tick(t as f64)).is_empty());
+    }
+    feed_pose(&mut e, w.robot, 30.6);
+    let cmds = e.tick(30.6);
+    assert_eq!(cancels(&cmds), vec![id1]);
+    assert_eq!(e.blacklist().contains(g1.x_m, g1.y_m), Some(BlacklistReason::Failed));
+    let g = goals(&cmds);
+    assert_eq!(g.len(), 1);
+    assert!((g[0].1.x_m - g1.x_m).abs() > 1.0);
+    assert_eq!(e.stats().timed_out, 1);
+}
+
+#[test]
+fn no_answer_from_the_server_drops_the_goal_without_blacklisting_it() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    feed_pose(&mut e, w.robot, 5.0);
+    assert!(e.tick(5.0).is_empty());
+    feed_pose(&mut e, w.robot, 5.1);
+    let cmds = e.tick(5.1);
+    assert_eq!(cancels(&cmds), vec![id1]);
+    assert!(e.blacklist().is_empty());
+    assert!(log_has(&mut e, "no answer from the navigation server"));
+    // Sent again (a new id) at the next decision.
+    feed_pose(&mut e, w.robot, 6.0);
+    let g = goals(&e.tick(6.0));
+    assert_eq!(g.len(), 1);
+    assert_eq!(g[0].0, 2);
+    assert!((g[0].1.x_m - g1.x_m).abs() < 1e-9);
+}
+
+#[test]
+fn a_stale_pose_stops_decisions_and_says_why() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let _ = e.drain_log();
+    assert!(goals(&e.tick(3.0)).is_empty());
+    assert_eq!(e.phase(), Phase::PoseStale);
+    assert!(log_has(&mut e, "pose stale: last update 3.0 s ago"));
+    // The odometry comes back.
+    feed_pose(&mut e, w.robot, 4.0);
+    assert_eq!(goals(&e.tick(4.0)).len(), 1);
+}
+
+#[test]
+fn nan_fields_and_bad_sizes_are_rejected_and_the_last_good_input_kept() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    // A map whose data length disagrees with its size.
+    let mut bad = map_msg(&w.grid, 2.0);
+    bad.data.pop();
+    e.handle_map(&bad, 0.1);
+    assert!(log_has(&mut e, "map rejected: map has 9599 cells of data but width × height = 240 × 40"));
+    // NaN origin, NaN resolution.
+    let mut bad = map_msg(&w.grid, 2.0);
+    bad.info.origin.position.y = f64::NAN;
+    e.handle_map(&bad, 0.1);
+    let mut bad = map_msg(&w.grid, 2.0);
+    bad.info.resolution = f32::NAN;
+    e.handle_map(&bad, 0.1);
+    // A NaN transform, a NaN quaternion.
+    e.handle_tf(&tf_msg("odom", "base_link", Pose2::new(f64::NAN, 0.0, 0.0), 0.2), false, 0.2);
+    let mut t = tf_msg("odom", "base_link", w.robot, 0.2);
+    t.transforms[0].transform.rotation.w = f64::NAN;
+    e.handle_tf(&t, false, 0.2);
+    // A NaN pose on the pose topic, a cloud with NaN points, a polygon of NaNs.
+    let mut p = msgs::PoseWithCovarianceStamped::default();
+    p.pose.pose = pose_of_pose2(Pose2::new(f64::NAN, 1.0, 0.0));
+    e.handle_pose(&p, 0.2);
+    let mut pts = w.landmarks.points.clone();
+    pts.push(Point3::new(f64::NAN, 0.0, 0.0));
+    e.handle_landmarks(&cloud_of_points(&pts, header(1.0, "map")), 0.2);
+    assert!(log_has(&mut e, "1 of"));
+    let nan = Point32 { x: f32::NAN, y: 0.0, z: 0.0 };
+    e.handle_boundary(&PolygonStamped { header: header(0.0, "map"), polygon: Polygon { points: vec![nan; 4] } }, 0.2);
+    assert_eq!(e.stats().messages_rejected, 6);
+    // Still plans on the last good map and pose: a free goal east.
+    let g = goals(&e.tick(0.3));
+    assert_eq!(g.len(), 1);
+    assert!(g[0].1.x_m > w.robot.x_m && free_on_inflated(&w.grid, 0.25, g[0].1));
+}
+
+#[test]
+fn a_map_in_another_frame_or_late_is_dropped() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let mut other = map_msg(&w.grid, 2.0);
+    other.header.frame_id = "odom".into();
+    e.handle_map(&other, 0.1);
+    assert!(log_has(&mut e, "frame 'odom' is not the map frame"));
+    let blank = Grid::filled(w.grid.geometry, UNKNOWN);
+    e.handle_map(&map_msg(&blank, 0.5), 0.2); // stamp 0.5 < 1.0
+    assert_eq!(e.stats().messages_late, 1);
+    assert_eq!(e.map(), Some(&w.grid));
+}
+
+#[test]
+fn a_map_that_changes_size_and_makes_the_goal_lethal_cancels_it() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
+    // A bigger map (one more metre on every side, 0.1 m cells) with a rock on the goal.
+    let old = w.grid.geometry;
+    let geometry = GridGeometry::new(-1.0, -1.0, 0.1, old.width + 20, old.height + 20);
+    let mut grid = Grid::filled(geometry, UNKNOWN);
+    for r in 0..old.height {
+        for c in 0..old.width {
+            grid.data[(r + 10) * geometry.width + c + 10] = w.grid.data[r * old.width + c];
+        }
+    }
+    let goal_cell = geometry.cell_of(g1.x_m, g1.y_m).unwrap();
+    *grid.get_mut(goal_cell).unwrap() = LETHAL;
+    e.handle_map(&map_msg(&grid, 2.0), 0.5);
+    assert!(log_has(&mut e, "map geometry changed: 240×40"));
+    feed_pose(&mut e, w.robot, 0.5);
+    let cmds = e.tick(0.5);
+    assert_eq!(cancels(&cmds), vec![id1]);
+    let g = goals(&cmds);
+    assert_eq!(g.len(), 1, "replans at once: {cmds:?}");
+    assert!(free_on_inflated(&grid, 0.25, g[0].1), "{:?}", g[0]);
+    // The rock is not blacklisted as a failure: nothing failed.
+    assert!(e.blacklist().entries().iter().all(|b| b.reason != BlacklistReason::Failed));
+}
+
+#[test]
+fn reaching_a_goal_blacklists_it_as_reselected_and_a_closed_world_ends_the_mission() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
+    e.on_goal_event(id1, GoalEvent::Succeeded, 0.2);
+    assert_eq!(e.blacklist().contains(g1.x_m, g1.y_m), Some(BlacklistReason::Reselected));
+    // Close the corridor: everything known, no frontier.
+    let mut grid = w.grid.clone();
+    for v in &mut grid.data {
+        if *v == UNKNOWN {
+            *v = LETHAL;
+        }
+    }
+    e.handle_map(&map_msg(&grid, 2.0), 0.2);
+    assert!(e.tick(0.2).is_empty());
+    let cmds = e.tick(1.2);
+    assert_eq!(cmds, vec![Command::MissionComplete]);
+    assert_eq!(e.status(1.2).phase, Phase::Done);
+}
+
+#[test]
+fn time_limit_cancels_the_goal_and_ends() {
+    let cfg = NodeConfig { max_mission_s: Some(10.0), ..NodeConfig::default() };
+    let (mut e, w) = corridor_explorer(cfg);
+    let (id1, _) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
+    feed_pose(&mut e, w.robot, 10.0);
+    assert_eq!(e.tick(10.0), vec![Command::CancelGoal { id: id1 }, Command::MissionComplete]);
+}
+
+#[test]
+fn topic_goals_succeed_when_the_robot_is_close() {
+    let cfg = NodeConfig { goal_interface: GoalInterface::Topic, ..NodeConfig::default() };
+    let (mut e, _w) = corridor_explorer(cfg);
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    assert!(e.current_goal().unwrap().accepted_s.is_some());
+    feed_pose(&mut e, Pose2::new(g1.x_m + 0.2, g1.y_m, 0.0), 0.5);
+    let _ = e.tick(0.5);
+    assert_eq!(e.stats().succeeded, 1);
+    assert_eq!(e.blacklist().contains(g1.x_m, g1.y_m), Some(BlacklistReason::Reselected));
+    assert!(e.current_goal().is_none_or(|g| g.id != id1));
+}
+
+#[test]
+fn pose_topic_is_used_and_transformed_into_the_map_frame() {
+    let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
+    let w = corridor_two_frontiers(true);
+    let mut e = Explorer::new(cfg, Params::default());
+    e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
+    // Pose given in odom, which sits 1 m east of map.
+    e.handle_tf(&tf_msg("map", "odom", Pose2::new(1.0, 0.0, 0.0), 0.0), true, 0.0);
+    let mut p = msgs::PoseWithCovarianceStamped { header: header(1.0, "odom"), ..Default::default() };
+    p.pose.pose = pose_of_pose2(Pose2::new(w.robot.x_m - 1.0, w.robot.y_m, 0.0));
+    e.handle_pose(&p, 0.0);
+    let r = e.robot(0.0).unwrap();
+    assert!((r.x_m - w.robot.x_m).abs() < 1e-9 && (r.y_m - w.robot.y_m).abs() < 1e-9);
+    // Late pose dropped.
+    p.header.stamp = Time::from_secs_f64(0.5);
+    p.pose.pose.position.x = 0.0;
+    e.handle_pose(&p, 0.1);
+    assert_eq!(e.stats().messages_late, 1);
+    assert_eq!(goals(&e.tick(0.1)).len(), 1);
+}
+
+#[test]
+fn a_boundary_restricts_the_frontiers() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    // West half only: the east frontier is outside.
+    let pts = [[0.0f32, 0.0], [12.0, 0.0], [12.0, 4.0], [0.0, 4.0]].map(|[x, y]| Point32 { x, y, z: 0.0 });
+    e.handle_boundary(&PolygonStamped { header: header(0.0, "map"), polygon: Polygon { points: pts.to_vec() } }, 0.0);
+    let g = goals(&e.tick(0.0));
+    assert!(g[0].1.x_m < w.robot.x_m, "{g:?}");
+}
+
+#[test]
+fn clouds_build_the_map() {
+    let cfg = NodeConfig {
+        map_source: MapSource::Clouds,
+        cloud_map: crate::config::CloudMapConfig { origin_x_m: -4.0, origin_y_m: -4.0, size_x_m: 8.0, size_y_m: 8.0 },
+        ..NodeConfig::default()
+    };
+    let mut e = Explorer::new(cfg, Params::default());
+    // A flat floor of radius 2.5 m around the robot, in the laser frame 0.2 m above base_link.
+    let mut pts = Vec::new();
+    for i in -125..=125 {
+        for j in -125..=125 {
+            let (x, y) = (i as f64 * 0.02, j as f64 * 0.02);
+            if x.hypot(y) < 2.5 {
+                pts.push(Point3::new(x, y, -0.2));
+            }
+        }
+    }
+    feed_pose(&mut e, Pose2::new(0.0, 0.0, 0.0), 0.0);
+    e.handle_tf(&tf_msg("base_link", "laser", Pose2::new(0.0, 0.0, 0.0), 0.0), true, 0.0);
+    let mut cloud = cloud_of_points(&pts, header(0.0, "laser"));
+    cloud.header.frame_id = "laser".into();
+    e.handle_cloud(&cloud, 0.0);
+    let cmds = e.tick(0.0);
+    let map = e.map().expect("map built from the cloud");
+    assert_eq!(map.geometry.width, 160);
+    let free = map.data.iter().filter(|&&v| v == FREE).count();
+    assert!(free > 5000, "{free}");
+    let g = goals(&cmds);
+    assert_eq!(g.len(), 1, "{:?}", e.drain_log());
+    assert!(g[0].1.x_m.hypot(g[0].1.y_m) > 1.5);
+}
+
+#[test]
+fn every_goal_is_free_on_random_worlds() {
+    for seed in 0..4 {
+        let w = synthetic_world(&SyntheticWorldSpec::small(seed));
+        let mut e = Explorer::new(NodeConfig::default(), Params::default());
+        e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
+        e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
+        let mut t = 0.0;
+        // Fail every goal: the node walks down its whole ranking, each goal free.
+        for _ in 0..40 {
+            feed_pose(&mut e, w.robot, t);
+            for (id, g) in goals(&e.tick(t)) {
+                assert!(free_on_inflated(&w.grid, 0.25, g), "seed {seed}: {g:?}");
+                assert!(w.grid.geometry.cell_of(g.x_m, g.y_m).is_some());
+                e.on_goal_event(id, GoalEvent::Aborted("test".into()), t);
+            }
+            if e.is_done() {
+                break;
+            }
+            t += 1.0;
+        }
+        assert!(e.is_done(), "seed {seed}: every frontier failed, so the mission must end");
+        assert!(e.stats().goals_sent >= 2);
+    }
+}

@@ -1,0 +1,1 @@
+//! Rerun logging (placeholder until the rerun build is added).

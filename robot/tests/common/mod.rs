@@ -1,0 +1,72 @@
+//! Shared test helpers: the simulated robot and the loopback DDS plumbing.
+
+#![allow(dead_code)]
+
+pub mod sim;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+/// A DDS domain private to this test process: `base + pid % span` (domains ≤ 232).
+pub fn private_domain(base: u16, span: u16) -> u16 {
+    base + (std::process::id() % span as u32) as u16
+}
+
+/// A fresh scratch directory under the system temp dir.
+pub fn scratch_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fitslam-robot-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("scratch dir");
+    d
+}
+
+/// The node binary running as a child process, killed when dropped.
+pub struct NodeProcess {
+    pub child: Child,
+    pub log_path: PathBuf,
+}
+
+impl NodeProcess {
+    /// Starts `fitslam-robot --config <config>` on `domain`, loopback only, its stderr and
+    /// stdout in `<dir>/node.log`.
+    pub fn start(config: &Path, domain: u16, dir: &Path) -> Self {
+        let log_path = dir.join("node.log");
+        let log = std::fs::File::create(&log_path).expect("log file");
+        let child = Command::new(env!("CARGO_BIN_EXE_fitslam-robot"))
+            .arg("--config")
+            .arg(config)
+            .arg("--localhost-only")
+            .arg("--domain-id")
+            .arg(domain.to_string())
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_LOCALHOST_ONLY", "1")
+            .stdout(Stdio::from(log.try_clone().expect("log file")))
+            .stderr(Stdio::from(log))
+            .spawn()
+            .expect("spawn fitslam-robot");
+        Self { child, log_path }
+    }
+
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(&self.log_path).unwrap_or_default()
+    }
+
+    /// Waits up to `timeout_s` for the process to exit; its exit status.
+    pub fn wait_exit(&mut self, timeout_s: f64) -> Option<std::process::ExitStatus> {
+        let t0 = std::time::Instant::now();
+        while t0.elapsed().as_secs_f64() < timeout_s {
+            if let Ok(Some(s)) = self.child.try_wait() {
+                return Some(s);
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        None
+    }
+}
+
+impl Drop for NodeProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
