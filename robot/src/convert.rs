@@ -103,6 +103,13 @@ pub fn pose_of_pose2(p: Pose2) -> msgs::Pose {
     }
 }
 
+/// The f64 a float32 resolution stands for: its shortest decimal form (0.05f32 is
+/// 0.0500000007 as f64, but map_server wrote 0.05), so that cell boundaries fall where the map's
+/// author put them.
+pub fn resolution_m(resolution: f32) -> f64 {
+    resolution.to_string().parse().unwrap_or(resolution as f64)
+}
+
 /// `nav_msgs/OccupancyGrid` → core grid. Values 0–100 and −1 are kept; anything else (101–127,
 /// −128…−2: not ROS values) becomes unknown. The origin's z is ignored; a rotated origin is an
 /// error.
@@ -126,7 +133,7 @@ pub fn occupancy_of_msg(msg: &msgs::OccupancyGrid) -> Result<OccupancyGrid, Conv
     let geometry = GridGeometry::new(
         info.origin.position.x,
         info.origin.position.y,
-        info.resolution as f64,
+        resolution_m(info.resolution),
         info.width as usize,
         info.height as usize,
     );
@@ -307,6 +314,13 @@ mod tests {
         assert_eq!(g.at_world(-0.75, 2.75), Some(&50));
         let back = msg_of_occupancy(&g, Header::new(Time::default(), "map"));
         assert_eq!(occupancy_of_msg(&back).unwrap(), g);
+    }
+
+    #[test]
+    fn float32_resolutions_keep_their_decimal_value() {
+        assert_eq!(resolution_m(0.05), 0.05);
+        assert_eq!(resolution_m(0.1), 0.1);
+        assert_eq!(resolution_m(0.5), 0.5);
     }
 
     #[test]

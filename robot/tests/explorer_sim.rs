@@ -44,7 +44,7 @@ fn mission(faults: bool, limit_s: f64) -> Outcome {
     let mut goals = 0;
     let mut maps_sent = 0u32;
     while t < limit_s && !e.is_done() {
-        let pose_paused = faults && (20.0..24.0).contains(&t);
+        let pose_paused = faults && (5.0..9.0).contains(&t);
         if !pose_paused {
             e.handle_tf(&tf(sim.pose(), t), false, t);
         }

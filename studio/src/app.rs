@@ -89,7 +89,7 @@ impl StudioApp {
             show_about: false,
         };
         app.pipeline.update(&app.scene, app.revs, &app.params);
-        egui_extras_free_setup(ctx);
+        let _ = ctx;
         app
     }
 
@@ -201,14 +201,16 @@ impl StudioApp {
         egui::Panel::right("details").resizable(true).default_size(270.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| panels::details_panel(ui, self));
         });
-        egui::Panel::bottom("table").resizable(true).default_size(190.0).show(ui, |ui| panels::candidate_table(ui, self));
+        egui::Panel::bottom("table").resizable(true).default_size(200.0).min_size(120.0).show(ui, |ui| panels::candidate_table(ui, self));
         egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, self));
 
         // The parameters or the scene may have changed above: bring the decision up to date.
         // (The canvas drew last frame's decision for at most one frame.)
         if self.params.validate().is_ok() && self.pipeline.update(&self.scene, self.revs, &self.params) {
             ctx.request_repaint();
-            if let Some(Err(e)) = self.pipeline.decision() {
+            // While the robot is dragged across obstacles the canvas shows the error live; only
+            // a failure that stays is worth a message.
+            if let (Some(Err(e)), false) = (self.pipeline.decision(), self.canvas.dragging()) {
                 let e = e.clone();
                 if !self.messages.last().is_some_and(|m| m.text == e) {
                     self.error(e);
@@ -500,11 +502,6 @@ fn empty_scene() -> Scene {
         kind: crate::scene::MapKind::Synthetic,
     };
     Scene::new(map, Landmarks::default(), None, 0.5)
-}
-
-/// Visual defaults shared by every platform.
-fn egui_extras_free_setup(ctx: &egui::Context) {
-    ctx.set_visuals(egui::Visuals::dark());
 }
 
 impl eframe::App for StudioApp {

@@ -123,6 +123,13 @@ pub struct CanvasState {
     pub rect: Option<Rect>,
 }
 
+impl CanvasState {
+    /// Whether the robot is being moved or rotated.
+    pub fn dragging(&self) -> bool {
+        matches!(self.drag, Drag::MoveRobot | Drag::RotateRobot)
+    }
+}
+
 /// World ↔ screen for one frame (y up in the world, down on screen).
 #[derive(Clone, Copy, Debug)]
 pub struct View {

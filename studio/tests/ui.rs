@@ -281,3 +281,24 @@ fn tour_steps_set_alpha_and_restore_defaults() {
     h.run_ok();
     assert_eq!(h.state().params, Params::default());
 }
+
+#[test]
+fn native_file_browser_opens_a_map_and_reads_its_image_next_to_it() {
+    let mut h = harness_with(Some("courtyard"));
+    h.get_by_label("File").click();
+    h.run_ok();
+    h.get_by_label("Open map (YAML + PGM/PNG, PNG)…").click();
+    h.run_ok();
+    // Tests run in the studio crate's directory.
+    let field = h.get_by_role_and_label(egui::accesskit::Role::TextInput, "File:");
+    field.focus();
+    h.run_ok();
+    h.get_by_role_and_label(egui::accesskit::Role::TextInput, "File:").type_text("../assets/maps/jacksboro/map.yaml");
+    h.run_ok();
+    h.get_by_label("Open").click();
+    h.run_ok();
+    let app = h.state();
+    assert_eq!(app.scene.map.source, "map.yaml", "{:?}", app.messages);
+    assert_eq!(app.scene.map.geometry().width, 400);
+    assert!(app.pipeline.ok_decision().is_some());
+}

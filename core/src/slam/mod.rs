@@ -6,6 +6,25 @@
 //! Conventions: right perturbations `x ⊕ ξ = x · Exp(ξ)`, tangent ξ = (δt, δφ) (translation
 //! first); covariances are in the body frame. See [`lie`].
 //!
+//! ```
+//! use fitslam_core::slam::{g2o::read_g2o, Gauge, LevenbergMarquardt, Marginals, Optimizer,
+//!     OptimizerParams, Se2Residual};
+//!
+//! // Three poses, odometry and one loop closure; vertex 0 is fixed (g2o's gauge).
+//! let text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.1 0 0\nVERTEX_SE2 2 1.0 1.2 1.5\n\
+//!     EDGE_SE2 0 1 1 0 1.5707963 100 0 0 100 0 1000\n\
+//!     EDGE_SE2 1 2 1 0 1.5707963 100 0 0 100 0 1000\n\
+//!     EDGE_SE2 0 2 1 1 3.1415926 100 0 0 100 0 1000\n";
+//! let mut problem = read_g2o(text.as_bytes())?.to_problem(Gauge::FixFirst, Se2Residual::Log)?;
+//! let summary = LevenbergMarquardt::new(OptimizerParams::default())
+//!     .optimize(&problem.graph, &mut problem.values)?;
+//! assert!(summary.final_chi2 < 1e-6); // the three edges are consistent
+//! let last = problem.last_pose().expect("poses");
+//! let cov = Marginals::new(&problem.graph, &problem.values)?.covariance(last)?;
+//! assert_eq!(cov.shape(), (3, 3));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! | module | what |
 //! |---|---|
 //! | [`lie`] | SO(3), SE(2), SE(3): exp/log, adjoints, Jacobians |

@@ -153,12 +153,12 @@ pub trait Optimizer {
             summary.iterations += 1;
             summary.final_chi2 = report.chi2_after;
             summary.steps.push(report);
-            if !report.accepted {
-                summary.termination = Some(Termination::NoDecrease);
-                break;
-            }
             if report.chi2_after <= params.absolute_tolerance {
                 summary.termination = Some(Termination::AbsoluteChi2);
+                break;
+            }
+            if !report.accepted {
+                summary.termination = Some(Termination::NoDecrease);
                 break;
             }
             if report.chi2_before - report.chi2_after <= params.relative_tolerance * report.chi2_before {
@@ -211,6 +211,9 @@ impl Optimizer for GaussNewton {
     fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
         let system = ensure_system(&mut self.system, graph, values)?;
         let chi2 = system.linearize(graph, values)?;
+        if chi2 <= self.params.absolute_tolerance {
+            return Ok(StepReport { chi2_before: chi2, chi2_after: chi2, accepted: false, lambda: 0.0, step_norm: 0.0 });
+        }
         system.solve_step(0.0, &mut self.delta)?;
         system.retract_into(values, &self.delta, &mut self.trial);
         let chi2_new = system.cost(graph, &self.trial)?;
@@ -258,6 +261,9 @@ impl Optimizer for LevenbergMarquardt {
     fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
         let system = ensure_system(&mut self.system, graph, values)?;
         let chi2 = system.linearize(graph, values)?;
+        if chi2 <= self.params.absolute_tolerance {
+            return Ok(StepReport { chi2_before: chi2, chi2_after: chi2, accepted: false, lambda: 0.0, step_norm: 0.0 });
+        }
         let gtsam = self.params.lambda_schedule == LambdaSchedule::Gtsam;
         let mut lambda = match self.lambda {
             Some(l) => l,
@@ -309,5 +315,87 @@ impl Optimizer for LevenbergMarquardt {
         }
         self.lambda = Some(lambda);
         Ok(StepReport { chi2_before: chi2, chi2_after: chi2, accepted: false, lambda, step_norm })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::factors::{BetweenSe2, GaussianNoise, PriorSe2, Se2Residual};
+    use crate::slam::lie::Se2;
+    use crate::slam::values::{VarId, Variable};
+
+    /// One pose, two priors at x = 0 and x = 2 (σ = 1, same y and yaw): the optimum is x = 1
+    /// with χ² = 1 + 1 = 2 (hand-derived).
+    fn two_priors() -> (FactorGraph, Values) {
+        let mut values = Values::new();
+        let x = values.push(Variable::Se2(Se2::new(5.0, 0.3, 0.2)));
+        let mut graph = FactorGraph::new();
+        let n = GaussianNoise::isotropic(3, 1.0).unwrap();
+        graph.add(PriorSe2::new(x, Se2::new(0.0, 0.0, 0.0), n).with_residual(Se2Residual::Vector)).unwrap();
+        graph.add(PriorSe2::new(x, Se2::new(2.0, 0.0, 0.0), n).with_residual(Se2Residual::Vector)).unwrap();
+        (graph, values)
+    }
+
+    #[test]
+    fn both_methods_find_the_hand_derived_optimum() {
+        for method in 0..3 {
+            let (graph, mut values) = two_priors();
+            let params = OptimizerParams {
+                lambda_schedule: if method == 2 { LambdaSchedule::Gtsam } else { LambdaSchedule::Nielsen },
+                ..OptimizerParams::default()
+            };
+            let summary = if method == 0 {
+                GaussNewton::new(params).optimize(&graph, &mut values).unwrap()
+            } else {
+                LevenbergMarquardt::new(params).optimize(&graph, &mut values).unwrap()
+            };
+            let x = values.se2(VarId(0)).unwrap();
+            assert!((x.x_m - 1.0).abs() < 1e-6 && x.y_m.abs() < 1e-6 && x.yaw_rad.abs() < 1e-6, "{x:?}");
+            assert!((summary.final_chi2 - 2.0).abs() < 1e-9, "{summary:?}");
+        }
+    }
+
+    #[test]
+    fn consistent_measurements_reach_zero_chi2() {
+        let mut values = Values::new();
+        let a = values.push(Variable::Se2(Se2::identity()));
+        let b = values.push(Variable::Se2(Se2::new(0.5, 0.5, 1.0)));
+        values.set_fixed(a, true);
+        let mut graph = FactorGraph::new();
+        graph.add(BetweenSe2::new(a, b, Se2::new(2.0, -1.0, 0.3), GaussianNoise::isotropic(3, 0.1).unwrap())).unwrap();
+        let summary = LevenbergMarquardt::new(OptimizerParams::default()).optimize(&graph, &mut values).unwrap();
+        assert_eq!(summary.termination, Some(Termination::AbsoluteChi2));
+        let x = values.se2(b).unwrap();
+        assert!((x.x_m - 2.0).abs() < 1e-6 && (x.y_m + 1.0).abs() < 1e-6 && (x.yaw_rad - 0.3).abs() < 1e-6);
+    }
+
+    #[test]
+    fn max_iterations_returns_the_best_estimate() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/data/slam/MIT.g2o");
+        let file = crate::slam::g2o::read_g2o(&std::fs::read(path).unwrap()).unwrap();
+        let mut p = file.to_problem(crate::slam::Gauge::FixFirst, Se2Residual::Log).unwrap();
+        let params = OptimizerParams { max_iterations: 3, ..OptimizerParams::default() };
+        match LevenbergMarquardt::new(params).optimize(&p.graph, &mut p.values) {
+            Err(OptError::MaxIterations(s)) => {
+                assert_eq!(s.iterations, 3);
+                assert!(s.final_chi2 < s.initial_chi2);
+                // The values left behind are the reported best estimate.
+                let chi2 = p.graph.chi2(&p.values).unwrap();
+                assert!((chi2 - s.final_chi2).abs() <= 1e-9 * chi2);
+            }
+            other => panic!("expected MaxIterations, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn gauss_newton_without_gauge_reports_singular_system() {
+        let mut values = Values::new();
+        let a = values.push(Variable::Se2(Se2::identity()));
+        let b = values.push(Variable::Se2(Se2::new(1.0, 0.0, 0.0)));
+        let mut graph = FactorGraph::new();
+        graph.add(BetweenSe2::new(a, b, Se2::new(1.0, 0.0, 0.1), GaussianNoise::isotropic(3, 1.0).unwrap())).unwrap();
+        let r = GaussNewton::new(OptimizerParams::default()).optimize(&graph, &mut values);
+        assert_eq!(r, Err(OptError::Solve(SolveError::NotPositiveDefinite)));
     }
 }

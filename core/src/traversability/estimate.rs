@@ -31,7 +31,8 @@ use crate::grid::{Grid, GridGeometry, OccupancyGrid, FREE, LETHAL, UNKNOWN};
 use crate::params::TraversabilityParams;
 
 /// The traversability layers of one map, all on one geometry. Float layers are NaN where the
-/// cell is unknown (fewer than `min_points` points in its disc).
+/// cell is unknown (fewer than `min_points` points in its disc). `PartialEq` compares floats
+/// with `==`, so layers holding unknown (NaN) cells never compare equal: compare `to_bits()`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TraversabilityLayers {
     /// Angle between the disc's fitted plane normal and +z, radians.
