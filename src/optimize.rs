@@ -106,6 +106,9 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
         (Input::G2o(file), p)
     };
     let Some(last) = problem.last_pose() else { bail!("{} has no pose", args.g2o.display()) };
+    if args.out.is_some() && matches!(input, Input::Victoria) {
+        bail!("--out writes g2o and needs a g2o input");
+    }
 
     let params = OptimizerParams {
         max_iterations: args.max_iterations,
@@ -149,7 +152,7 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
                 let text = fitslam_core::slam::g2o::write_g2o(&file.with_poses(&problem, &problem.values));
                 std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
             }
-            Input::Victoria => bail!("--out writes g2o and needs a g2o input"),
+            Input::Victoria => {}
         }
     }
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds the studio's web bundle into target/studio-web/ (index.html at its root), servable by
-# any static file server, e.g. `python3 -m http.server -d target/studio-web 8080`.
+# Builds the studio's web bundle into target/studio-web/ (index.html at its root; under
+# $CARGO_TARGET_DIR when set), servable by any static file server, e.g.
+# `python3 -m http.server -d target/studio-web 8080`.
 #
 # Needs the wasm32-unknown-unknown target and wasm-bindgen-cli at exactly the wasm-bindgen
 # version of Cargo.lock (installed with cargo if missing: no download from anywhere else).
@@ -26,11 +27,12 @@ if [[ "$profile" == release ]]; then flags+=(--release); fi
 # No debug info in the bundle (the workspace release profile keeps some for native profiling).
 CARGO_PROFILE_RELEASE_DEBUG=0 cargo build -p fitslam-studio --lib --target wasm32-unknown-unknown "${flags[@]}"
 
-out=target/studio-web
+target_dir=${CARGO_TARGET_DIR:-target}
+out=$target_dir/studio-web
 rm -rf "$out"
 mkdir -p "$out"
 wasm-bindgen --target web --no-typescript --out-dir "$out" --out-name fitslam_studio \
-  "target/wasm32-unknown-unknown/$profile/fitslam_studio.wasm"
+  "$target_dir/wasm32-unknown-unknown/$profile/fitslam_studio.wasm"
 cp studio/web/index.html "$out/index.html"
 
 wasm_bytes=$(stat -c %s "$out/fitslam_studio_bg.wasm")

@@ -11,11 +11,15 @@
 //! | [`config`] | node configuration + the core's `Params`, one YAML file |
 //! | [`node`] | the state machine: inputs → `fitslam_core::select` → goals; no DDS |
 //! | [`markers`] | RViz markers of a decision |
+//! | [`ros`] | the DDS side: participant, endpoints, the polling loop |
+//! | `rerun_log` | rerun recording of maps, decisions and metrics (feature `rerun`) |
 
 pub mod config;
 pub mod convert;
 pub mod markers;
 pub mod msgs;
 pub mod node;
+#[cfg(feature = "rerun")]
+pub mod rerun_log;
 pub mod ros;
 pub mod tf;

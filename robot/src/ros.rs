@@ -155,6 +155,8 @@ pub trait Observer {
     fn on_decision(&mut self, _explorer: &Explorer, _now_s: f64) {}
     /// After each status publication (about 1 Hz).
     fn on_status(&mut self, _explorer: &Explorer, _now_s: f64) {}
+    /// The node's log lines, as they are printed.
+    fn on_log(&mut self, _lines: &[LogLine]) {}
 }
 
 /// No observer.
@@ -453,7 +455,11 @@ pub fn run(cfg: &ConfigFile, observer: &mut dyn Observer, stop: &AtomicBool) -> 
             ros.execute(&mut explorer, c, &map_frame, now_s);
             complete |= *c == Command::MissionComplete;
         }
-        print_log(&explorer.drain_log());
+        let lines = explorer.drain_log();
+        if !lines.is_empty() {
+            print_log(&lines);
+            observer.on_log(&lines);
+        }
         if explorer.decisions() != decisions_seen {
             decisions_seen = explorer.decisions();
             ros.publish_markers(&explorer, &map_frame);

@@ -99,7 +99,11 @@ fn node_explores_a_simulated_world_over_dds_despite_faults() {
         )
         .unwrap();
 
-    let mut proc = NodeProcess::start(&config, domain, &dir);
+    // With rerun built in, the node also records the mission.
+    let rrd = dir.join("mission.rrd");
+    let rrd_arg = rrd.display().to_string();
+    let extra: Vec<&str> = if cfg!(feature = "rerun") { vec!["--rerun-save", &rrd_arg] } else { vec![] };
+    let mut proc = NodeProcess::start_with(&config, domain, &dir, &extra);
     let mut sim = GridSim::new(two_rooms(), Pose2::new(1.5, 1.5, 0.0), ROBOT_RADIUS_M);
     let mut published: Vec<OccupancyGrid> = Vec::new();
     let mut running: Option<Running> = None;
@@ -179,8 +183,11 @@ fn node_explores_a_simulated_world_over_dds_despite_faults() {
                 _ => finished.push((rid, GoalStatusEnum::Canceled, NavigateToPoseResult::default())),
             }
         }
-        while let Ok(Some((rid, _))) = server.receive_cancel_request() {
-            if let Some(r) = running.take() {
+        while let Ok(Some((rid, req))) = server.receive_cancel_request() {
+            // ros2-client keeps the request's goal id private; read it through serde.
+            let target = serde_json::to_value(&req).ok().map(|v| v["goal_info"]["goal_id"].clone());
+            let is_running = running.as_ref().is_some_and(|r| serde_json::to_value(r.goal_id).ok() == target);
+            if is_running && let Some(r) = running.take() {
                 sim.stop();
                 if let Some(rid) = r.result_req {
                     finished.push((rid, GoalStatusEnum::Canceled, NavigateToPoseResult::default()));
@@ -229,6 +236,10 @@ fn node_explores_a_simulated_world_over_dds_despite_faults() {
     assert!(bad_goals.is_empty(), "goals not free: {bad_goals:?}\n{log}");
     assert!(goals.len() >= 3, "{log}");
     assert!(sim.explored_fraction() > 0.9, "explored {:.3}\n{log}", sim.explored_fraction());
+    if cfg!(feature = "rerun") {
+        let bytes = std::fs::read(&rrd).unwrap_or_default();
+        assert!(bytes.len() > 10_000 && bytes.starts_with(b"RRF"), "rerun recording: {} bytes", bytes.len());
+    }
     for needle in ["map rejected: map resolution", "late map dropped", "aborted (error 9000: simulated controller failure)", "pose stale", "map geometry changed"] {
         assert!(log.contains(needle), "node log lacks '{needle}':\n{log}");
     }

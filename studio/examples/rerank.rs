@@ -5,11 +5,11 @@
 //! slider a user drags), the same work the studio does per slider step; prints the median and
 //! maximum wall-clock time of the core's `select` call and of the core stages inside it.
 
-use fitslam_core::select::candidates::{distances, frontier_clusters, prepare, score_u1, score_u2};
+use fitslam_core::Params;
 use fitslam_core::select::DecisionInput;
+use fitslam_core::select::candidates::{distances, frontier_clusters, prepare, score_u1, score_u2};
 use fitslam_core::traversability::to_occupancy;
 use fitslam_core::utility::LandmarkVoxels;
-use fitslam_core::Params;
 use fitslam_studio::pipeline::{Pipeline, Revisions};
 use std::time::Instant;
 
@@ -52,7 +52,8 @@ fn main() {
         // Where the time goes, stage by stage (same calls as the selector).
         let params = Params::default();
         let grid = to_occupancy(&scene.map.score, params.traversability.tau);
-        let voxels = LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
+        let voxels =
+            LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
         let input = DecisionInput::new(&grid, &voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
         let t = Instant::now();
         let prepared = prepare(&input, &params).unwrap();

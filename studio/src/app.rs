@@ -57,7 +57,10 @@ impl StudioApp {
         let builtin = asset.and_then(assets::builtin).unwrap_or(&assets::builtins()[0]);
         let mut messages = Vec::new();
         if let Some(name) = asset.filter(|n| assets::builtin(n).is_none()) {
-            messages.push(Message { error: true, text: format!("no built-in asset named '{name}'; showing '{}'", builtin.name) });
+            messages.push(Message {
+                error: true,
+                text: format!("no built-in asset named '{name}'; showing '{}'", builtin.name),
+            });
         }
         let scene = match builtin.build(params.frontier.blacklist_radius_m) {
             Ok(s) => s,
@@ -201,7 +204,11 @@ impl StudioApp {
         egui::Panel::right("details").resizable(true).default_size(270.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| panels::details_panel(ui, self));
         });
-        egui::Panel::bottom("table").resizable(true).default_size(200.0).min_size(120.0).show(ui, |ui| panels::candidate_table(ui, self));
+        egui::Panel::bottom("table")
+            .resizable(true)
+            .default_size(200.0)
+            .min_size(120.0)
+            .show(ui, |ui| panels::candidate_table(ui, self));
         egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, self));
 
         // The parameters or the scene may have changed above: bring the decision up to date.
@@ -212,15 +219,15 @@ impl StudioApp {
             // a failure that stays is worth a message.
             if let (Some(Err(e)), false) = (self.pipeline.decision(), self.canvas.dragging()) {
                 let e = e.clone();
-                if !self.messages.last().is_some_and(|m| m.text == e) {
+                if self.messages.last().is_none_or(|m| m.text != e) {
                     self.error(e);
                 }
             }
         }
-        if let Some(sel) = self.selected {
-            if self.pipeline.ok_decision().is_none_or(|d| sel >= d.candidates.len()) {
-                self.selected = None;
-            }
+        if let Some(sel) = self.selected
+            && self.pipeline.ok_decision().is_none_or(|d| sel >= d.candidates.len())
+        {
+            self.selected = None;
         }
 
         self.browser.show(&ctx, &self.inbox);
@@ -265,7 +272,11 @@ impl StudioApp {
             return;
         };
         let (name, mime, text) = if json {
-            ("fitslam_ranking.json", "application/json", export::ranking_json(d, &self.params, &self.scene.map.source, &self.scene.landmarks.source))
+            (
+                "fitslam_ranking.json",
+                "application/json",
+                export::ranking_json(d, &self.params, &self.scene.map.source, &self.scene.landmarks.source),
+            )
         } else {
             ("fitslam_ranking.csv", "text/csv", export::ranking_csv(d))
         };
@@ -389,13 +400,12 @@ impl StudioApp {
             });
         });
         self.widget_rects.extend(rects);
-        if let Some(intent) = choice {
-            if let Some(mut f) = self.ask_cloud.take() {
-                if intent != Intent::Any {
-                    f.intent = intent;
-                    self.load_files(vec![f]);
-                }
-            }
+        if let Some(intent) = choice
+            && let Some(mut f) = self.ask_cloud.take()
+            && intent != Intent::Any
+        {
+            f.intent = intent;
+            self.load_files(vec![f]);
         }
     }
 

@@ -3,20 +3,20 @@
 //!
 //! | name | what |
 //! |---|---|
-//! | jacksboro | the realistic scene of `assets/maps/jacksboro` (real DEM, rocks, LiDAR-built map, landmarks) |
+//! | jacksboro | the realistic scene of `assets/maps/jacksboro` (real DEM, rocks, LiDAR-built map, landmarks); its score layer from `score.png` |
 //! | courtyard | made here: graded traversability scores so that τ visibly changes the map |
 //! | corridor | `fitslam_core::fixtures::corridor_two_frontiers`: greedy goes west, FIT-SLAM east |
 //! | synthetic | `fitslam_core::fixtures::synthetic_world` (small, seed 1) |
 //!
 //! Embedded files are parsed by the same core loaders as user files; a test builds every one.
 
-use crate::loader::{self, Loaded};
 use crate::files::{IncomingFile, Intent};
+use crate::loader::{self, Loaded};
 use crate::scene::{Landmarks, MapKind, MapLayers, Scene};
 use fitslam_core::fixtures;
 use fitslam_core::grid::{Grid, GridGeometry};
 use fitslam_core::sim::hash_unit;
-use fitslam_core::{Pose2, PointCloud};
+use fitslam_core::{PointCloud, Pose2};
 use nalgebra::Point3;
 
 macro_rules! asset {
@@ -29,6 +29,7 @@ const JACKSBORO_YAML: &[u8] = asset!("jacksboro/map.yaml");
 const JACKSBORO_PGM: &[u8] = asset!("jacksboro/map.pgm");
 const JACKSBORO_LANDMARKS: &[u8] = asset!("jacksboro/landmarks.ply");
 const JACKSBORO_SCENE: &[u8] = asset!("jacksboro/scene.toml");
+const JACKSBORO_SCORE: &[u8] = asset!("jacksboro/score.png");
 
 /// A built-in scene the user can pick.
 #[derive(Clone, Copy, Debug)]
@@ -109,9 +110,40 @@ fn jacksboro(blacklist_radius_m: f64) -> Result<Scene, String> {
     }
     let mut map = map.ok_or("jacksboro: no map")?;
     map.source = "jacksboro".into();
+    // The traversability score the map was thresholded from, so that τ acts on this scene too.
+    map.score = score_from_rgb_png(JACKSBORO_SCORE, map.geometry())?;
+    map.kind = MapKind::Traversability;
     let mut landmarks = landmarks.ok_or("jacksboro: no landmarks")?;
     landmarks.source = "jacksboro landmarks".into();
     Ok(Scene::new(map, landmarks, start_pose(JACKSBORO_SCENE), blacklist_radius_m))
+}
+
+/// The score layer back from a PNG written with `traversability::score_to_rgb` (top row first,
+/// on `geometry`): `score_rgb` maps s ∈ [0, 0.5] to (255, 510·s, 0) and s ∈ [0.5, 1] to
+/// (510·(1 − s), 255, 0), unknown to grey (128, 128, 128); so s = g/510 when g < 255, else
+/// 1 − r/510 (exact to ±1/1020), and a non-zero blue channel is unknown.
+pub fn score_from_rgb_png(bytes: &[u8], geometry: GridGeometry) -> Result<Grid<f32>, String> {
+    let err = |e: png::DecodingError| format!("score.png: {e}");
+    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().map_err(err)?;
+    let mut buf = vec![0u8; reader.output_buffer_size().ok_or("score.png: too large")?];
+    let info = reader.next_frame(&mut buf).map_err(err)?;
+    let (w, h) = (info.width as usize, info.height as usize);
+    if info.color_type != png::ColorType::Rgb || info.bit_depth != png::BitDepth::Eight {
+        return Err(format!("score.png: expected 8-bit RGB, got {:?} {:?}", info.color_type, info.bit_depth));
+    }
+    if (w, h) != (geometry.width, geometry.height) {
+        return Err(format!("score.png is {w} × {h}, the map {} × {}", geometry.width, geometry.height));
+    }
+    let mut data = vec![f32::NAN; w * h];
+    for image_row in 0..h {
+        let row = h - 1 - image_row;
+        for col in 0..w {
+            let k = (image_row * w + col) * 3;
+            let (r, g, b) = (f32::from(buf[k]), f32::from(buf[k + 1]), buf[k + 2]);
+            data[row * w + col] = if b != 0 { f32::NAN } else if g < 255.0 { g / 510.0 } else { 1.0 - r / 510.0 };
+        }
+    }
+    Grid::from_vec(geometry, data).ok_or_else(|| "score.png: size mismatch".to_string())
 }
 
 fn from_fixture(w: fixtures::SyntheticWorld, name: &str, blacklist_radius_m: f64) -> Scene {
@@ -126,7 +158,11 @@ fn corridor(blacklist_radius_m: f64) -> Result<Scene, String> {
 }
 
 fn synthetic_small(blacklist_radius_m: f64) -> Result<Scene, String> {
-    Ok(from_fixture(fixtures::synthetic_world(&fixtures::SyntheticWorldSpec::small(1)), "synthetic", blacklist_radius_m))
+    Ok(from_fixture(
+        fixtures::synthetic_world(&fixtures::SyntheticWorldSpec::small(1)),
+        "synthetic",
+        blacklist_radius_m,
+    ))
 }
 
 /// Axis-aligned boxes (min x, min y, max x, max y) of the courtyard's obstacles, metres.
@@ -141,7 +177,8 @@ const OBSTACLES: [[f64; 4]; 7] = [
 ];
 
 /// Ground patches with an intermediate score (rough, sloped): lethal only when τ exceeds it.
-const ROUGH: [([f64; 4], f32); 3] = [([8.0, 3.0, 9.5, 4.5], 0.45), ([4.5, 4.5, 5.8, 6.0], 0.7), ([9.5, 8.0, 11.0, 9.0], 0.3)];
+const ROUGH: [([f64; 4], f32); 3] =
+    [([8.0, 3.0, 9.5, 4.5], 0.45), ([4.5, 4.5, 5.8, 6.0], 0.7), ([9.5, 8.0, 11.0, 9.0], 0.3)];
 
 fn synthetic_courtyard(blacklist_radius_m: f64) -> Result<Scene, String> {
     let geometry = GridGeometry::new(0.0, 0.0, 0.05, 320, 240);
@@ -217,4 +254,42 @@ fn distance_to_polyline(x: f64, y: f64, pts: &[[f64; 2]]) -> f64 {
             ((x - ax - t * dx).powi(2) + (y - ay - t * dy).powi(2)).sqrt()
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fitslam_core::grid::CellClass;
+    use fitslam_core::traversability::{score_rgb, to_occupancy};
+
+    #[test]
+    fn score_rgb_inverts_within_half_a_step() {
+        for k in 0..=1000 {
+            let s = k as f32 / 1000.0;
+            let [r, g, b] = score_rgb(s);
+            assert_eq!(b, 0);
+            let back = if g < 255 { f32::from(g) / 510.0 } else { 1.0 - f32::from(r) / 510.0 };
+            assert!((back - s).abs() <= 1.0 / 1020.0 + 1e-6, "{s} -> {back}");
+        }
+    }
+
+    #[test]
+    fn jacksboro_score_thresholds_to_its_map() {
+        // The decoded score, thresholded at the asset's τ (the default 0.5), gives back map.pgm's
+        // classes: scores are decoded to ±1/1020, so only cells that close to τ may differ.
+        let occ = fitslam_core::io::load_map(JACKSBORO_YAML, "map.yaml", JACKSBORO_PGM, "map.pgm").unwrap();
+        let score = score_from_rgb_png(JACKSBORO_SCORE, occ.geometry).unwrap();
+        let again = to_occupancy(&score, 0.5);
+        let mut differ = 0;
+        for i in 0..occ.data.len() {
+            if CellClass::of(occ.data[i]) != CellClass::of(again.data[i]) {
+                assert!((score.data[i] - 0.5).abs() <= 1.0 / 1020.0 + 1e-6, "cell {i}: {} vs {}", occ.data[i], score.data[i]);
+                differ += 1;
+            }
+        }
+        // Such cells are few (67 of 60,487 known when written: scores pile up at exactly 0.5).
+        let known = occ.data.iter().filter(|&&v| v >= 0).count();
+        assert!(differ * 100 < known, "{differ} of {known} known cells differ");
+        assert!(score.data.iter().any(|s| !s.is_nan() && *s > 0.05 && *s < 0.95), "graded scores");
+    }
 }

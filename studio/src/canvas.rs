@@ -12,7 +12,7 @@ use crate::export;
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, Vec2};
 use fitslam_core::grid::{CellClass, Grid, OccupancyGrid};
 use fitslam_core::select::{CandidateReport, Decision, DropReason};
-use fitslam_core::traversability::{score_rgb, UNKNOWN_RGB};
+use fitslam_core::traversability::{UNKNOWN_RGB, score_rgb};
 
 /// Which map layer is drawn under the overlays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -149,7 +149,10 @@ impl View {
 
     pub fn to_world(&self, p: Pos2) -> [f64; 2] {
         let c = self.rect.center();
-        [self.center_m[0] + f64::from(p.x - c.x) / self.px_per_m, self.center_m[1] - f64::from(p.y - c.y) / self.px_per_m]
+        [
+            self.center_m[0] + f64::from(p.x - c.x) / self.px_per_m,
+            self.center_m[1] - f64::from(p.y - c.y) / self.px_per_m,
+        ]
     }
 
     fn len(&self, m: f64) -> f32 {
@@ -353,7 +356,13 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
         let r = Rect::from_two_pos(view.to_screen(x0, y1), view.to_screen(x1, y0));
         painter.image(tex, r, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
     } else {
-        painter.text(rect.center(), Align2::CENTER_CENTER, "map too large for a texture", FontId::proportional(16.0), Color32::LIGHT_RED);
+        painter.text(
+            rect.center(),
+            Align2::CENTER_CENTER,
+            "map too large for a texture",
+            FontId::proportional(16.0),
+            Color32::LIGHT_RED,
+        );
     }
 
     if app.overlays.boundary {
@@ -369,31 +378,34 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     app.hovered = None;
     let decision = app.pipeline.ok_decision().cloned();
     if let Some(d) = &decision {
-        if response.hovered() && app.canvas.drag == Drag::None {
-            if let Some(p) = response.hover_pos() {
-                app.hovered = pick_candidate(&view, d, p);
-            }
+        if response.hovered()
+            && app.canvas.drag == Drag::None
+            && let Some(p) = response.hover_pos()
+        {
+            app.hovered = pick_candidate(&view, d, p);
         }
-        if response.clicked() {
-            if let Some(p) = response.interact_pointer_pos() {
-                app.selected = pick_candidate(&view, d, p);
-            }
+        if response.clicked()
+            && let Some(p) = response.interact_pointer_pos()
+        {
+            app.selected = pick_candidate(&view, d, p);
         }
         draw_decision(&painter, &view, app, d);
         // Candidate positions for page scripts and tests (first 10 by rank).
         for (k, i) in d.ranking().into_iter().take(10).enumerate() {
-            const NAMES: [&str; 10] = ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
+            const NAMES: [&str; 10] =
+                ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
             let c = &d.candidates[i];
-            app.widget_rects.insert(NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX)));
+            app.widget_rects
+                .insert(NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX)));
         }
     }
 
     draw_robot(&painter, robot_px, body_r, handle_px, app.canvas.drag);
 
-    if let (Some(d), Some(i)) = (&decision, app.hovered) {
-        if let Some(c) = d.candidates.get(i) {
-            response.clone().on_hover_ui_at_pointer(|ui| crate::panels::candidate_summary(ui, d, i, c));
-        }
+    if let (Some(d), Some(i)) = (&decision, app.hovered)
+        && let Some(c) = d.candidates.get(i)
+    {
+        response.clone().on_hover_ui_at_pointer(|ui| crate::panels::candidate_summary(ui, d, i, c));
     }
     if app.hovered.is_some() {
         ui.ctx().set_cursor_icon(egui::CursorIcon::PointingHand);
@@ -436,13 +448,14 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
 
     if app.overlays.frontiers {
         for (i, c) in d.candidates.iter().enumerate() {
-            let color = if c.dropped == Some(DropReason::NoPath) || matches!(c.dropped, Some(DropReason::Blacklisted(_))) {
-                Color32::from_rgba_unmultiplied(200, 60, 60, 200)
-            } else if i % 2 == 0 {
-                Color32::from_rgba_unmultiplied(0, 200, 255, 200)
-            } else {
-                Color32::from_rgba_unmultiplied(255, 90, 230, 200)
-            };
+            let color =
+                if c.dropped == Some(DropReason::NoPath) || matches!(c.dropped, Some(DropReason::Blacklisted(_))) {
+                    Color32::from_rgba_unmultiplied(200, 60, 60, 200)
+                } else if i % 2 == 0 {
+                    Color32::from_rgba_unmultiplied(0, 200, 255, 200)
+                } else {
+                    Color32::from_rgba_unmultiplied(255, 90, 230, 200)
+                };
             let g = app.scene.map.geometry();
             for cell in &c.cluster_cells {
                 let (x, y) = g.center_of(*cell);
@@ -497,19 +510,19 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
         if show_rays {
             draw_rays(painter, view, d, c, dmax, ray_max);
         }
-        if focus == Some(i) || (app.overlays.all_cones && ranked) {
-            if let Some(th) = c.theta_star_rad {
-                let poly = sector(view, c.x_m, c.y_m, th, hfov.min(std::f64::consts::TAU), dmax);
-                let fill = Color32::from_rgba_unmultiplied(255, 255, 255, 28);
-                // A sector over 180° is not convex: draw it as a fan of triangles.
-                let apex = poly[0];
-                for k in 1..poly.len() - 1 {
-                    painter.add(Shape::convex_polygon(vec![apex, poly[k], poly[k + 1]], fill, Stroke::NONE));
-                }
-                let mut outline = poly;
-                outline.push(apex);
-                painter.add(Shape::line(outline, Stroke::new(1.2, Color32::from_rgb(255, 255, 255))));
+        if (focus == Some(i) || (app.overlays.all_cones && ranked))
+            && let Some(th) = c.theta_star_rad
+        {
+            let poly = sector(view, c.x_m, c.y_m, th, hfov.min(std::f64::consts::TAU), dmax);
+            let fill = Color32::from_rgba_unmultiplied(255, 255, 255, 28);
+            // A sector over 180° is not convex: draw it as a fan of triangles.
+            let apex = poly[0];
+            for k in 1..poly.len() - 1 {
+                painter.add(Shape::convex_polygon(vec![apex, poly[k], poly[k + 1]], fill, Stroke::NONE));
             }
+            let mut outline = poly;
+            outline.push(apex);
+            painter.add(Shape::line(outline, Stroke::new(1.2, Color32::from_rgb(255, 255, 255))));
         }
     }
 
@@ -535,14 +548,27 @@ fn draw_rays(painter: &egui::Painter, view: &View, d: &Decision, c: &CandidateRe
         let end = view.to_screen(c.x_m + dmax * a.cos(), c.y_m + dmax * a.sin());
         let color = ramp(t);
         let alpha = (60.0 + 195.0 * t) as u8;
-        painter.line_segment([o, end], Stroke::new(1.0 + 1.5 * t as f32, Color32::from_rgba_unmultiplied(color.r(), color.g(), color.b(), alpha)));
+        painter.line_segment(
+            [o, end],
+            Stroke::new(1.0 + 1.5 * t as f32, Color32::from_rgba_unmultiplied(color.r(), color.g(), color.b(), alpha)),
+        );
     }
 }
 
-fn draw_candidate(painter: &egui::Painter, view: &View, d: &Decision, i: usize, c: &CandidateReport, focused: bool, selected: bool) {
+fn draw_candidate(
+    painter: &egui::Painter,
+    view: &View,
+    d: &Decision,
+    i: usize,
+    c: &CandidateReport,
+    focused: bool,
+    selected: bool,
+) {
     let p = view.to_screen(c.x_m, c.y_m);
     let (fill, label) = match (c.rank, c.dropped) {
-        (Some(r), _) => (if d.chosen == Some(i) { Color32::from_rgb(255, 215, 0) } else { rank_color(r) }, Some(r.to_string())),
+        (Some(r), _) => {
+            (if d.chosen == Some(i) { Color32::from_rgb(255, 215, 0) } else { rank_color(r) }, Some(r.to_string()))
+        }
         (None, Some(DropReason::NotInTopN)) => (Color32::from_rgb(120, 140, 170), None),
         (None, Some(DropReason::NoPath)) => (Color32::from_rgb(220, 60, 60), None),
         (None, Some(DropReason::Blacklisted(_))) => (Color32::from_rgb(130, 30, 30), None),
@@ -591,7 +617,13 @@ fn legend(painter: &egui::Painter, rect: Rect, app: &StudioApp) {
             &mut y,
         ),
         Some(Err(e)) => {
-            painter.text(Pos2::new(x, y), Align2::LEFT_TOP, format!("no decision: {e}"), FontId::proportional(13.0), Color32::from_rgb(255, 120, 110));
+            painter.text(
+                Pos2::new(x, y),
+                Align2::LEFT_TOP,
+                format!("no decision: {e}"),
+                FontId::proportional(13.0),
+                Color32::from_rgb(255, 120, 110),
+            );
         }
         None => {}
     }
@@ -599,11 +631,26 @@ fn legend(painter: &egui::Painter, rect: Rect, app: &StudioApp) {
     let bar = Rect::from_min_size(Pos2::new(rect.right() - 170.0, rect.top() + 10.0), Vec2::new(120.0, 8.0));
     for k in 0..60 {
         let t = k as f64 / 59.0;
-        let r = Rect::from_min_size(Pos2::new(bar.left() + bar.width() * k as f32 / 60.0, bar.top()), Vec2::new(bar.width() / 60.0 + 0.5, bar.height()));
+        let r = Rect::from_min_size(
+            Pos2::new(bar.left() + bar.width() * k as f32 / 60.0, bar.top()),
+            Vec2::new(bar.width() / 60.0 + 0.5, bar.height()),
+        );
         painter.rect_filled(r, 0.0, ramp(t));
     }
-    painter.text(Pos2::new(bar.left(), bar.bottom() + 2.0), Align2::LEFT_TOP, "low", FontId::proportional(11.0), Color32::from_gray(200));
-    painter.text(Pos2::new(bar.right(), bar.bottom() + 2.0), Align2::RIGHT_TOP, "high", FontId::proportional(11.0), Color32::from_gray(200));
+    painter.text(
+        Pos2::new(bar.left(), bar.bottom() + 2.0),
+        Align2::LEFT_TOP,
+        "low",
+        FontId::proportional(11.0),
+        Color32::from_gray(200),
+    );
+    painter.text(
+        Pos2::new(bar.right(), bar.bottom() + 2.0),
+        Align2::RIGHT_TOP,
+        "high",
+        FontId::proportional(11.0),
+        Color32::from_gray(200),
+    );
     painter.text(
         Pos2::new(bar.center().x, bar.bottom() + 14.0),
         Align2::CENTER_TOP,

@@ -35,7 +35,10 @@ pub fn drop_text(d: Option<DropReason>) -> String {
         None => String::new(),
         Some(DropReason::NoPath) => "no_path".into(),
         Some(DropReason::NotInTopN) => "not_in_top_n".into(),
-        Some(DropReason::Blacklisted(r)) => format!("blacklisted_{}", serde_json::to_value(r).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()),
+        Some(DropReason::Blacklisted(r)) => format!(
+            "blacklisted_{}",
+            serde_json::to_value(r).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()
+        ),
     }
 }
 
@@ -123,9 +126,91 @@ pub fn ranking_brief_json(decision: &Decision) -> String {
         .into_iter()
         .map(|i| {
             let c = &decision.candidates[i];
-            Row { index: i, rank: c.rank, x_m: c.x_m, y_m: c.y_m, rho_m: c.rho_m, delta_e_bits: c.delta_e_bits, u1: c.u1, path_info: c.path_info, u2: c.u2 }
+            Row {
+                index: i,
+                rank: c.rank,
+                x_m: c.x_m,
+                y_m: c.y_m,
+                rho_m: c.rho_m,
+                delta_e_bits: c.delta_e_bits,
+                u1: c.u1,
+                path_info: c.path_info,
+                u2: c.u2,
+            }
         })
         .collect();
-    serde_json::to_string(&Brief { strategy: decision.strategy, chosen: decision.chosen, candidates: decision.candidates.len(), ranked })
-        .unwrap_or_default()
+    serde_json::to_string(&Brief {
+        strategy: decision.strategy,
+        chosen: decision.chosen,
+        candidates: decision.candidates.len(),
+        ranked,
+    })
+    .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fitslam_core::{Cell, Pose2};
+
+    fn decision() -> Decision {
+        let mut a = CandidateReport::new(Cell::new(1, 1), 1.0, 1.0, vec![Cell::new(1, 1)]);
+        a.u1 = Some(0.5);
+        a.u2 = Some(0.25);
+        a.rank = Some(2);
+        a.rho_m = Some(3.0);
+        let mut b = CandidateReport::new(Cell::new(2, 2), 2.0, 2.0, vec![Cell::new(2, 2)]);
+        b.u1 = Some(0.9);
+        b.u2 = Some(0.75);
+        b.rank = Some(1);
+        b.rho_m = Some(1.5);
+        let mut c = CandidateReport::new(Cell::new(3, 3), 3.0, 3.0, vec![Cell::new(3, 3)]);
+        c.dropped = Some(DropReason::NoPath);
+        Decision {
+            strategy: Strategy::Fit,
+            chosen: Some(1),
+            goal: Some(Pose2::new(2.0, 2.0, 0.0)),
+            robot: Pose2::new(0.0, 0.0, 0.0),
+            robot_cell: Cell::new(0, 0),
+            requested_robot_cell: Cell::new(0, 0),
+            start_snapped: false,
+            ray_angles_rad: vec![],
+            candidates: vec![a, b, c],
+        }
+    }
+
+    #[test]
+    fn digest_lists_the_ranking_best_first() {
+        assert_eq!(digest(&decision(), 3), "fitslam: chosen=1 top=[(1,0.750),(0,0.250)]");
+        assert_eq!(digest(&decision(), 1), "fitslam: chosen=1 top=[(1,0.750)]");
+        let mut d = decision();
+        d.chosen = None;
+        assert_eq!(digest(&d, 3), "fitslam: no goal");
+        d.strategy = Strategy::Greedy;
+        d.chosen = Some(1);
+        assert_eq!(digest(&d, 1), "fitslam: chosen=1 top=[(1,1.500)]");
+    }
+
+    #[test]
+    fn csv_rows_follow_the_rank_then_the_unranked() {
+        let csv = ranking_csv(&decision());
+        let rows: Vec<&str> = csv.lines().collect();
+        assert_eq!(rows.len(), 4);
+        assert!(rows[0].starts_with("index,rank,"));
+        assert!(rows[1].starts_with("1,1,,1,2,2,1,1.5,"), "{}", rows[1]);
+        assert!(rows[2].starts_with("0,2,,0,"), "{}", rows[2]);
+        assert!(rows[3].starts_with("2,,,0,") && rows[3].ends_with(",0,no_path"), "{}", rows[3]);
+        assert_eq!(rows.iter().map(|r| r.split(',').count()).collect::<Vec<_>>(), vec![16; 4]);
+    }
+
+    #[test]
+    fn brief_json_has_the_ranked_candidates() {
+        let v: serde_json::Value = serde_json::from_str(&ranking_brief_json(&decision())).unwrap();
+        assert_eq!(v["chosen"], 1);
+        assert_eq!(v["candidates"], 3);
+        assert_eq!(
+            v["ranked"].as_array().unwrap().iter().map(|r| r["index"].as_u64().unwrap()).collect::<Vec<_>>(),
+            vec![1, 0]
+        );
+    }
 }

@@ -11,9 +11,9 @@
 
 use crate::files::{IncomingFile, Intent};
 use crate::scene::{Landmarks, MapKind, MapLayers};
+use fitslam_core::Params;
 use fitslam_core::io::{self, MapError, MapThresholds, MapYaml};
 use fitslam_core::traversability::TraversabilityMap;
-use fitslam_core::Params;
 
 /// What a file turned into.
 #[derive(Debug)]
@@ -22,7 +22,11 @@ pub enum Loaded {
     Landmarks(Landmarks),
     Params(Box<Params>),
     /// A map YAML whose image has not arrived yet (the web cannot read a file's neighbours).
-    WaitingForImage { yaml_name: String, yaml_bytes: Vec<u8>, image: String },
+    WaitingForImage {
+        yaml_name: String,
+        yaml_bytes: Vec<u8>,
+        image: String,
+    },
     /// A point cloud dropped without saying what it is: the user is asked.
     AskCloudUse(IncomingFile),
 }
@@ -48,7 +52,11 @@ fn is_image(ext: &str) -> bool {
 /// batch whose base name matches its `image:` key; `pending` holds YAMLs still waiting for their
 /// image from an earlier batch and is updated. `params` gives the resolution of bare images and
 /// the traversability parameters for clouds.
-pub fn load_batch(files: Vec<IncomingFile>, pending: &mut Vec<(String, Vec<u8>, String)>, params: &Params) -> Vec<Result<Loaded, String>> {
+pub fn load_batch(
+    files: Vec<IncomingFile>,
+    pending: &mut Vec<(String, Vec<u8>, String)>,
+    params: &Params,
+) -> Vec<Result<Loaded, String>> {
     let mut out = Vec::new();
     // Images of this batch, by base name, so YAMLs can claim them.
     let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
@@ -115,7 +123,8 @@ fn map_from_yaml(yaml: &[u8], yaml_name: &str, image: &[u8], image_name: &str) -
 }
 
 fn bare_image_map(bytes: &[u8], name: &str, resolution_m: f64) -> Result<Loaded, String> {
-    let grid = io::load_map_image(bytes, name, resolution_m, [0.0, 0.0], &MapThresholds::default()).map_err(|e| e.to_string())?;
+    let grid = io::load_map_image(bytes, name, resolution_m, [0.0, 0.0], &MapThresholds::default())
+        .map_err(|e| e.to_string())?;
     Ok(Loaded::Map(MapLayers::from_occupancy(&grid, base_name(name))))
 }
 
@@ -143,8 +152,95 @@ fn load_cloud(name: String, bytes: Vec<u8>, intent: Intent, params: &Params) -> 
             let cloud = io::load_cloud(&bytes, &name).map_err(|e| e.to_string())?;
             let map = TraversabilityMap::from_cloud(&cloud, params).map_err(|e| format!("{name}: {e}"))?;
             let layers = map.compute(&params.traversability);
-            Ok(Loaded::Map(MapLayers { score: layers.score, source: base_name(&name).to_string(), kind: MapKind::Traversability }))
+            Ok(Loaded::Map(MapLayers {
+                score: layers.score,
+                source: base_name(&name).to_string(),
+                kind: MapKind::Traversability,
+            }))
         }
-        Intent::Any | Intent::Map | Intent::Params => Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent })),
+        Intent::Any | Intent::Map | Intent::Params => {
+            Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent }))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(name: &str, bytes: &[u8]) -> IncomingFile {
+        IncomingFile { name: name.into(), bytes: Ok(bytes.to_vec()), intent: Intent::Any }
+    }
+
+    /// A 2 × 1 binary PGM: a black (lethal) and a white (free) pixel.
+    const PGM: &[u8] = b"P5\n2 1\n255\n\x00\xff";
+
+    #[test]
+    fn base_names() {
+        assert_eq!(base_name("a/b/map.pgm"), "map.pgm");
+        assert_eq!(base_name("C:\\maps\\m.yaml"), "m.yaml");
+        assert_eq!(base_name("plain"), "plain");
+    }
+
+    #[test]
+    fn yaml_and_image_pair_within_a_batch_by_base_name() {
+        let yaml = b"image: sub/tiny.pgm\nresolution: 0.5\norigin: [1.0, 2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+        let mut pending = Vec::new();
+        let out = load_batch(vec![file("tiny.pgm", PGM), file("tiny.yaml", yaml)], &mut pending, &Params::default());
+        assert_eq!(out.len(), 1);
+        let Ok(Loaded::Map(m)) = &out[0] else { panic!("{out:?}") };
+        let g = m.geometry();
+        assert_eq!((g.width, g.height, g.resolution_m, g.origin_x_m, g.origin_y_m), (2, 1, 0.5, 1.0, 2.0));
+        assert_eq!(m.score.data, vec![0.0, 1.0]);
+        assert!(pending.is_empty());
+    }
+
+    #[test]
+    fn a_lone_image_is_a_map_at_the_current_resolution() {
+        let mut params = Params::default();
+        params.grid.resolution_m = 0.1;
+        let out = load_batch(vec![file("x.pgm", PGM)], &mut Vec::new(), &params);
+        let Ok(Loaded::Map(m)) = &out[0] else { panic!("{out:?}") };
+        assert_eq!(m.geometry().resolution_m, 0.1);
+        assert_eq!(m.source, "x.pgm");
+    }
+
+    #[test]
+    fn parameter_files_load_and_bad_ones_name_the_file() {
+        let out = load_batch(vec![file("p.toml", b"[u1]\nalpha = 0.7\n")], &mut Vec::new(), &Params::default());
+        let Ok(Loaded::Params(p)) = &out[0] else { panic!("{out:?}") };
+        assert_eq!(p.u1.alpha, 0.7);
+        let out = load_batch(vec![file("p.yaml", b"u1:\n  alpha: 0.2\n")], &mut Vec::new(), &Params::default());
+        assert!(matches!(&out[0], Ok(Loaded::Params(p)) if p.u1.alpha == 0.2), "{out:?}");
+        let out = load_batch(vec![file("q.yaml", b"u1:\n  alpah: 0.2\n")], &mut Vec::new(), &Params::default());
+        let Err(e) = &out[0] else { panic!("{out:?}") };
+        assert!(e.contains("q.yaml") && e.contains("alpah"), "{e}");
+    }
+
+    #[test]
+    fn clouds_without_intent_ask_and_with_intent_load() {
+        let csv = b"x,y,z\n1,2,3\n4,5,6\n";
+        let out = load_batch(vec![file("l.csv", csv)], &mut Vec::new(), &Params::default());
+        assert!(matches!(&out[0], Ok(Loaded::AskCloudUse(f)) if f.name == "l.csv"), "{out:?}");
+        let f = IncomingFile { name: "l.csv".into(), bytes: Ok(csv.to_vec()), intent: Intent::Landmarks };
+        let out = load_batch(vec![f], &mut Vec::new(), &Params::default());
+        assert!(matches!(&out[0], Ok(Loaded::Landmarks(l)) if l.cloud.len() == 2), "{out:?}");
+    }
+
+    #[test]
+    fn a_terrain_cloud_becomes_a_score_map() {
+        // A flat 1 m × 1 m floor sampled every 2 cm: every cell with enough points is free.
+        let mut csv = String::from("x,y,z\n");
+        for i in 0..50 {
+            for j in 0..50 {
+                csv += &format!("{},{},0\n", i as f64 * 0.02, j as f64 * 0.02);
+            }
+        }
+        let f = IncomingFile { name: "floor.csv".into(), bytes: Ok(csv.into_bytes()), intent: Intent::TerrainCloud };
+        let out = load_batch(vec![f], &mut Vec::new(), &Params::default());
+        let Ok(Loaded::Map(m)) = &out[0] else { panic!("{out:?}") };
+        assert_eq!(m.kind, MapKind::Traversability);
+        assert!(m.known_cells() > 0);
+        assert!(m.score.data.iter().filter(|s| !s.is_nan()).all(|&s| s >= 0.5));
     }
 }

@@ -8,7 +8,14 @@ use fitslam_core::select::{CandidateReport, Decision};
 
 /// A slider over an `f64` field shown in another unit (degrees for radians); returns the
 /// response so its rectangle can be published.
-fn scaled_slider(ui: &mut egui::Ui, value: &mut f64, scale: f64, range: std::ops::RangeInclusive<f64>, text: &str, decimals: usize) -> egui::Response {
+fn scaled_slider(
+    ui: &mut egui::Ui,
+    value: &mut f64,
+    scale: f64,
+    range: std::ops::RangeInclusive<f64>,
+    text: &str,
+    decimals: usize,
+) -> egui::Response {
     let mut shown = *value * scale;
     let r = ui.add(egui::Slider::new(&mut shown, range).text(text).fixed_decimals(decimals));
     if r.changed() {
@@ -27,9 +34,8 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
     let mut rects: Vec<(&'static str, egui::Rect)> = Vec::new();
 
     ui.label(egui::RichText::new("Strategy").strong());
-    let strat = egui::ComboBox::from_label("strategy")
-        .selected_text(strategy_name(p.selector.strategy))
-        .show_ui(ui, |ui| {
+    let strat =
+        egui::ComboBox::from_label("strategy").selected_text(strategy_name(p.selector.strategy)).show_ui(ui, |ui| {
             for s in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {
                 ui.selectable_value(&mut p.selector.strategy, s, strategy_name(s));
             }
@@ -44,17 +50,22 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
 
     ui.add_space(6.0);
     ui.label(egui::RichText::new("u1: path length vs entropy").strong());
-    let r = ui.add(egui::Slider::new(&mut p.u1.alpha, 0.0..=1.0).text("α").fixed_decimals(2))
-        .on_hover_text("α weights the path-length term ρ_min/ρ; 1 − α weights the entropy term ΔE/ΔE_max (paper 0.35).");
+    let r = ui.add(egui::Slider::new(&mut p.u1.alpha, 0.0..=1.0).text("α").fixed_decimals(2)).on_hover_text(
+        "α weights the path-length term ρ_min/ρ; 1 − α weights the entropy term ΔE/ΔE_max (paper 0.35).",
+    );
     rects.push(("alpha", r.rect));
-    let r = scaled_slider(ui, &mut p.u1.delta_theta_rad, deg, 1.0..=45.0, "Δθ [°]", 1).on_hover_text("Angle between rays (paper 8.5°).");
+    let r = scaled_slider(ui, &mut p.u1.delta_theta_rad, deg, 1.0..=45.0, "Δθ [°]", 1)
+        .on_hover_text("Angle between rays (paper 8.5°).");
     rects.push(("delta_theta", r.rect));
-    let r = ui.add(egui::Slider::new(&mut p.u1.gamma, 0.9..=1.0).text("γ").fixed_decimals(3))
-        .on_hover_text("Visibility decay per cell along a ray: an unknown cell N cells out gains 1 − H((1 + γ^N)/2) bits.");
+    let r = ui.add(egui::Slider::new(&mut p.u1.gamma, 0.9..=1.0).text("γ").fixed_decimals(3)).on_hover_text(
+        "Visibility decay per cell along a ray: an unknown cell N cells out gains 1 − H((1 + γ^N)/2) bits.",
+    );
     rects.push(("gamma", r.rect));
-    let r = scaled_slider(ui, &mut p.camera.hfov_rad, deg, 10.0..=360.0, "Φ [°]", 0).on_hover_text("Camera horizontal field of view: the Θ* window (D435: 87°).");
+    let r = scaled_slider(ui, &mut p.camera.hfov_rad, deg, 10.0..=360.0, "Φ [°]", 0)
+        .on_hover_text("Camera horizontal field of view: the Θ* window (D435: 87°).");
     rects.push(("hfov", r.rect));
-    let r = ui.add(egui::Slider::new(&mut p.camera.max_depth_m, 0.5..=10.0).text("d_max [m]").fixed_decimals(2))
+    let r = ui
+        .add(egui::Slider::new(&mut p.camera.max_depth_m, 0.5..=10.0).text("d_max [m]").fixed_decimals(2))
         .on_hover_text("Camera max depth: ray length in u1 and waypoint spacing in u2.");
     rects.push(("max_depth", r.rect));
     if p.camera.min_depth_m >= p.camera.max_depth_m {
@@ -63,13 +74,16 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
 
     ui.add_space(6.0);
     ui.label(egui::RichText::new("u2: landmark information").strong());
-    let r = ui.add(egui::Slider::new(&mut p.u2.beta, 0.0..=1.0).text("β").fixed_decimals(2))
+    let r = ui
+        .add(egui::Slider::new(&mut p.u2.beta, 0.0..=1.0).text("β").fixed_decimals(2))
         .on_hover_text("β weights u1 in u2; 1 − β weights the path's landmark information I_p (paper 0.4).");
     rects.push(("beta", r.rect));
-    let r = ui.add(egui::Slider::new(&mut p.u2.top_n, 1..=20).text("N"))
+    let r = ui
+        .add(egui::Slider::new(&mut p.u2.top_n, 1..=20).text("N"))
         .on_hover_text("How many of the best candidates by u1 are re-ranked by u2 (paper 7).");
     rects.push(("top_n", r.rect));
-    let r = ui.add(egui::Slider::new(&mut p.u2.voxel_m, 0.05..=1.0).text("voxel [m]").fixed_decimals(2))
+    let r = ui
+        .add(egui::Slider::new(&mut p.u2.voxel_m, 0.05..=1.0).text("voxel [m]").fixed_decimals(2))
         .on_hover_text("Landmark voxel edge: each occupied voxel counts once (paper 0.25 m).");
     rects.push(("voxel", r.rect));
     ui.horizontal(|ui| {
@@ -80,10 +94,12 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
 
     ui.add_space(6.0);
     ui.label(egui::RichText::new("Map").strong());
-    let r = ui.add(egui::Slider::new(&mut p.traversability.tau, 0.0..=1.0).text("τ").fixed_decimals(2))
+    let r = ui
+        .add(egui::Slider::new(&mut p.traversability.tau, 0.0..=1.0).text("τ").fixed_decimals(2))
         .on_hover_text("Risk acceptance: cells with score ≥ τ are free, below are lethal.");
     rects.push(("tau", r.rect));
-    let r = ui.add(egui::Slider::new(&mut p.robot.radius_m, 0.0..=1.0).text("inflation [m]").fixed_decimals(2))
+    let r = ui
+        .add(egui::Slider::new(&mut p.robot.radius_m, 0.0..=1.0).text("inflation [m]").fixed_decimals(2))
         .on_hover_text("Robot radius lethal cells are inflated by for planning (LeoRover: 0.25 m).");
     rects.push(("inflation", r.rect));
     ui.checkbox(&mut p.planner.allow_unknown, "plan through unknown");
@@ -136,7 +152,10 @@ pub fn candidate_summary(ui: &mut egui::Ui, d: &Decision, i: usize, c: &Candidat
         row("ρ (path)", format!("{} m", fmt(c.rho_m, 2)));
         row("ΔE", format!("{} bits", fmt(c.delta_e_bits, 2)));
         row("Θ*", format!("{}°", fmt(c.theta_star_rad.map(f64::to_degrees), 1)));
-        row("u1", format!("{} (rank {})", fmt(c.u1, 3), c.u1_rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into())));
+        row(
+            "u1",
+            format!("{} (rank {})", fmt(c.u1, 3), c.u1_rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into())),
+        );
         row("I_p", format!("{} (raw {})", fmt(c.path_info, 3), fmt(c.path_info_raw, 1)));
         row("u2", fmt(c.u2, 3));
         row("cluster", format!("{} cells", c.cluster_size));
@@ -204,7 +223,16 @@ pub enum Column {
 }
 
 impl Column {
-    const ALL: [Column; 8] = [Column::Index, Column::Rank, Column::Rho, Column::DeltaE, Column::ThetaStar, Column::U1, Column::Ip, Column::U2];
+    const ALL: [Column; 8] = [
+        Column::Index,
+        Column::Rank,
+        Column::Rho,
+        Column::DeltaE,
+        Column::ThetaStar,
+        Column::U1,
+        Column::Ip,
+        Column::U2,
+    ];
 
     fn title(self) -> &'static str {
         match self {
@@ -272,11 +300,16 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
         ui.label("No ranking.");
         return;
     };
-    let header = format!("({} · strategy {} · score: {})", d.candidates.len(), strategy_name(d.strategy), match d.strategy {
-        Strategy::Fit => "u2",
-        Strategy::Greedy => "ρ",
-        Strategy::U1 | Strategy::Random => "u1",
-    });
+    let header = format!(
+        "({} · strategy {} · score: {})",
+        d.candidates.len(),
+        strategy_name(d.strategy),
+        match d.strategy {
+            Strategy::Fit => "u2",
+            Strategy::Greedy => "ρ",
+            Strategy::U1 | Strategy::Random => "u1",
+        }
+    );
     ui.horizontal(|ui| {
         ui.label(egui::RichText::new("Candidates").strong());
         ui.label(header);
@@ -324,10 +357,43 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
         if app.table.column == col {
             app.table.descending = !app.table.descending;
         } else {
-            app.table = TableState { column: col, descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE) };
+            app.table = TableState {
+                column: col,
+                descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE),
+            };
         }
     }
     if let Some(sel) = new_sel {
         app.selected = sel;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fitslam_core::{Cell, Pose2};
+
+    #[test]
+    fn rows_sort_by_column_with_missing_values_last() {
+        let mut cs: Vec<CandidateReport> =
+            (0..4).map(|i| CandidateReport::new(Cell::new(i, 0), f64::from(i), 0.0, vec![])).collect();
+        cs[0].rho_m = Some(2.0);
+        cs[1].rho_m = None;
+        cs[2].rho_m = Some(1.0);
+        cs[3].rho_m = Some(2.0);
+        let d = Decision {
+            strategy: Strategy::Fit,
+            chosen: None,
+            goal: None,
+            robot: Pose2::new(0.0, 0.0, 0.0),
+            robot_cell: Cell::new(0, 0),
+            requested_robot_cell: Cell::new(0, 0),
+            start_snapped: false,
+            ray_angles_rad: vec![],
+            candidates: cs,
+        };
+        assert_eq!(sorted_rows(&d, TableState { column: Column::Rho, descending: false }), vec![2, 0, 3, 1]);
+        assert_eq!(sorted_rows(&d, TableState { column: Column::Rho, descending: true }), vec![0, 3, 2, 1]);
+        assert_eq!(sorted_rows(&d, TableState { column: Column::Index, descending: true }), vec![3, 2, 1, 0]);
     }
 }

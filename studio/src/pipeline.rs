@@ -12,8 +12,8 @@
 //! inputs always give the same decision.
 
 use crate::scene::Scene;
-use fitslam_core::grid::{inflate_lethal, OccupancyGrid};
-use fitslam_core::select::{make_selector, Decision, DecisionInput};
+use fitslam_core::grid::{OccupancyGrid, inflate_lethal};
+use fitslam_core::select::{Decision, DecisionInput, make_selector};
 use fitslam_core::traversability::to_occupancy;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{Params, Pose2};
@@ -38,12 +38,17 @@ pub struct Timings {
     pub last_update_ms: f64,
 }
 
+/// Cache key of the voxels: landmarks revision, voxel size and σ_l bits.
+type VoxelKey = (u64, u64, u64);
+/// Cache key of the decision: everything it depends on (robot pose as bits).
+type DecisionKey = (Revisions, Params, [u64; 3]);
+
 /// The cached stages.
 #[derive(Default)]
 pub struct Pipeline {
     occupancy: Option<((u64, u64), OccupancyGrid)>,
-    voxels: Option<((u64, u64, u64), Result<LandmarkVoxels, String>)>,
-    decision: Option<((Revisions, Params, [u64; 3]), Result<Decision, String>)>,
+    voxels: Option<(VoxelKey, Result<LandmarkVoxels, String>)>,
+    decision: Option<(DecisionKey, Result<Decision, String>)>,
     inflated: Option<((u64, u64, u64), OccupancyGrid)>,
     /// Incremented whenever the decision is recomputed.
     pub decision_revision: u64,
@@ -84,7 +89,8 @@ impl Pipeline {
             let t = Instant::now();
             let result = match (&self.occupancy, &self.voxels) {
                 (Some((_, grid)), Some((_, Ok(voxels)))) => {
-                    let input = DecisionInput::new(grid, voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
+                    let input =
+                        DecisionInput::new(grid, voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
                     make_selector(&params.selector).select(&input, params).map_err(|e| e.to_string())
                 }
                 (_, Some((_, Err(e)))) => Err(e.clone()),

@@ -5,7 +5,7 @@
 
 use fitslam_core::frontier::{Blacklist, Boundary};
 use fitslam_core::grid::{CellClass, Grid, GridGeometry, OccupancyGrid};
-use fitslam_core::{Pose2, PointCloud};
+use fitslam_core::{PointCloud, Pose2};
 
 /// A map as the studio holds it: one traversability score per cell in [0, 1] (1 traversable,
 /// 0 lethal), NaN where unknown. Thresholding by τ gives the binary grid (notes §2).
@@ -78,7 +78,13 @@ impl Scene {
     pub fn new(map: MapLayers, landmarks: Landmarks, robot: Option<Pose2>, blacklist_radius_m: f64) -> Self {
         let (x0, y0, x1, y1) = map.geometry().bounds_m();
         let boundary = Boundary::from_bounds(x0, y0, x1, y1);
-        let mut scene = Self { map, landmarks, robot: Pose2::new(0.0, 0.0, 0.0), boundary, blacklist: Blacklist::new(blacklist_radius_m) };
+        let mut scene = Self {
+            map,
+            landmarks,
+            robot: Pose2::new(0.0, 0.0, 0.0),
+            boundary,
+            blacklist: Blacklist::new(blacklist_radius_m),
+        };
         let start = robot.unwrap_or(Pose2::new(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0));
         scene.robot = scene.nearest_free_pose(start, 0.5).unwrap_or(start);
         scene
@@ -130,4 +136,44 @@ pub fn nearest_pose<T>(grid: &Grid<T>, pose: Pose2, ok: impl Fn(&T) -> bool) -> 
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
+
+    #[test]
+    fn occupancy_becomes_score() {
+        let g = GridGeometry::new(0.0, 0.0, 1.0, 4, 1);
+        let occ = OccupancyGrid { geometry: g, data: vec![FREE, LETHAL, 30, UNKNOWN] };
+        let m = MapLayers::from_occupancy(&occ, "m");
+        assert_eq!(m.score.data[0], 1.0);
+        assert_eq!(m.score.data[1], 0.0);
+        assert!((m.score.data[2] - 0.7).abs() < 1e-6);
+        assert!(m.score.data[3].is_nan());
+        assert_eq!(m.known_cells(), 3);
+        // τ = 0.5 thresholds it back to the trinary classes (30 % occupied is free).
+        let back = fitslam_core::traversability::to_occupancy(&m.score, 0.5);
+        assert_eq!(back.data, vec![FREE, LETHAL, FREE, UNKNOWN]);
+    }
+
+    #[test]
+    fn nearest_pose_searches_rings_and_keeps_yaw() {
+        // 5 × 5 grid of 1 m cells, only cell (4, 1) is ok: from (0.5, 0.5) the answer is its
+        // centre (4.5, 1.5).
+        let g = GridGeometry::new(0.0, 0.0, 1.0, 5, 5);
+        let mut grid = Grid::filled(g, false);
+        grid.data[5 + 4] = true;
+        let p = nearest_pose(&grid, Pose2::new(0.5, 0.5, 1.0), |v| *v).unwrap();
+        assert_eq!(p, Pose2::new(4.5, 1.5, 1.0));
+        // Already ok: unchanged (not moved to the centre).
+        let q = Pose2::new(4.2, 1.9, -2.0);
+        assert_eq!(nearest_pose(&grid, q, |v| *v), Some(q));
+        // Nothing ok, or a non-finite pose: None.
+        assert_eq!(nearest_pose(&Grid::filled(g, false), q, |v| *v), None);
+        assert_eq!(nearest_pose(&grid, Pose2::new(f64::NAN, 0.0, 0.0), |v| *v), None);
+        // From outside the grid it still finds the cell.
+        assert_eq!(nearest_pose(&grid, Pose2::new(9.5, 1.5, 0.0), |v| *v), Some(Pose2::new(4.5, 1.5, 0.0)));
+    }
 }

@@ -3,8 +3,8 @@
 
 use crate::app::StudioApp;
 use crate::canvas::{Layer, Overlays, RayMode};
-use fitslam_core::params::Strategy;
 use fitslam_core::Params;
+use fitslam_core::params::Strategy;
 
 /// The tour's state.
 #[derive(Clone, Debug, Default)]
@@ -58,7 +58,13 @@ const STEPS: [Step; 7] = [
         apply: |app| {
             app.params.u1.alpha = 1.0;
             app.params.u2.beta = 1.0;
-            app.overlays = Overlays { rays: RayMode::Ranked, all_cones: true, paths: false, frustums: false, ..Overlays::default() };
+            app.overlays = Overlays {
+                rays: RayMode::Ranked,
+                all_cones: true,
+                paths: false,
+                frustums: false,
+                ..Overlays::default()
+            };
             app.selected = None;
         },
     },

@@ -1,9 +1,9 @@
 //! The browser entry point and the few browser services the studio needs: the file picker,
 //! downloads, and publishing the current ranking where a page script (or a test) can read it.
 
-use crate::files::{extensions, Inbox, IncomingFile, Intent};
-use wasm_bindgen::prelude::*;
+use crate::files::{Inbox, IncomingFile, Intent, extensions};
 use wasm_bindgen::JsCast;
+use wasm_bindgen::prelude::*;
 
 /// Starts the studio in the canvas with id `canvas_id`. The built-in asset to show first can be
 /// chosen with the page's `?asset=<name>` query.
@@ -92,10 +92,10 @@ pub fn download(file_name: &str, mime: &str, text: &str) -> Result<(), String> {
 /// `widgets` (JSON text: rectangles of named widgets in CSS pixels).
 pub fn publish(title: &str, ranking_json: &str, stats_json: &str, widgets_json: &str) {
     let Some(window) = web_sys::window() else { return };
-    if let Some(document) = window.document() {
-        if document.title() != title {
-            document.set_title(title);
-        }
+    if let Some(document) = window.document()
+        && document.title() != title
+    {
+        document.set_title(title);
     }
     let obj = js_sys::Object::new();
     let set = |k: &str, v: &str| {

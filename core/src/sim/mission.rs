@@ -19,6 +19,8 @@
 //! decision the selector's cost (one Dijkstra, rays, u2) plus O(cells) thresholding; per metrics
 //! row O(explorable cells).
 
+#![allow(clippy::collapsible_if)] // nested ifs mirror the decision steps
+
 use super::camera::{observe_landmarks, CameraNoise, CameraObservation, LandmarkIndex};
 use super::lidar::{gaussian, scan, LidarParams, RayCaster};
 use super::odometry::OdometryNoise;
@@ -38,6 +40,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+
+/// A body position on the terrain and its attitude.
+type BodyPose = (Point3<f64>, Rotation3<f64>);
 
 /// How the robot knows where it is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -521,7 +526,7 @@ impl Mission {
     }
 
     /// The true and estimated 3D body poses.
-    fn body_poses(&self) -> ((Point3<f64>, Rotation3<f64>), (Point3<f64>, Rotation3<f64>)) {
+    fn body_poses(&self) -> (BodyPose, BodyPose) {
         let b = self.mission.drive.body_half_m;
         let gt = body_on_terrain(&self.world.field, self.gt, b);
         // The estimate's height and attitude are the terrain's under the estimate (a SLAM would

@@ -1,9 +1,10 @@
 //! Wheel odometry with an IMU yaw (notes §8). Over one control step the robot moves δs along its
 //! heading and turns δθ (ground truth). Measured:
-//! - δs_m = δs · (1 + slip) + n_s, slip = `slip_per_rad` · slope (wheels spin more than the body
-//!   moves on a slope), n_s ~ N(0, σ_s² |δs|) with σ_s = `distance_sigma_per_sqrt_m`;
+//! - δs_m = δs · (1 + slip) + n_s, slip = `slip_per_rad` · slope (wheels spin more than the
+//!   body moves on a slope), n_s ~ N(0, σ_s² |δs|) with σ_s = `distance_sigma_per_sqrt_m`;
 //! - δθ_m = δθ + n_θ, n_θ ~ N(0, σ_r² |δθ| + σ_rd² |δs|) (wheels), or with `use_imu_yaw`
 //!   n_θ ~ N(0, σ_g² dt) (gyro integration).
+//!
 //! So the variance grows linearly with distance travelled and angle turned (a random walk).
 //! O(1) per step.
 

@@ -49,8 +49,10 @@ fn unknown_keys_and_bad_values_are_rejected() {
 fn ground_truth_marks_boxes_lethal_and_hills_free() {
     let params = Params::default();
     let w = tiny_world(&params);
-    assert!(w.gt_lethal_at(2.75, 2.6), "box top edge region");
-    assert!(w.gt_lethal_at(2.5, 2.6), "box edge");
+    // The box's edges are lethal steps; its flat top is GT free but not explorable (unreachable).
+    assert!(w.gt_lethal_at(2.5, 2.6) && w.gt_lethal_at(3.0, 2.6) && w.gt_lethal_at(2.75, 2.0), "box edges");
+    let g = w.gt_occupancy.geometry;
+    assert!(!w.explorable[g.index(g.cell_of(2.75, 2.6).unwrap()).unwrap()], "box top");
     assert!(!w.gt_lethal_at(1.0, 1.0), "start");
     assert!(!w.gt_lethal_at(4.0, 1.0), "gentle hill");
     // Explorable: inside the boundary (0.5 m inset), so at most 4 × 4 m worth of cells.

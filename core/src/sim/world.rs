@@ -13,6 +13,8 @@
 //! free cells inside the boundary, 8-connected through GT free cells to the start.
 //! Building is O(cells × disc cells).
 
+#![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
+
 use super::{fractal_noise, scatter_landmarks, scatter_rocks, DemScaling, Heightfield, HeightfieldError, LandmarkDensity, Rock};
 use crate::frontier::Boundary;
 use crate::grid::{Cell, GridGeometry, OccupancyGrid, FREE, LETHAL};
@@ -357,8 +359,7 @@ impl World {
                 let image = fetch(&yaml.image)?;
                 let grid = crate::io::load_map(&yaml_bytes, file, &image, &yaml.image)?;
                 let g = grid.geometry;
-                let walls = Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() };
-                walls
+                Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() }
             }
         };
         let start_xy = (spec.start[0], spec.start[1]);

@@ -1,6 +1,7 @@
-//! `nav2_msgs/action/NavigateToPose` (Jazzy layout). Humble's result is `std_msgs/Empty`
-//! instead of (error_code, error_msg): against a Humble Nav2 the result fails to decode and the
-//! node treats the goal as failed, so run it against Jazzy or use the `/goal_pose` fallback.
+//! `nav2_msgs/action/NavigateToPose` (Jazzy layout). The goal and feedback are the same in
+//! Humble and Iron; the result is not (Humble: `std_msgs/Empty`; Iron: `error_code` only), so
+//! the result decodes leniently: missing trailing fields take their defaults (the outcome itself
+//! travels in the action's status, not in these fields).
 
 use super::{Duration, PoseStamped};
 use serde::{Deserialize, Serialize};
@@ -19,12 +20,32 @@ pub struct NavigateToPoseGoal {
 impl ros2_client::Message for NavigateToPoseGoal {}
 
 /// Result: `error_code` 0 is success (NONE); 9000+ are Nav2's codes.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct NavigateToPoseResult {
     pub error_code: u16,
     pub error_msg: String,
 }
 impl ros2_client::Message for NavigateToPoseResult {}
+
+impl<'de> Deserialize<'de> for NavigateToPoseResult {
+    /// Jazzy's (error_code, error_msg); a result that ends early (Iron, Humble) keeps the
+    /// defaults of the fields it lacks.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = NavigateToPoseResult;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a NavigateToPose result")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let error_code = seq.next_element::<u16>().ok().flatten().unwrap_or(0);
+                let error_msg = seq.next_element::<String>().ok().flatten().unwrap_or_default();
+                Ok(NavigateToPoseResult { error_code, error_msg })
+            }
+        }
+        d.deserialize_struct("NavigateToPoseResult", &["error_code", "error_msg"], V)
+    }
+}
 
 /// Feedback.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

@@ -91,3 +91,22 @@ fn time_conversions() {
     assert_eq!(Time::from_secs_f64(-3.0), Time::default());
     assert_eq!(Time { sec: 2, nanosec: 500_000_000 }.as_secs_f64(), 2.5);
 }
+
+#[test]
+fn navigate_to_pose_results_of_older_distros_decode_with_defaults() {
+    use ros2_client::action::{GetResultResponse, GoalStatusEnum};
+    // Jazzy: status (int8), then (error_code, error_msg).
+    let jazzy = GetResultResponse { status: GoalStatusEnum::Aborted, result: NavigateToPoseResult { error_code: 9003, error_msg: "timeout".into() } };
+    let b = to_vec::<_, LittleEndian>(&jazzy).unwrap();
+    let (back, _) = from_bytes::<GetResultResponse<NavigateToPoseResult>, LittleEndian>(&b).unwrap();
+    assert_eq!((back.status, back.result), (GoalStatusEnum::Aborted, jazzy.result));
+    // Iron: status, error_code only.
+    let iron = to_vec::<_, LittleEndian>(&(4i8, 9001u16)).unwrap();
+    let (back, _) = from_bytes::<GetResultResponse<NavigateToPoseResult>, LittleEndian>(&iron).unwrap();
+    assert_eq!((back.status, back.result.error_code, back.result.error_msg.as_str()), (GoalStatusEnum::Succeeded, 9001, ""));
+    // Humble: status, std_msgs/Empty (one octet), with and without the payload's padding.
+    for humble in [vec![4u8, 0], vec![4u8, 0, 0, 0]] {
+        let (back, _) = from_bytes::<GetResultResponse<NavigateToPoseResult>, LittleEndian>(&humble).unwrap();
+        assert_eq!((back.status, back.result), (GoalStatusEnum::Succeeded, NavigateToPoseResult::default()));
+    }
+}

@@ -30,6 +30,11 @@ impl NodeProcess {
     /// Starts `fitslam-robot --config <config>` on `domain`, loopback only, its stderr and
     /// stdout in `<dir>/node.log`.
     pub fn start(config: &Path, domain: u16, dir: &Path) -> Self {
+        Self::start_with(config, domain, dir, &[])
+    }
+
+    /// [`Self::start`] with extra command-line arguments.
+    pub fn start_with(config: &Path, domain: u16, dir: &Path, extra: &[&str]) -> Self {
         let log_path = dir.join("node.log");
         let log = std::fs::File::create(&log_path).expect("log file");
         let child = Command::new(env!("CARGO_BIN_EXE_fitslam-robot"))
@@ -38,6 +43,7 @@ impl NodeProcess {
             .arg("--localhost-only")
             .arg("--domain-id")
             .arg(domain.to_string())
+            .args(extra)
             .env("ROS_DOMAIN_ID", domain.to_string())
             .env("ROS_LOCALHOST_ONLY", "1")
             .stdout(Stdio::from(log.try_clone().expect("log file")))
