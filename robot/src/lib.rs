@@ -13,6 +13,36 @@
 //! | [`markers`] | RViz markers of a decision |
 //! | [`ros`] | the DDS side: participant, endpoints, the polling loop |
 //! | `rerun_log` | rerun recording of maps, decisions and metrics (feature `rerun`) |
+//!
+//! The state machine runs without DDS: messages in, commands out, on the caller's clock.
+//!
+//! ```
+//! use fitslam_core::fixtures::corridor_two_frontiers;
+//! use fitslam_robot::config::NodeConfig;
+//! use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
+//! use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
+//! use fitslam_robot::node::{Command, Explorer};
+//!
+//! let world = corridor_two_frontiers(true); // landmarks east of the robot only
+//! let mut node = Explorer::new(NodeConfig::default(), fitslam_core::Params::default());
+//! let header = Header::new(Time::from_secs_f64(1.0), "map");
+//! node.handle_map(&msg_of_occupancy(&world.grid, header.clone()), 0.0);
+//! node.handle_landmarks(&cloud_of_points(&world.landmarks.points, header.clone()), 0.0);
+//! let robot = TransformStamped {
+//!     header,
+//!     child_frame_id: "base_link".into(),
+//!     transform: Transform {
+//!         translation: Vector3 { x: world.robot.x_m, y: world.robot.y_m, z: 0.0 },
+//!         rotation: Quaternion::default(),
+//!     },
+//! };
+//! node.handle_tf(&TFMessage { transforms: vec![robot] }, false, 0.0);
+//! let commands = node.tick(0.0);
+//! let Command::SendGoal { goal, .. } = &commands[0] else { panic!("{commands:?}") };
+//! assert!(goal.x_m > world.robot.x_m); // FIT-SLAM heads for the landmarks
+//! println!("{}", serde_json::to_string(&node.status(0.0))?);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod config;
 pub mod convert;

@@ -140,7 +140,13 @@ pub fn score_from_rgb_png(bytes: &[u8], geometry: GridGeometry) -> Result<Grid<f
         for col in 0..w {
             let k = (image_row * w + col) * 3;
             let (r, g, b) = (f32::from(buf[k]), f32::from(buf[k + 1]), buf[k + 2]);
-            data[row * w + col] = if b != 0 { f32::NAN } else if g < 255.0 { g / 510.0 } else { 1.0 - r / 510.0 };
+            data[row * w + col] = if b != 0 {
+                f32::NAN
+            } else if g < 255.0 {
+                g / 510.0
+            } else {
+                1.0 - r / 510.0
+            };
         }
     }
     Grid::from_vec(geometry, data).ok_or_else(|| "score.png: size mismatch".to_string())
@@ -283,7 +289,12 @@ mod tests {
         let mut differ = 0;
         for i in 0..occ.data.len() {
             if CellClass::of(occ.data[i]) != CellClass::of(again.data[i]) {
-                assert!((score.data[i] - 0.5).abs() <= 1.0 / 1020.0 + 1e-6, "cell {i}: {} vs {}", occ.data[i], score.data[i]);
+                assert!(
+                    (score.data[i] - 0.5).abs() <= 1.0 / 1020.0 + 1e-6,
+                    "cell {i}: {} vs {}",
+                    occ.data[i],
+                    score.data[i]
+                );
                 differ += 1;
             }
         }

@@ -121,6 +121,8 @@ pub struct CanvasState {
     texture: Option<(TexKey, egui::TextureHandle)>,
     /// The canvas rectangle last frame.
     pub rect: Option<Rect>,
+    /// Whether the user panned or zoomed since the last fit.
+    user_view: bool,
 }
 
 impl CanvasState {
@@ -261,7 +263,15 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     painter.rect_filled(rect, 0.0, Color32::from_rgb(24, 24, 28));
     let g = app.scene.map.geometry();
     let (x0, y0, x1, y1) = g.bounds_m();
-    if app.canvas.fit_requested || app.canvas.px_per_m <= 0.0 || app.canvas.rect.is_none() {
+    // Refit when asked, on the first frame, and when the canvas is resized (panels or messages
+    // changed) as long as the user has not panned or zoomed since the last fit.
+    let resized = app.canvas.rect.is_some_and(|r| r.size() != rect.size());
+    if app.canvas.fit_requested
+        || app.canvas.px_per_m <= 0.0
+        || app.canvas.rect.is_none()
+        || (resized && !app.canvas.user_view)
+    {
+        app.canvas.user_view = false;
         let w = (x1 - x0).max(1e-6);
         let h = (y1 - y0).max(1e-6);
         app.canvas.px_per_m = (f64::from(rect.width()) / w).min(f64::from(rect.height()) / h) * 0.96;
@@ -279,6 +289,7 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
             let after = View { rect, center_m: app.canvas.center_m, px_per_m: app.canvas.px_per_m }.to_world(p);
             app.canvas.center_m[0] += before[0] - after[0];
             app.canvas.center_m[1] += before[1] - after[1];
+            app.canvas.user_view = true;
         }
     }
     let view = View { rect, center_m: app.canvas.center_m, px_per_m: app.canvas.px_per_m };
@@ -311,6 +322,7 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
             Drag::Pan => {
                 app.canvas.center_m[0] -= f64::from(delta.x) / app.canvas.px_per_m;
                 app.canvas.center_m[1] += f64::from(delta.y) / app.canvas.px_per_m;
+                app.canvas.user_view = true;
             }
             Drag::MoveRobot => {
                 if let Some(p) = response.interact_pointer_pos() {
@@ -376,33 +388,40 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     }
 
     app.hovered = None;
-    let decision = app.pipeline.ok_decision().cloned();
-    if let Some(d) = &decision {
+    // Picking first (it writes the app), then drawing with shared borrows only.
+    let (mut hovered, mut selected) = (None, app.selected);
+    if let Some(d) = app.pipeline.ok_decision() {
         if response.hovered()
             && app.canvas.drag == Drag::None
             && let Some(p) = response.hover_pos()
         {
-            app.hovered = pick_candidate(&view, d, p);
+            hovered = pick_candidate(&view, d, p);
         }
         if response.clicked()
             && let Some(p) = response.interact_pointer_pos()
         {
-            app.selected = pick_candidate(&view, d, p);
-        }
-        draw_decision(&painter, &view, app, d);
-        // Candidate positions for page scripts and tests (first 10 by rank).
-        for (k, i) in d.ranking().into_iter().take(10).enumerate() {
-            const NAMES: [&str; 10] =
-                ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
-            let c = &d.candidates[i];
-            app.widget_rects
-                .insert(NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX)));
+            selected = pick_candidate(&view, d, p);
         }
     }
+    app.hovered = hovered;
+    app.selected = selected;
+    let mut rank_rects = Vec::new();
+    if let Some(d) = app.pipeline.ok_decision() {
+        draw_decision(&painter, &view, app, d);
+        // Candidate positions for page scripts and tests (first 10 by rank).
+        const NAMES: [&str; 10] =
+            ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
+        for (k, i) in d.ranking().into_iter().take(10).enumerate() {
+            let c = &d.candidates[i];
+            rank_rects
+                .push((NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX))));
+        }
+    }
+    app.widget_rects.extend(rank_rects);
 
     draw_robot(&painter, robot_px, body_r, handle_px, app.canvas.drag);
 
-    if let (Some(d), Some(i)) = (&decision, app.hovered)
+    if let (Some(d), Some(i)) = (app.pipeline.ok_decision(), app.hovered)
         && let Some(c) = d.candidates.get(i)
     {
         response.clone().on_hover_ui_at_pointer(|ui| crate::panels::candidate_summary(ui, d, i, c));

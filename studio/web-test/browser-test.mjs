@@ -5,7 +5,8 @@
 //   2. opens a map (map.yaml + map.pgm) through the file picker (Ctrl+O);
 //   3. drops a landmark set (landmarks.ply) on the canvas and answers "Landmarks" in the dialog;
 //   4. drags the α slider to its end and checks that the ranking changed;
-//   5. clicks the best candidate, drags the robot, and times re-ranking over many slider moves.
+//   5. clicks the best candidate, drags the robot, and times re-ranking over many slider moves;
+//   6. reloads without a query: the default built-in scene shows with a decision made.
 // The canvas has no DOM, so the app publishes its state: document.title (a digest of the
 // ranking) and window.fitslam.{ranking, stats, widgets} (JSON; widget rectangles in CSS px).
 // Screenshots go to target/studio-web-test/, with timing.json. Prints "N passed, N failed".
@@ -226,6 +227,12 @@ try {
   fs.writeFileSync(path.join(outDir, "timing.json"), JSON.stringify(timing, null, 2));
   check("re-ranking timed in the browser", times.length >= 10, `median ${median?.toFixed(2)} ms, max ${max?.toFixed(2)} ms over ${times.length} decisions on ${s.stats.map} ${JSON.stringify(s.stats.map_cells)}`);
   notBlank("final screenshot", await shot("05-final.png"));
+
+  // 6. A fresh start without any query shows the default built-in scene with a decision.
+  await page.goto(base);
+  s = await waitFor("default scene decided", (s) => s.ranking !== "null" && s.title.startsWith("fitslam: chosen="));
+  if (s) check("the default scene is jacksboro", s.stats.map === "jacksboro", `${s.stats.map}: ${s.title}`);
+  notBlank("default-start screenshot", await shot("06-default.png"));
 
   check("no error messages from the studio", !s.stats.messages.some((m) => /panic|failed/i.test(m)), JSON.stringify(s.stats.messages));
   check("no errors in the console", consoleErrors.length === 0, consoleErrors.slice(0, 3).join(" | "));
