@@ -56,7 +56,7 @@ fn main() {
         let t1 = Instant::now();
         let clusters = frontier_clusters(&input, &prepared, &params).expect("frontiers");
         let t2 = Instant::now();
-        let field = distances(&prepared, &params).expect("dijkstra");
+        let field = distances(&prepared, &clusters, &params).expect("dijkstra");
         let t3 = Instant::now();
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, Strategy::Fit).expect("u1");
         let t4 = Instant::now();
@@ -75,9 +75,9 @@ fn main() {
             let top: Vec<_> = d.candidates.iter().filter(|c| c.u2.is_some()).collect();
             let wps: usize = top.iter().map(|c| c.waypoints.len()).sum();
             let seen: usize = top.iter().flat_map(|c| c.waypoints.iter()).map(|w| w.voxels_seen).sum();
-            let reached = (0..g.len()).filter(|&i| field.reachable(g.cell_at(i))).count();
+            let reached = field.settled_count();
             summary = format!(
-                "candidates {} (scored {}), reachable cells {}, top-{} waypoints {} seeing {} voxels in all; chosen {:?} at ({:.2}, {:.2}) m",
+                "candidates {} (scored {}), cells settled by Dijkstra {}, top-{} waypoints {} seeing {} voxels in all; chosen {:?} at ({:.2}, {:.2}) m",
                 d.candidates.len(),
                 scored,
                 reached,

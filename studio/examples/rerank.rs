@@ -62,7 +62,7 @@ fn main() {
         let clusters = frontier_clusters(&input, &prepared, &params).unwrap();
         let t_front = t.elapsed();
         let t = Instant::now();
-        let field = distances(&prepared, &params).unwrap();
+        let field = distances(&prepared, &clusters, &params).unwrap();
         let t_dij = t.elapsed();
         let t = Instant::now();
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, params.selector.strategy).unwrap();

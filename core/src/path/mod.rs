@@ -7,7 +7,7 @@ mod astar;
 mod dijkstra;
 
 pub use astar::astar;
-pub use dijkstra::{dijkstra, DistanceField};
+pub use dijkstra::{dijkstra, dijkstra_to, DistanceField};
 
 use crate::grid::{Cell, CellClass, GridGeometry, OccupancyGrid};
 use serde::{Deserialize, Serialize};

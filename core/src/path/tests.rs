@@ -107,3 +107,58 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    /// The early-stopping search gives the targets exactly the full search's distances and
+    /// paths (the window and the stop change what is stored, not the answer), and its paths are
+    /// legal moves over free cells.
+    #[test]
+    fn dijkstra_to_matches_dijkstra_on_its_targets(
+        (g, s, t) in arb_grid(),
+        extra in proptest::collection::vec((0i32..24, 0i32..24), 0..6),
+    ) {
+        let full = dijkstra(&g, s, false).unwrap();
+        prop_assert!(full.is_complete());
+        let mut targets = vec![t];
+        targets.extend(extra.iter().map(|&(c, r)| Cell::new(c, r)));
+        let part = dijkstra_to(&g, s, false, &targets).unwrap();
+        prop_assert!(part.settled_count() <= full.settled_count());
+        for &c in &targets {
+            prop_assert_eq!(part.distance_m(c), full.distance_m(c));
+            let (pp, fp) = (part.path_to(c), full.path_to(c));
+            prop_assert_eq!(pp.as_ref().map(|p| &p.cells), fp.as_ref().map(|p| &p.cells));
+            if let Some(p) = pp {
+                prop_assert_eq!(p.cells[0], s);
+                for w in p.cells.windows(2) {
+                    let (dc, dr) = (w[1].col - w[0].col, w[1].row - w[0].row);
+                    prop_assert!(dc.abs() <= 1 && dr.abs() <= 1 && (dc, dr) != (0, 0));
+                    prop_assert_eq!(*g.get(w[1]).unwrap(), FREE);
+                    if dc != 0 && dr != 0 {
+                        prop_assert_eq!(*g.get(Cell::new(w[0].col + dc, w[0].row)).unwrap(), FREE);
+                        prop_assert_eq!(*g.get(Cell::new(w[0].col, w[0].row + dr)).unwrap(), FREE);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_window_is_the_bounding_box_of_the_free_cells() {
+    // Free cells only in the middle of a mostly unknown map; a cell outside the window is simply
+    // not reached, with or without targets.
+    let g = grid_from(&["?????????", "??.....??", "??.#...??", "??.....??", "?????????"]);
+    let d = dijkstra(&g, Cell::new(2, 1), false).unwrap();
+    assert_eq!(d.settled_count(), 14);
+    assert!((d.distance_m(Cell::new(6, 3)).unwrap() - 0.1 * (2.0 * std::f64::consts::SQRT_2 + 2.0)).abs() < 1e-12);
+    assert!(d.distance_m(Cell::new(0, 0)).is_none());
+    assert!(d.distance_m(Cell::new(20, 0)).is_none());
+    // Unknown allowed: the whole map is the window.
+    let u = dijkstra(&g, Cell::new(2, 1), true).unwrap();
+    assert_eq!(u.settled_count(), 44);
+    // A target next to the start stops the search early.
+    let near = dijkstra_to(&g, Cell::new(2, 1), false, &[Cell::new(3, 1)]).unwrap();
+    assert!(!near.is_complete());
+    assert!(near.settled_count() < 14);
+    assert_eq!(near.distance_m(Cell::new(3, 1)), Some(0.1));
+}

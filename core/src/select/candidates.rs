@@ -22,7 +22,7 @@ use super::{DecisionInput, SelectError};
 use crate::frontier::{detect_frontiers, FrontierCluster};
 use crate::grid::{inflate_lethal, Cell, CellClass, OccupancyGrid};
 use crate::params::{Params, Strategy};
-use crate::path::{dijkstra, DistanceField};
+use crate::path::{dijkstra_to, DistanceField};
 use crate::utility::{normalise_path_information, path_information, u1_scores, u2_score, FovWindows, RayFan};
 
 /// Output of [`prepare`]: the planning grid and the start cell.
@@ -88,9 +88,10 @@ pub fn frontier_clusters(input: &DecisionInput, prepared: &Prepared, params: &Pa
     Ok(clusters)
 }
 
-/// Step 3: one Dijkstra from the robot's cell.
-pub fn distances(prepared: &Prepared, params: &Params) -> Result<DistanceField, SelectError> {
-    Ok(dijkstra(&prepared.inflated, prepared.robot_cell, params.planner.allow_unknown)?)
+/// Step 3: one Dijkstra from the robot's cell, stopped once every candidate is settled.
+pub fn distances(prepared: &Prepared, clusters: &[FrontierCluster], params: &Params) -> Result<DistanceField, SelectError> {
+    let targets: Vec<Cell> = clusters.iter().map(|c| c.candidate).collect();
+    Ok(dijkstra_to(&prepared.inflated, prepared.robot_cell, params.planner.allow_unknown, &targets)?)
 }
 
 /// Step 4: the candidate reports with ρ, path, rays, Θ*, ΔE and u1 (see the module doc).
@@ -196,7 +197,7 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
 pub fn plan(input: &DecisionInput, params: &Params, strategy: Strategy) -> Result<Decision, SelectError> {
     let prepared = prepare(input, params)?;
     let clusters = frontier_clusters(input, &prepared, params)?;
-    let field = distances(&prepared, params)?;
+    let field = distances(&prepared, &clusters, params)?;
     score_u1(input, &prepared, clusters, &field, params, strategy)
 }
 

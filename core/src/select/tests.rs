@@ -136,7 +136,7 @@ fn unreachable_candidates_are_reported_for_the_blacklist() {
     let mut clusters = frontier_clusters(&input, &prepared, &p).unwrap();
     assert_eq!(clusters.len(), 2);
     clusters.insert(0, FrontierCluster::from_ordered_cells(vec![Cell::new(10, 20)]).unwrap());
-    let field = distances(&prepared, &p).unwrap();
+    let field = distances(&prepared, &clusters, &p).unwrap();
     let d = score_u1(&input, &prepared, clusters, &field, &p, Strategy::Fit).unwrap();
     assert_eq!(d.candidates[0].dropped, Some(DropReason::NoPath));
     assert_eq!(d.candidates[0].rho_m, None);

@@ -2,6 +2,7 @@
 
 #![allow(dead_code)]
 
+pub mod core_sim;
 pub mod sim;
 
 use std::path::{Path, PathBuf};
