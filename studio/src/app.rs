@@ -7,12 +7,22 @@ use crate::canvas::{CanvasState, Layer, Overlays};
 use crate::export;
 use crate::files::{self, FileBrowser, Inbox, IncomingFile, Intent};
 use crate::loader::{self, Loaded};
+use crate::mission_view::MissionView;
 use crate::panels::{self, TableState};
 use crate::pipeline::{Pipeline, Revisions};
 use crate::scene::{Landmarks, Scene};
 use crate::tour::Tour;
 use fitslam_core::Params;
 use std::collections::BTreeMap;
+
+/// What the studio shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// One decision on a map: see and tune how the planner picks its next goal.
+    Planner,
+    /// Simulated missions played side by side ([`crate::mission_view`]).
+    Mission,
+}
 
 /// A message for the user (loading errors, exports, decision failures).
 #[derive(Clone, Debug, PartialEq)]
@@ -37,6 +47,9 @@ pub struct StudioApp {
     pub table: TableState,
     pub messages: Vec<Message>,
     pub tour: Tour,
+    pub mode: Mode,
+    /// The Mission mode's state (its missions are started when the mode is first shown).
+    pub mission: MissionView,
     inbox: Inbox,
     browser: FileBrowser,
     /// Map YAMLs waiting for their image: (yaml name, yaml bytes, image base name).
@@ -82,6 +95,8 @@ impl StudioApp {
             table: TableState::default(),
             messages,
             tour: Tour::default(),
+            mode: Mode::Planner,
+            mission: MissionView::default(),
             inbox: Inbox::default(),
             browser: FileBrowser::default(),
             pending_yaml: Vec::new(),
@@ -198,6 +213,23 @@ impl StudioApp {
             egui::MenuBar::new().ui(ui, |ui| self.menu_bar(ui));
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
+        if self.mode == Mode::Mission {
+            crate::mission_view::show(ui, self);
+        } else {
+            self.planner_panels(ui);
+        }
+
+        self.browser.show(&ctx, &self.inbox);
+        self.cloud_question(&ctx);
+        self.tour_window(&ctx);
+        self.about_window(&ctx);
+        self.publish(&ctx);
+    }
+
+    /// The Planner mode: parameters, details, candidate table and the canvas; then the decision
+    /// is brought up to date.
+    fn planner_panels(&mut self, ui: &mut egui::Ui) {
+        let ctx = ui.ctx().clone();
         egui::Panel::left("params").resizable(true).default_size(270.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| panels::params_panel(ui, self));
         });
@@ -229,12 +261,43 @@ impl StudioApp {
         {
             self.selected = None;
         }
+    }
 
-        self.browser.show(&ctx, &self.inbox);
-        self.cloud_question(&ctx);
-        self.tour_window(&ctx);
-        self.about_window(&ctx);
-        self.publish(&ctx);
+    /// Loads mission lane `i`'s current state (the robot's map as the score layer, its landmark
+    /// map, estimated pose, blacklist, the world's boundary, the lane's strategy) into the
+    /// Planner mode and switches to it; the planner re-ranks from that state.
+    pub fn open_lane_in_planner(&mut self, i: usize) {
+        let Some(lane) = self.mission.runner.as_ref().and_then(|r| r.lanes.get(i)) else { return };
+        let m = &lane.mission;
+        let name = format!(
+            "{} / {} at t = {:.1} s",
+            m.world.spec.name,
+            crate::sim_runner::strategy_label(lane.strategy),
+            m.time_s
+        );
+        let map = crate::scene::MapLayers {
+            score: m.layers.score.clone(),
+            source: name.clone(),
+            kind: crate::scene::MapKind::Traversability,
+        };
+        let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
+        let mut scene = Scene::new(map, landmarks, Some(m.est), self.params.frontier.blacklist_radius_m);
+        scene.robot = m.est;
+        scene.boundary = m.world.boundary.clone();
+        scene.blacklist = m.blacklist.clone();
+        let (strategy, seed) = (lane.strategy, m.seed);
+        self.scene = scene;
+        self.params.selector.strategy = strategy;
+        self.params.selector.seed = seed;
+        self.revs.map += 1;
+        self.revs.landmarks += 1;
+        self.revs.layout += 1;
+        self.after_scene_change();
+        self.mode = Mode::Planner;
+        if let Some(r) = &mut self.mission.runner {
+            r.pause();
+        }
+        self.info(format!("opened {name} in the planner"));
     }
 
     fn shortcuts(&mut self, ctx: &egui::Context) {
@@ -288,6 +351,20 @@ impl StudioApp {
 
     fn menu_bar(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
+        let r =
+            ui.selectable_label(self.mode == Mode::Planner, "Planner").on_hover_text("One decision: see and tune it.");
+        self.widget_rects.insert("mode_planner", r.rect);
+        if r.clicked() {
+            self.mode = Mode::Planner;
+        }
+        let r = ui
+            .selectable_label(self.mode == Mode::Mission, "Mission")
+            .on_hover_text("Play simulated missions, strategies side by side.");
+        self.widget_rects.insert("mode_mission", r.rect);
+        if r.clicked() {
+            self.mode = Mode::Mission;
+        }
+        ui.separator();
         ui.menu_button("File", |ui| {
             if ui.button("Open… (Ctrl+O)").clicked() {
                 files::open_picker(Intent::Any, &self.inbox, &ctx, &mut self.browser);
@@ -474,6 +551,12 @@ impl StudioApp {
             },
             "slider_width": ctx.global_style().spacing.slider_width,
             "cloud_question": self.ask_cloud.as_ref().map(|f| f.name.clone()),
+            "mode": if self.mode == Mode::Mission { "mission" } else { "planner" },
+            "mission": if self.mode == Mode::Mission || self.mission.runner.is_some() {
+                self.mission.stats()
+            } else {
+                serde_json::Value::Null
+            },
         })
         .to_string();
         let widgets: BTreeMap<&str, [f32; 4]> =

@@ -141,6 +141,20 @@ pub struct View {
 }
 
 impl View {
+    /// The view of `rect` centred on `center_m` at `px_per_m` screen points per metre.
+    pub fn new(rect: Rect, center_m: [f64; 2], px_per_m: f64) -> Self {
+        Self { rect, center_m, px_per_m }
+    }
+
+    /// The view of `rect` that shows the box `(x0, y0, x1, y1)` (metres) whole, centred, with a
+    /// small margin.
+    pub fn fit(rect: Rect, (x0, y0, x1, y1): (f64, f64, f64, f64)) -> Self {
+        let w = (x1 - x0).max(1e-6);
+        let h = (y1 - y0).max(1e-6);
+        let px_per_m = (f64::from(rect.width()) / w).min(f64::from(rect.height()) / h) * 0.96;
+        Self { rect, center_m: [0.5 * (x0 + x1), 0.5 * (y0 + y1)], px_per_m }
+    }
+
     pub fn to_screen(&self, x_m: f64, y_m: f64) -> Pos2 {
         let c = self.rect.center();
         Pos2::new(
@@ -157,7 +171,7 @@ impl View {
         ]
     }
 
-    fn len(&self, m: f64) -> f32 {
+    pub fn len(&self, m: f64) -> f32 {
         (m * self.px_per_m) as f32
     }
 }
@@ -189,7 +203,7 @@ fn rank_color(rank: usize) -> Color32 {
     P[(rank.max(1) - 1) % P.len()]
 }
 
-fn occupancy_pixel(v: i8) -> Color32 {
+pub(crate) fn occupancy_pixel(v: i8) -> Color32 {
     match CellClass::of(v) {
         CellClass::Free => Color32::from_rgb(235, 235, 228),
         CellClass::Lethal => Color32::from_rgb(30, 30, 34),
@@ -198,7 +212,7 @@ fn occupancy_pixel(v: i8) -> Color32 {
 }
 
 /// Image of a layer, top row first (grid row 0 is the bottom).
-fn layer_image<T>(grid: &Grid<T>, pixel: impl Fn(&T) -> Color32) -> egui::ColorImage {
+pub(crate) fn layer_image<T>(grid: &Grid<T>, pixel: impl Fn(&T) -> Color32) -> egui::ColorImage {
     let g = grid.geometry;
     let mut pixels = Vec::with_capacity(g.len());
     for row in (0..g.height).rev() {
@@ -272,10 +286,9 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
         || (resized && !app.canvas.user_view)
     {
         app.canvas.user_view = false;
-        let w = (x1 - x0).max(1e-6);
-        let h = (y1 - y0).max(1e-6);
-        app.canvas.px_per_m = (f64::from(rect.width()) / w).min(f64::from(rect.height()) / h) * 0.96;
-        app.canvas.center_m = [0.5 * (x0 + x1), 0.5 * (y0 + y1)];
+        let fitted = View::fit(rect, (x0, y0, x1, y1));
+        app.canvas.px_per_m = fitted.px_per_m;
+        app.canvas.center_m = fitted.center_m;
         app.canvas.fit_requested = false;
     }
     app.canvas.rect = Some(rect);
@@ -419,7 +432,7 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     }
     app.widget_rects.extend(rank_rects);
 
-    draw_robot(&painter, robot_px, body_r, handle_px, app.canvas.drag);
+    draw_robot(&painter, robot_px, body_r, handle_px, app.canvas.drag == Drag::RotateRobot);
 
     if let (Some(d), Some(i)) = (app.pipeline.ok_decision(), app.hovered)
         && let Some(c) = d.candidates.get(i)
@@ -553,11 +566,16 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
 
     // The chosen goal pose.
     if let Some(goal) = d.goal {
-        let p = view.to_screen(goal.x_m, goal.y_m);
-        painter.circle_stroke(p, 13.0, Stroke::new(2.5, Color32::from_rgb(255, 215, 0)));
-        let tip = p + Vec2::new(goal.yaw_rad.cos() as f32, -(goal.yaw_rad.sin() as f32)) * 26.0;
-        painter.arrow(p, tip - p, Stroke::new(2.5, Color32::from_rgb(255, 215, 0)));
+        draw_goal(painter, view, goal);
     }
+}
+
+/// A goal pose: a gold ring with an arrow along its heading.
+pub(crate) fn draw_goal(painter: &egui::Painter, view: &View, goal: fitslam_core::Pose2) {
+    let p = view.to_screen(goal.x_m, goal.y_m);
+    painter.circle_stroke(p, 13.0, Stroke::new(2.5, Color32::from_rgb(255, 215, 0)));
+    let tip = p + Vec2::new(goal.yaw_rad.cos() as f32, -(goal.yaw_rad.sin() as f32)) * 26.0;
+    painter.arrow(p, tip - p, Stroke::new(2.5, Color32::from_rgb(255, 215, 0)));
 }
 
 fn draw_rays(painter: &egui::Painter, view: &View, d: &Decision, c: &CandidateReport, dmax: f64, ray_max: f64) {
@@ -574,7 +592,7 @@ fn draw_rays(painter: &egui::Painter, view: &View, d: &Decision, c: &CandidateRe
     }
 }
 
-fn draw_candidate(
+pub(crate) fn draw_candidate(
     painter: &egui::Painter,
     view: &View,
     d: &Decision,
@@ -605,11 +623,12 @@ fn draw_candidate(
     }
 }
 
-fn draw_robot(painter: &egui::Painter, p: Pos2, body_r: f32, handle: Pos2, drag: Drag) {
+/// The robot: a disc with a heading handle (gold while it is being rotated).
+pub(crate) fn draw_robot(painter: &egui::Painter, p: Pos2, body_r: f32, handle: Pos2, rotating: bool) {
     let body = Color32::from_rgba_unmultiplied(40, 140, 255, 170);
     painter.circle(p, body_r, body, Stroke::new(2.0, Color32::WHITE));
     painter.line_segment([p, handle], Stroke::new(2.5, Color32::WHITE));
-    let hc = if drag == Drag::RotateRobot { Color32::from_rgb(255, 215, 0) } else { Color32::from_rgb(255, 255, 255) };
+    let hc = if rotating { Color32::from_rgb(255, 215, 0) } else { Color32::from_rgb(255, 255, 255) };
     painter.circle(handle, 6.0, hc, Stroke::new(1.5, Color32::from_rgb(40, 140, 255)));
 }
 

@@ -16,6 +16,8 @@
 //! | [`export`] | ranking CSV / JSON, parameter YAML, digest |
 //! | [`assets`] | built-in scenes (embedded) |
 //! | [`tour`] | the teaching tour |
+//! | [`sim_runner`] | Mission mode: built-in worlds, missions side by side under a frame budget |
+//! | [`mission_view`] | Mission mode: controls, lane maps, live plots (egui_plot) |
 
 pub mod app;
 pub mod assets;
@@ -23,9 +25,11 @@ pub mod canvas;
 pub mod export;
 pub mod files;
 pub mod loader;
+pub mod mission_view;
 pub mod panels;
 pub mod pipeline;
 pub mod scene;
+pub mod sim_runner;
 pub mod tour;
 #[cfg(target_arch = "wasm32")]
 pub mod web;

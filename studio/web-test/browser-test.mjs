@@ -6,7 +6,10 @@
 //   3. drops a landmark set (landmarks.ply) on the canvas and answers "Landmarks" in the dialog;
 //   4. drags the α slider to its end and checks that the ranking changed;
 //   5. clicks the best candidate, drags the robot, and times re-ranking over many slider moves;
-//   6. reloads without a query: the default built-in scene shows with a decision made.
+//   6. reloads without a query: the default built-in scene shows with a decision made;
+//   7. opens the Mission mode, plays fit / greedy / random side by side on the paper world until
+//      time advances and every lane explores, then measures the simulated seconds per real second
+//      as fast as the frame budget allows (three lanes, then one): mission_speed.json.
 // The canvas has no DOM, so the app publishes its state: document.title (a digest of the
 // ranking) and window.fitslam.{ranking, stats, widgets} (JSON; widget rectangles in CSS px).
 // Screenshots go to target/studio-web-test/, with timing.json. Prints "N passed, N failed".
@@ -17,6 +20,7 @@ import { chromium } from "playwright-core";
 import http from "node:http";
 import fs from "node:fs";
 import path from "node:path";
+import os from "node:os";
 import { fileURLToPath } from "node:url";
 
 const here = path.dirname(fileURLToPath(import.meta.url));
@@ -233,6 +237,64 @@ try {
   s = await waitFor("default scene decided", (s) => s.ranking !== "null" && s.title.startsWith("fitslam: chosen="));
   if (s) check("the default scene is jacksboro", s.stats.map === "jacksboro", `${s.stats.map}: ${s.title}`);
   notBlank("default-start screenshot", await shot("06-default.png"));
+
+  // 7. Mission mode: play simulated missions (paper world, fit / greedy / random side by side).
+  s = await state();
+  await page.mouse.click(...center(rect(s, "mode_mission")));
+  s = await waitFor("mission mode opened", (s) => s.stats.mode === "mission" && s.stats.mission?.lanes?.length === 3 && rect(s, "mission_play"), 60000);
+  if (s) {
+    check("mission mode starts on the paper world with three lanes", s.stats.mission.world === "paper_unstructured_20m" && s.stats.mission.time_s === 0,
+      `${s.stats.mission.world}: ${s.stats.mission.lanes.map((l) => l.strategy).join(", ")}`);
+    await page.mouse.click(...center(rect(s, "mission_play")));
+    s = await waitFor("mission plays: time advances and unexplored % decreases",
+      (s) => s.stats.mission.time_s > 20 && s.stats.mission.lanes.every((l) => l.unexplored_pct < l.first_unexplored_pct), 60000);
+    if (s) {
+      const m = s.stats.mission;
+      check("simulated time > 0 and every lane explores", true,
+        `t = ${m.time_s.toFixed(1)} s; unexplored ${m.lanes.map((l) => `${l.strategy} ${l.first_unexplored_pct.toFixed(1)} → ${l.unexplored_pct.toFixed(1)} %`).join(", ")}`);
+      check("the plots got points", m.plot_points >= 2 * m.lanes.reduce((n, l) => n + l.rows, 0), `${m.plot_points} points`);
+    }
+    notBlank("mission screenshot", await shot("07-mission.png"));
+
+    // Speed in the browser: as fast as the per-frame budget allows, three lanes then one.
+    const measure = async (label, seconds) => {
+      await page.waitForTimeout(1000);
+      const a = await state();
+      const ta = Date.now();
+      await page.waitForTimeout(seconds * 1000);
+      const b = await state();
+      const tb = Date.now();
+      const m = b.stats.mission;
+      const rate = (m.time_s - a.stats.mission.time_s) / ((tb - ta) / 1000);
+      return { label, lanes: m.lanes.length, load_average: os.loadavg(), sim_s_per_s_per_lane: rate, achieved_speed_reported: m.achieved_speed,
+               budget_ms: m.budget_ms, last_frame_ms: m.last_frame_ms, time_s: m.time_s, ended: m.lanes.map((l) => l.end) };
+    };
+    const speeds = [];
+    s = await state();
+    await page.mouse.click(...center(rect(s, "mission_max_speed")));
+    speeds.push(await measure("fit + greedy + random, as fast as possible", 8));
+    // One lane: untick greedy and random, Reset, Play.
+    s = await state();
+    await page.mouse.click(...center(rect(s, "mission_pause")));
+    await page.mouse.click(...center(rect(s, "strategy_greedy")));
+    await page.mouse.click(...center(rect(s, "strategy_random")));
+    s = await state();
+    await page.mouse.click(...center(rect(s, "mission_reset")));
+    s = await waitFor("one lane after Reset", (s) => s.stats.mission.lanes.length === 1 && s.stats.mission.time_s === 0, 60000);
+    await page.waitForTimeout(300);
+    s = await state();
+    if (s) {
+      await page.mouse.click(...center(rect(s, "mission_play")));
+      speeds.push(await measure("fit alone, as fast as possible", 8));
+    }
+    fs.writeFileSync(path.join(outDir, "mission_speed.json"), JSON.stringify(speeds, null, 2));
+    for (const v of speeds) {
+      check(`mission speed measured (${v.label})`, v.sim_s_per_s_per_lane > 0,
+        `${v.sim_s_per_s_per_lane.toFixed(1)} simulated s per real s per lane (${v.lanes} lane(s), budget ${v.budget_ms} ms/frame; meter ${v.achieved_speed_reported?.toFixed(1)}; load ${v.load_average.map((x) => x.toFixed(1)).join(" ")})`);
+    }
+    notBlank("mission (one lane) screenshot", await shot("08-mission-one-lane.png"));
+    s = await state();
+  }
 
   check("no error messages from the studio", !s.stats.messages.some((m) => /panic|failed/i.test(m)), JSON.stringify(s.stats.messages));
   check("no errors in the console", consoleErrors.length === 0, consoleErrors.slice(0, 3).join(" | "));

@@ -1,0 +1,578 @@
+//! The *Mission* mode: play simulated missions ([`crate::sim_runner`]) in a built-in world with
+//! several strategies side by side. Left: the world, strategies, seed, localisation, Play / Pause
+//! / Step tick (0.1 s) / Step decision / Reset and the speed; centre: one map per strategy (the
+//! robot's thresholded map or score as it builds it, the true and estimated trajectories, the
+//! robot, the current goal, its path and the last decision's candidates); bottom: live plots of
+//! unexplored % and tr(cov) over simulated time (egui_plot), one line per strategy.
+//!
+//! Drawing reuses the planner canvas' pieces ([`crate::canvas`]: view transform, layer images,
+//! robot, goal and candidate markers). Map textures are refreshed at most every 0.5 simulated
+//! seconds per lane (an image is O(cells)).
+
+use crate::app::StudioApp;
+use crate::canvas::{self, View};
+use crate::sim_runner::{self, LOCALISATIONS, MissionConfig, RunState, STRATEGIES, SimRunner, strategy_label};
+use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, Vec2};
+use egui_plot::{Legend, Line, Plot, PlotPoints};
+use fitslam_core::params::Strategy;
+use fitslam_core::traversability::score_rgb;
+
+/// Which map each lane shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MissionLayer {
+    /// The robot's map thresholded by τ (free, lethal, unknown).
+    Thresholded,
+    /// The robot's traversability score (red → green), unknown grey.
+    Score,
+    /// The ground truth (thresholded), for comparison.
+    Truth,
+}
+
+impl MissionLayer {
+    pub const ALL: [MissionLayer; 3] = [MissionLayer::Thresholded, MissionLayer::Score, MissionLayer::Truth];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            MissionLayer::Thresholded => "robot's map (τ)",
+            MissionLayer::Score => "robot's score",
+            MissionLayer::Truth => "ground truth",
+        }
+    }
+}
+
+/// Colour of a strategy (lane header, trajectory, plot line).
+pub fn strategy_color(s: Strategy) -> Color32 {
+    match s {
+        Strategy::Fit => Color32::from_rgb(255, 200, 40),
+        Strategy::Greedy => Color32::from_rgb(80, 200, 255),
+        Strategy::Random => Color32::from_rgb(255, 120, 200),
+        Strategy::U1 => Color32::from_rgb(140, 255, 140),
+    }
+}
+
+/// Texture cache key: layer, simulated time (ms), τ bits, runner generation.
+type TexKey = (MissionLayer, u64, u64, u64);
+
+/// State of the Mission mode.
+pub struct MissionView {
+    /// The settings being edited (applied on Reset).
+    pub config: MissionConfig,
+    pub runner: Option<SimRunner>,
+    /// Why the last start failed.
+    pub error: Option<String>,
+    /// Speed slider value, simulated seconds per real second.
+    pub speed: f64,
+    /// Run as fast as the frame budget allows.
+    pub max_speed: bool,
+    pub budget_ms: f64,
+    pub layer: MissionLayer,
+    pub show_candidates: bool,
+    textures: Vec<Option<(TexKey, egui::TextureHandle, f64)>>,
+    /// Incremented at every (re)start, part of the texture keys.
+    generation: u64,
+    /// Points handed to the plots in the last frame (for tests and the page state).
+    pub plot_points: usize,
+}
+
+impl Default for MissionView {
+    fn default() -> Self {
+        Self {
+            config: MissionConfig::default(),
+            runner: None,
+            error: None,
+            speed: 20.0,
+            max_speed: false,
+            budget_ms: sim_runner::DEFAULT_BUDGET_MS,
+            layer: MissionLayer::Thresholded,
+            show_candidates: true,
+            textures: Vec::new(),
+            generation: 0,
+            plot_points: 0,
+        }
+    }
+}
+
+impl MissionView {
+    /// (Re)starts the missions with the current settings and planner parameters (the world is
+    /// rebuilt only if another world or τ was chosen).
+    pub fn restart(&mut self, params: &fitslam_core::Params) {
+        self.generation += 1;
+        self.textures.clear();
+        let reuse = self
+            .runner
+            .as_ref()
+            .is_some_and(|r| r.config.world == self.config.world && r.params.traversability == params.traversability);
+        let result = match (reuse, self.runner.as_mut()) {
+            (true, Some(r)) => {
+                r.config = self.config.clone();
+                r.params = params.clone();
+                r.reset()
+            }
+            _ => SimRunner::new(self.config.clone(), params).map(|r| {
+                self.runner = Some(r);
+            }),
+        };
+        match result {
+            Ok(()) => self.error = None,
+            Err(e) => {
+                self.runner = None;
+                self.error = Some(e);
+            }
+        }
+        self.apply_speed();
+    }
+
+    fn apply_speed(&mut self) {
+        if let Some(r) = &mut self.runner {
+            r.speed = if self.max_speed { f64::INFINITY } else { self.speed };
+            r.budget_ms = self.budget_ms;
+        }
+    }
+
+    /// Advances the running missions for one frame (called once per frame in Mission mode).
+    pub fn advance(&mut self, ctx: &egui::Context) {
+        self.apply_speed();
+        let dt = f64::from(ctx.input(|i| i.stable_dt));
+        if let Some(r) = &mut self.runner {
+            r.advance(dt, sim_runner::now_ms);
+            if r.state != RunState::Paused {
+                ctx.request_repaint();
+            }
+        }
+    }
+
+    /// State for page scripts and tests (JSON).
+    pub fn stats(&self) -> serde_json::Value {
+        let Some(r) = &self.runner else {
+            return serde_json::json!({ "world": self.config.world, "error": self.error, "lanes": [] });
+        };
+        let lanes: Vec<_> = r
+            .lanes
+            .iter()
+            .map(|l| {
+                let last = l.mission.rows.last();
+                serde_json::json!({
+                    "strategy": strategy_label(l.strategy),
+                    "time_s": l.mission.time_s,
+                    "rows": l.mission.rows.len(),
+                    "unexplored_pct": last.map(|r| r.unexplored_pct),
+                    "first_unexplored_pct": l.mission.rows.first().map(|r| r.unexplored_pct),
+                    "cov_trace": last.map(|r| r.cov_trace),
+                    "decisions": l.decisions,
+                    "end": l.end.map(|e| format!("{e:?}")),
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "world": r.config.world,
+            "seed": r.config.seed,
+            "localisation": sim_runner::localisation_label(r.config.localisation),
+            "state": format!("{:?}", r.state),
+            "time_s": r.time_s(),
+            "speed": if r.speed.is_finite() { Some(r.speed) } else { None },
+            "achieved_speed": r.achieved_speed(),
+            "budget_ms": r.budget_ms,
+            "last_frame_ms": r.last_frame_ms,
+            "last_frame_ticks": r.last_frame_ticks,
+            "ticks": r.ticks,
+            "plot_points": self.plot_points,
+            "error": self.error,
+            "lanes": lanes,
+        })
+    }
+}
+
+/// Draws the Mission mode (controls, lane maps, plots) and advances the missions.
+pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
+    let ctx = ui.ctx().clone();
+    if app.mission.runner.is_none() && app.mission.error.is_none() {
+        let params = app.params.clone();
+        app.mission.restart(&params);
+    }
+    app.mission.advance(&ctx);
+    // A click may change the layout (e.g. the "press Reset" line): draw once more so that the
+    // published widget rectangles settle.
+    if ctx.input(|i| i.pointer.any_click()) {
+        ctx.request_repaint();
+    }
+
+    egui::Panel::left("mission_controls").resizable(true).default_size(270.0).show(ui, |ui| {
+        egui::ScrollArea::vertical().show(ui, |ui| controls(ui, app));
+    });
+    egui::Panel::bottom("mission_plots").resizable(true).default_size(230.0).min_size(120.0).show(ui, |ui| {
+        plots(ui, &mut app.mission);
+    });
+    egui::CentralPanel::default().show(ui, |ui| lanes(ui, app));
+}
+
+fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
+    let mut rects: Vec<(&'static str, Rect)> = Vec::new();
+    let m = &mut app.mission;
+    ui.heading("Simulated mission");
+    ui.label("One mission per strategy, same world and seed, side by side.");
+    ui.add_space(4.0);
+
+    let world = egui::ComboBox::from_label("world").selected_text(m.config.world.clone()).show_ui(ui, |ui| {
+        for w in sim_runner::worlds() {
+            ui.selectable_value(&mut m.config.world, w.name.to_string(), w.name).on_hover_text(w.description);
+        }
+    });
+    rects.push(("mission_world", world.response.rect));
+    ui.label("strategies:");
+    ui.horizontal_wrapped(|ui| {
+        const NAMES: [&str; 4] = ["strategy_fit", "strategy_greedy", "strategy_random", "strategy_u1"];
+        for (k, s) in STRATEGIES.into_iter().enumerate() {
+            let mut on = m.config.strategies.contains(&s);
+            let r = ui.checkbox(&mut on, strategy_label(s));
+            rects.push((NAMES[k], r.rect));
+            if r.changed() {
+                if on {
+                    m.config.strategies.push(s);
+                    m.config.strategies.sort_by_key(|x| STRATEGIES.iter().position(|y| y == x));
+                } else {
+                    m.config.strategies.retain(|x| *x != s);
+                }
+            }
+        }
+    });
+    ui.horizontal(|ui| {
+        let l = ui.label("seed");
+        ui.add(egui::DragValue::new(&mut m.config.seed)).labelled_by(l.id);
+    });
+    egui::ComboBox::from_label("localisation")
+        .selected_text(sim_runner::localisation_label(m.config.localisation))
+        .show_ui(ui, |ui| {
+            for l in LOCALISATIONS {
+                ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
+            }
+        });
+    let pending = m.runner.as_ref().is_none_or(|r| r.config != m.config);
+    if pending {
+        ui.colored_label(Color32::from_rgb(255, 200, 120), "settings changed: press Reset to apply");
+    }
+    ui.label("Planner parameters: the Planner mode's, taken at Reset.")
+        .on_hover_text("Tune α, β, τ … in the Planner mode, then Reset here to run missions with them.");
+
+    ui.add_space(6.0);
+    let state = m.runner.as_ref().map(|r| r.state);
+    let finished = m.runner.as_ref().is_some_and(|r| r.finished());
+    ui.horizontal_wrapped(|ui| {
+        let playing = state == Some(RunState::Playing);
+        let r = ui.add_enabled(!finished && !playing, egui::Button::new("Play"));
+        rects.push(("mission_play", r.rect));
+        if r.clicked()
+            && let Some(run) = &mut m.runner
+        {
+            run.play();
+        }
+        let r = ui.add_enabled(state.is_some_and(|s| s != RunState::Paused), egui::Button::new("Pause"));
+        rects.push(("mission_pause", r.rect));
+        if r.clicked()
+            && let Some(run) = &mut m.runner
+        {
+            run.pause();
+        }
+        let r = ui
+            .add_enabled(!finished, egui::Button::new("Step tick"))
+            .on_hover_text("One control tick (0.1 s simulated) of every mission.");
+        rects.push(("mission_step_tick", r.rect));
+        if r.clicked()
+            && let Some(run) = &mut m.runner
+        {
+            run.step_tick();
+        }
+        let r = ui
+            .add_enabled(!finished, egui::Button::new("Step decision"))
+            .on_hover_text("Run every mission until it has chosen its next goal, then pause.");
+        rects.push(("mission_step_decision", r.rect));
+        if r.clicked()
+            && let Some(run) = &mut m.runner
+        {
+            run.step_decision();
+        }
+        let r = ui.button("Reset").on_hover_text("Restart from t = 0 with the settings above.");
+        rects.push(("mission_reset", r.rect));
+        if r.clicked() {
+            let params = app.params.clone();
+            m.restart(&params);
+        }
+    });
+    ui.add_space(4.0);
+    ui.add_enabled_ui(!m.max_speed, |ui| {
+        let r = ui.add(
+            egui::Slider::new(&mut m.speed, 1.0..=500.0).logarithmic(true).text("speed [sim s / s]").fixed_decimals(0),
+        );
+        rects.push(("mission_speed", r.rect));
+    });
+    let r = ui.checkbox(&mut m.max_speed, "as fast as possible");
+    rects.push(("mission_max_speed", r.rect));
+    ui.add(egui::Slider::new(&mut m.budget_ms, 2.0..=30.0).text("budget [ms / frame]").fixed_decimals(0))
+        .on_hover_text("Simulation time allowed per frame; the rest draws. Larger is faster but less responsive.");
+    if let Some(r) = &m.runner {
+        let achieved = r.achieved_speed().map(|s| format!("{s:.1}×")).unwrap_or_else(|| "–".into());
+        ui.label(format!(
+            "t = {:.1} s · achieved {achieved} · {} ticks in {:.1} ms last frame",
+            r.time_s(),
+            r.last_frame_ticks,
+            r.last_frame_ms
+        ));
+    }
+
+    ui.add_space(6.0);
+    ui.label(egui::RichText::new("View").strong());
+    for l in MissionLayer::ALL {
+        ui.radio_value(&mut m.layer, l, l.label());
+    }
+    ui.checkbox(&mut m.show_candidates, "last decision's candidates");
+    if let Some(e) = &m.error {
+        ui.colored_label(Color32::from_rgb(255, 120, 110), e);
+    }
+    app.widget_rects.extend(rects);
+}
+
+fn plots(ui: &mut egui::Ui, m: &mut MissionView) {
+    let Some(r) = &m.runner else {
+        ui.label("no mission");
+        return;
+    };
+    let mut points = 0;
+    let height = (ui.available_height() - 4.0).max(60.0);
+    ui.columns(2, |cols| {
+        let series = |f: fn(&fitslam_core::sim::MetricsRow) -> f64| {
+            r.lanes
+                .iter()
+                .map(|l| {
+                    let mut pts: Vec<[f64; 2]> = l.mission.rows.iter().map(|row| [row.time_s, f(row)]).collect();
+                    // Plus "now" between two rows, from the last row (rows come once a second).
+                    if let Some(last) = l.mission.rows.last()
+                        && l.mission.time_s > last.time_s
+                    {
+                        pts.push([l.mission.time_s, f(last)]);
+                    }
+                    (l.strategy, pts)
+                })
+                .collect::<Vec<_>>()
+        };
+        let unexplored = series(|row| row.unexplored_pct);
+        let cov = series(|row| row.cov_trace);
+        points = unexplored.iter().chain(&cov).map(|(_, p)| p.len()).sum();
+        Plot::new("plot_unexplored")
+            .legend(Legend::default())
+            .height(height)
+            .x_axis_label("time [s]")
+            .y_axis_label("unexplored [%]")
+            .include_y(0.0)
+            .include_y(100.0)
+            .include_x(0.0)
+            .show(&mut cols[0], |p| {
+                for (s, pts) in unexplored {
+                    p.line(Line::new(strategy_label(s), PlotPoints::new(pts)).color(strategy_color(s)).width(2.0));
+                }
+            });
+        Plot::new("plot_cov")
+            .legend(Legend::default())
+            .height(height)
+            .x_axis_label("time [s]")
+            .y_axis_label("tr(cov) [m² + rad²]")
+            .include_y(0.0)
+            .include_x(0.0)
+            .show(&mut cols[1], |p| {
+                for (s, pts) in cov {
+                    p.line(Line::new(strategy_label(s), PlotPoints::new(pts)).color(strategy_color(s)).width(2.0));
+                }
+            });
+    });
+    m.plot_points = points;
+}
+
+/// Refreshes lane `i`'s map texture if it is stale; returns its id.
+fn lane_texture(ui: &egui::Ui, m: &mut MissionView, i: usize) -> Option<egui::TextureId> {
+    let r = m.runner.as_ref()?;
+    let lane = r.lanes.get(i)?;
+    let mission = &lane.mission;
+    let tau = mission.params.traversability.tau;
+    let t_ms = (mission.time_s * 1e3).round() as u64;
+    if m.textures.len() <= i {
+        m.textures.resize_with(i + 1, || None);
+    }
+    let now = sim_runner::now_ms();
+    let stale = match &m.textures[i] {
+        None => true,
+        Some(((layer, t, tau_bits, generation), _, refreshed_ms)) => {
+            *layer != m.layer
+                || *tau_bits != tau.to_bits()
+                || *generation != m.generation
+                // The robot's map: every 0.5 s simulated (at once when it ends or restarts),
+                // at most ~6 times per real second.
+                || (m.layer != MissionLayer::Truth
+                    && t_ms != *t
+                    && (t_ms < *t || lane.end.is_some() || (t_ms - *t >= 500 && now - refreshed_ms >= 150.0)))
+        }
+    };
+    if stale {
+        let image = match m.layer {
+            MissionLayer::Thresholded => canvas::layer_image(&mission.occupancy(), |v| canvas::occupancy_pixel(*v)),
+            MissionLayer::Score => canvas::layer_image(&mission.layers.score, |s| {
+                let [r, g, b] = score_rgb(*s);
+                Color32::from_rgb(r, g, b)
+            }),
+            MissionLayer::Truth => canvas::layer_image(&mission.world.gt_occupancy, |v| canvas::occupancy_pixel(*v)),
+        };
+        let max = ui.ctx().input(|i| i.max_texture_side);
+        if image.size[0] > max || image.size[1] > max {
+            return None;
+        }
+        let key = (m.layer, t_ms, tau.to_bits(), m.generation);
+        match &mut m.textures[i] {
+            Some((k, tex, refreshed_ms)) => {
+                tex.set(image, egui::TextureOptions::NEAREST);
+                *k = key;
+                *refreshed_ms = now;
+            }
+            slot => {
+                let tex = ui.ctx().load_texture(format!("fitslam-mission-{i}"), image, egui::TextureOptions::NEAREST);
+                *slot = Some((key, tex, now));
+            }
+        }
+    }
+    m.textures[i].as_ref().map(|(_, t, _)| t.id())
+}
+
+fn lanes(ui: &mut egui::Ui, app: &mut StudioApp) {
+    let n = app.mission.runner.as_ref().map(|r| r.lanes.len()).unwrap_or(0);
+    if n == 0 {
+        ui.label(match &app.mission.error {
+            Some(e) => format!("no mission: {e}"),
+            None => "no strategy selected: tick at least one and press Reset".into(),
+        });
+        return;
+    }
+    let mut open = None;
+    let mut rects = Vec::new();
+    ui.columns(n, |cols| {
+        for (i, col) in cols.iter_mut().enumerate() {
+            if lane(col, &mut app.mission, i, &mut rects) {
+                open = Some(i);
+            }
+        }
+    });
+    app.widget_rects.extend(rects);
+    if let Some(i) = open {
+        app.open_lane_in_planner(i);
+    }
+}
+
+/// One lane: header and map. Returns whether "open in planner" was clicked.
+fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'static str, Rect)>) -> bool {
+    const NAMES: [&str; 4] = ["mission_lane0", "mission_lane1", "mission_lane2", "mission_lane3"];
+    const OPEN: [&str; 4] = ["mission_open0", "mission_open1", "mission_open2", "mission_open3"];
+    let tex = lane_texture(ui, m, i);
+    let Some(r) = &m.runner else { return false };
+    let Some(lane) = r.lanes.get(i) else { return false };
+    let mission = &lane.mission;
+    let last = mission.rows.last();
+    let mut open = false;
+    ui.horizontal_wrapped(|ui| {
+        ui.colored_label(strategy_color(lane.strategy), egui::RichText::new(strategy_label(lane.strategy)).strong());
+        ui.label(format!(
+            "t {:.1} s · {:.1} % unexplored · tr(cov) {:.3} · {:.1} m · {} decisions{}",
+            mission.time_s,
+            last.map(|r| r.unexplored_pct).unwrap_or(100.0),
+            last.map(|r| r.cov_trace).unwrap_or(0.0),
+            mission.distance_m,
+            lane.decisions,
+            match lane.end {
+                Some(e) => format!(" · ended: {e:?}"),
+                None => String::new(),
+            }
+        ));
+        let b = ui
+            .small_button("open in planner")
+            .on_hover_text("Load this mission's current map, landmarks, pose and blacklist into the Planner mode, which re-ranks from them.");
+        if i < OPEN.len() {
+            rects.push((OPEN[i], b.rect));
+        }
+        open = b.clicked();
+    });
+    let (response, painter) = ui.allocate_painter(ui.available_size(), Sense::hover());
+    let rect = response.rect;
+    if i < NAMES.len() {
+        rects.push((NAMES[i], rect));
+    }
+    painter.rect_filled(rect, 0.0, Color32::from_rgb(24, 24, 28));
+    let g = mission.world.field.geometry;
+    let (x0, y0, x1, y1) = g.bounds_m();
+    let view = View::fit(rect, (x0, y0, x1, y1));
+    match tex {
+        Some(tex) => {
+            let r = Rect::from_two_pos(view.to_screen(x0, y1), view.to_screen(x1, y0));
+            painter.image(tex, r, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
+        }
+        None => {
+            painter.text(
+                rect.center(),
+                Align2::CENTER_CENTER,
+                "map too large for a texture",
+                FontId::proportional(14.0),
+                Color32::LIGHT_RED,
+            );
+        }
+    }
+    // Exploration boundary.
+    let [bx0, by0, bx1, by1] = mission.world.boundary_box_m;
+    let corners = [[bx0, by0], [bx1, by0], [bx1, by1], [bx0, by1]].map(|[x, y]| view.to_screen(x, y));
+    painter.add(Shape::closed_line(corners.to_vec(), Stroke::new(1.2, Color32::from_rgb(255, 220, 0))));
+
+    // The last decision's candidates and the current path (the candidate nearest the goal).
+    if let Some(d) = &mission.last_decision {
+        if m.show_candidates {
+            for (k, c) in d.candidates.iter().enumerate() {
+                canvas::draw_candidate(&painter, &view, d, k, c, false, false);
+            }
+        }
+        if let Some(goal) = mission.goal {
+            let on_path = d
+                .candidates
+                .iter()
+                .filter(|c| c.path_m.len() >= 2)
+                .min_by(|a, b| {
+                    let da = (a.x_m - goal.x_m).hypot(a.y_m - goal.y_m);
+                    let db = (b.x_m - goal.x_m).hypot(b.y_m - goal.y_m);
+                    da.total_cmp(&db)
+                })
+                .filter(|c| (c.x_m - goal.x_m).hypot(c.y_m - goal.y_m) <= mission.blacklist.radius_m());
+            if let Some(c) = on_path {
+                let pts: Vec<Pos2> = c.path_m.iter().map(|p| view.to_screen(p[0], p[1])).collect();
+                painter.add(Shape::line(pts, Stroke::new(2.0, Color32::from_rgb(255, 215, 0))));
+            }
+        }
+    }
+    if let Some(goal) = mission.goal {
+        canvas::draw_goal(&painter, &view, goal);
+    }
+    // Trajectories: true (white) and estimated (the strategy's colour), up to now.
+    let track = |poses: &[fitslam_core::sim::mission::StampedPose], now: fitslam_core::Pose2| {
+        let mut pts: Vec<Pos2> = poses.iter().map(|p| view.to_screen(p.position_m[0], p.position_m[1])).collect();
+        pts.push(view.to_screen(now.x_m, now.y_m));
+        pts
+    };
+    painter.add(Shape::line(track(&mission.trajectory_gt, mission.gt), Stroke::new(1.2, Color32::from_gray(230))));
+    painter
+        .add(Shape::line(track(&mission.trajectory_est, mission.est), Stroke::new(1.8, strategy_color(lane.strategy))));
+    // The robot: estimate (disc + heading), truth (ring) when they differ.
+    let body_r = view.len(mission.params.robot.radius_m).max(5.0);
+    let gt = view.to_screen(mission.gt.x_m, mission.gt.y_m);
+    painter.circle_stroke(gt, body_r, Stroke::new(1.5, Color32::from_gray(230)));
+    let p = view.to_screen(mission.est.x_m, mission.est.y_m);
+    let heading =
+        p + Vec2::new(mission.est.yaw_rad.cos() as f32, -(mission.est.yaw_rad.sin() as f32)) * (body_r + 10.0);
+    canvas::draw_robot(&painter, p, body_r, heading, false);
+    painter.text(
+        rect.left_top() + Vec2::new(6.0, 6.0),
+        Align2::LEFT_TOP,
+        "white: true path · colour: estimate · gold: goal + path",
+        FontId::proportional(11.0),
+        Color32::from_gray(210),
+    );
+    open
+}
