@@ -35,6 +35,20 @@ wasm-bindgen --target web --no-typescript --out-dir "$out" --out-name fitslam_st
   "$target_dir/wasm32-unknown-unknown/$profile/fitslam_studio.wasm"
 cp studio/web/index.html "$out/index.html"
 
+# Size: binaryen's wasm-opt from npm (studio/web-test's devDependencies, `npm ci` there), when
+# present. Never Debian's binaryen (wasm-opt 108): its output fails in the browser.
+wasm_opt=studio/web-test/node_modules/.bin/wasm-opt
+if [[ "$profile" == release && -x "$wasm_opt" ]]; then
+  before=$(stat -c %s "$out/fitslam_studio_bg.wasm")
+  "$wasm_opt" -Oz --enable-bulk-memory --enable-nontrapping-float-to-int --enable-sign-ext \
+    --enable-mutable-globals --enable-reference-types --enable-multivalue \
+    "$out/fitslam_studio_bg.wasm" -o "$out/fitslam_studio_bg.opt.wasm"
+  mv "$out/fitslam_studio_bg.opt.wasm" "$out/fitslam_studio_bg.wasm"
+  echo "build-web.sh: wasm-opt -Oz: $before -> $(stat -c %s "$out/fitslam_studio_bg.wasm") bytes"
+elif [[ "$profile" == release ]]; then
+  echo "build-web.sh: no npm wasm-opt (cd studio/web-test && npm ci): bundle not size-optimised"
+fi
+
 wasm_bytes=$(stat -c %s "$out/fitslam_studio_bg.wasm")
 total=$(du -cb "$out"/* | tail -n1 | cut -f1)
 gz=$(gzip -9 -c "$out/fitslam_studio_bg.wasm" | wc -c)
