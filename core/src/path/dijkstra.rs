@@ -203,6 +203,8 @@ fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: Optio
         }
         empty = 0;
         let mut bucket = std::mem::take(&mut buckets[b]);
+        // Memory order: neighbouring cells of the wavefront share cache lines.
+        bucket.sort_unstable();
         for &iu in &bucket {
             let i = iu as usize;
             if flags[i] & SETTLED != 0 || cost[i] as usize != k {
