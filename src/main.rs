@@ -2,11 +2,14 @@
 //! prints or writes the result. Errors print one line and exit non-zero.
 
 mod asset_cmd;
+mod compare_cmd;
 mod explore_cmd;
 mod load;
 mod params_cmd;
+mod plot;
 mod optimize;
 mod select_cmd;
+mod stats;
 mod traversability_cmd;
 
 use clap::{Parser, Subcommand};
@@ -34,6 +37,9 @@ enum Command {
     Optimize(optimize::OptimizeArgs),
     /// Run one whole simulated exploration mission in a world file and write metrics, trajectories, maps and plots.
     Explore(explore_cmd::ExploreArgs),
+    /// Run every strategy × seed in a world in parallel and compare them (the paper's experiment):
+    /// per-run outputs, mean/band figures over time, summary.csv and summary.md with tests.
+    Compare(compare_cmd::CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +51,7 @@ fn main() -> ExitCode {
         Command::BuildAsset(a) => asset_cmd::run(a),
         Command::Optimize(a) => optimize::run(a),
         Command::Explore(a) => explore_cmd::run(a),
+        Command::Compare(a) => compare_cmd::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

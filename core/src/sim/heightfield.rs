@@ -50,12 +50,19 @@ impl Heightfield {
 
     /// Height at a world point, bilinear between cell centres (clamped at the border); `None`
     /// outside the grid.
+    #[inline]
     pub fn height_at(&self, x_m: f64, y_m: f64) -> Option<f64> {
         let g = &self.geometry;
-        g.cell_of(x_m, y_m)?;
-        let fx = ((x_m - g.origin_x_m) / g.resolution_m - 0.5).clamp(0.0, (g.width - 1) as f64);
-        let fy = ((y_m - g.origin_y_m) / g.resolution_m - 0.5).clamp(0.0, (g.height - 1) as f64);
-        let (c0, r0) = (fx.floor() as usize, fy.floor() as usize);
+        let (u, v) = ((x_m - g.origin_x_m) / g.resolution_m, (y_m - g.origin_y_m) / g.resolution_m);
+        // Inside the grid ⇔ 0 ≤ u < width and 0 ≤ v < height (false for NaN): the same test as
+        // `cell_of`, without its two `floor` calls.
+        if !(u >= 0.0 && u < g.width as f64 && v >= 0.0 && v < g.height as f64) {
+            return None;
+        }
+        let fx = (u - 0.5).clamp(0.0, (g.width - 1) as f64);
+        let fy = (v - 0.5).clamp(0.0, (g.height - 1) as f64);
+        // fx, fy ≥ 0: truncation is floor (and needs no libm call).
+        let (c0, r0) = (fx as usize, fy as usize);
         let (c1, r1) = ((c0 + 1).min(g.width - 1), (r0 + 1).min(g.height - 1));
         let (tx, ty) = (fx - c0 as f64, fy - r0 as f64);
         let h = |c: usize, r: usize| self.heights_m[r * g.width + c];

@@ -12,8 +12,13 @@
 //! blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted `Reselected`. The
 //! mission ends when no candidate is left (`Decision::chosen == None`) or at the time limit.
 //!
-//! Localisation: ground truth (covariance 0) or dead-reckoned odometry with a propagated 3×3
-//! (x, y, θ) covariance. (The graph SLAM backend plugs in here later.)
+//! Localisation: ground truth (covariance 0), dead-reckoned odometry with a propagated 3×3
+//! (x, y, θ) covariance, or keyframe graph SLAM ([`super::slam_frontend`]: odometry + IMU
+//! attitude lifted to SE(3), camera landmarks, sliding window / full optimisation on loop
+//! closure, 6×6 pose covariance, the traversability map re-registered from the keyframe clouds
+//! when a loop closure moves the keyframes, the planner's landmark map with SLAM covariances).
+//! ATE is the 3D distance between the estimated and true body positions (for ground truth and
+//! odometry the estimate's height is the terrain's under it).
 //!
 //! Cost per tick: O(path) control; per scan O(rays × march) + O(changed cells × disc²); per
 //! decision the selector's cost (one Dijkstra, rays, u2) plus O(cells) thresholding; per metrics
@@ -25,6 +30,8 @@ use super::camera::{observe_landmarks, CameraNoise, CameraObservation, LandmarkI
 use super::lidar::{gaussian, scan, LidarParams, RayCaster};
 use super::odometry::OdometryNoise;
 use super::robot::{body_on_terrain, integrate, DriveParams, PathFollower, Twist};
+use super::slam_frontend::{SlamFrontend, SlamParams};
+use crate::slam::{CovarianceTraces, Se3};
 use super::World;
 use crate::frontier::BlacklistReason;
 use crate::frontier::Blacklist;
@@ -35,7 +42,7 @@ use crate::select::{make_selector, DecisionInput, DropReason, GoalSelector};
 use crate::traversability::{TraversabilityLayers, TraversabilityMap};
 use crate::utility::LandmarkVoxels;
 use crate::PointCloud;
-use nalgebra::{Matrix3, Point3, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix6, Point3, Rotation3, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -52,6 +59,9 @@ pub enum Localisation {
     GroundTruth,
     /// Dead-reckoned wheel odometry + IMU yaw, covariance propagated (no loop closures).
     Odometry,
+    /// Keyframe graph SLAM ([`super::slam_frontend`]): 6×6 marginal covariance, loop closures,
+    /// map re-registration.
+    Slam,
 }
 
 /// Simulator parameters (the planner's are [`Params`]).
@@ -85,6 +95,8 @@ pub struct MissionParams {
     pub safety_stop: bool,
     /// Overrides the world's time limit, seconds.
     pub time_limit_s: Option<f64>,
+    /// The SLAM front end and back end ([`Localisation::Slam`] only).
+    pub slam: SlamParams,
 }
 
 impl Default for MissionParams {
@@ -106,6 +118,7 @@ impl Default for MissionParams {
             metrics_period_s: 1.0,
             safety_stop: true,
             time_limit_s: None,
+            slam: SlamParams::default(),
         }
     }
 }
@@ -140,7 +153,7 @@ impl MissionParams {
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;
         }
-        Ok(())
+        self.slam.validate()
     }
 }
 
@@ -211,6 +224,12 @@ pub struct Summary {
     pub planning_errors: u64,
     pub landmarks_mapped: usize,
     pub scans: u64,
+    /// SLAM keyframes (0 without SLAM).
+    pub keyframes: usize,
+    /// Traversability map rebuilds after loop closures.
+    pub reregistrations: u64,
+    /// Keyframe updates whose optimisation or covariance failed (the keyframe was kept).
+    pub slam_errors: u64,
     pub total_plan_ms: f64,
 }
 
@@ -243,8 +262,15 @@ pub struct Mission {
     pub time_s: f64,
     pub gt: Pose2,
     pub est: Pose2,
-    /// (x, y, θ) covariance of the estimate.
+    /// (x, y, θ) covariance of the estimate (world axes).
     pub est_cov: Matrix3<f64>,
+    /// 6×6 covariance of the estimate (ξ = (δt, δφ), body frame): SLAM only, else zero.
+    pub est_cov6: Matrix6<f64>,
+    slam: Option<SlamFrontend>,
+    slam_errors: u64,
+    /// True (roll, pitch) at the previous tick (the gyro measures their change).
+    last_tilt_gt: [f64; 2],
+    body_points: Vec<Vector3<f64>>,
     tmap: TraversabilityMap,
     pub layers: TraversabilityLayers,
     /// Landmark map: id → (sum of world positions, count).
@@ -321,6 +347,11 @@ impl Mission {
             gt: start,
             est: start,
             est_cov: Matrix3::zeros(),
+            est_cov6: Matrix6::zeros(),
+            slam: None,
+            slam_errors: 0,
+            last_tilt_gt: [0.0; 2],
+            body_points: Vec::new(),
             tmap,
             layers,
             landmark_sums: BTreeMap::new(),
@@ -363,6 +394,17 @@ impl Mission {
             seed,
             localisation,
         };
+        if localisation == Localisation::Slam {
+            // The first keyframe: the start pose (the map frame), with the camera's first view.
+            let (gp, gr) = body_on_terrain(&m.world.field, m.gt, m.mission.drive.body_half_m);
+            m.observe_camera(gp, &gr);
+            let (roll, pitch, _) = gr.euler_angles();
+            m.last_tilt_gt = [roll, pitch];
+            let start = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
+            let fe = SlamFrontend::new(m.mission.slam.clone(), start, m.gt, [roll, pitch], &m.observations).map_err(|e| e.to_string())?;
+            m.slam = Some(fe);
+            m.last_camera_s = 0.0;
+        }
         m.sense_geometry();
         m.sense_landmarks();
         m.record_metrics();
@@ -379,8 +421,12 @@ impl Mission {
         self.layers.to_occupancy(self.params.traversability.tau)
     }
 
-    /// The landmark map (estimated positions, in id order).
+    /// The landmark map (estimated positions, in id order; with SLAM: the graph's landmarks and
+    /// their covariances, see [`super::slam_frontend`]).
     pub fn landmark_map(&self) -> PointCloud {
+        if let Some(fe) = &self.slam {
+            return fe.landmark_map();
+        }
         let sigma2 = self.params.u2.sigma_landmark_m.powi(2);
         let points: Vec<Point3<f64>> = self.landmark_sums.values().map(|(s, n)| Point3::from(*s / f64::from(*n))).collect();
         PointCloud { covariances: Some(vec![Matrix3::identity() * sigma2; points.len()]), points, classification: None }
@@ -471,7 +517,10 @@ impl Mission {
             Phase::Idle => {}
         }
 
-        // Sensing.
+        // Sensing. A SLAM keyframe first, so that this tick's scan belongs to it.
+        if self.slam.as_ref().is_some_and(|f| f.keyframe_due()) {
+            self.slam_keyframe();
+        }
         let (p, t) = self.last_scan;
         let moved = (self.est.x_m - p.x_m).hypot(self.est.y_m - p.y_m);
         let turned = wrap_pi(self.est.yaw_rad - p.yaw_rad).abs();
@@ -522,16 +571,91 @@ impl Mission {
                 let q = nalgebra::Matrix2::new(vs, 0.0, 0.0, vt);
                 self.est_cov = f * self.est_cov * f.transpose() + l * q * l.transpose();
             }
+            Localisation::Slam => {
+                // The gyro's roll and pitch change: the true change on the terrain + noise.
+                let (_, gr) = body_on_terrain(&self.world.field, self.gt, self.mission.drive.body_half_m);
+                let (roll, pitch, _) = gr.euler_angles();
+                let var_tilt = self.mission.slam.tilt_gyro_sigma_per_sqrt_s.powi(2) * dt;
+                let sg = var_tilt.sqrt();
+                let [r0, p0] = self.last_tilt_gt;
+                let dtilt = [wrap_pi(roll - r0) + sg * gaussian(&mut self.rng), wrap_pi(pitch - p0) + sg * gaussian(&mut self.rng)];
+                self.last_tilt_gt = [roll, pitch];
+                let (vs, vt) = self.mission.odometry.variances(ds, dth, dt);
+                if let Some(fe) = self.slam.as_mut() {
+                    fe.odometry_step(ms, mth, dtilt, vs, vt, var_tilt);
+                    self.est = pose2_of(&fe.estimate());
+                }
+                self.update_slam_covariance();
+            }
         }
+    }
+
+    /// Refreshes `est_cov6` and `est_cov` from the SLAM front end.
+    fn update_slam_covariance(&mut self) {
+        let Some(fe) = &self.slam else { return };
+        let c = fe.covariance();
+        self.est_cov6 = c;
+        // World-axis (x, y, yaw) block: rotate the body-frame position and rotation blocks.
+        let r = fe.estimate().rotation_matrix();
+        let mut rr = Matrix6::zeros();
+        rr.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
+        rr.fixed_view_mut::<3, 3>(3, 3).copy_from(&r);
+        let w = rr * c * rr.transpose();
+        let idx = [0usize, 1, 5];
+        self.est_cov = Matrix3::from_fn(|i, j| w[(idx[i], idx[j])]);
+    }
+
+    /// A SLAM keyframe: the camera observes from the true pose, the front end adds the keyframe
+    /// and, after a loop closure that moved the keyframes, the map is rebuilt from the keyframe
+    /// clouds.
+    fn slam_keyframe(&mut self) {
+        let (gp, gr) = body_on_terrain(&self.world.field, self.gt, self.mission.drive.body_half_m);
+        self.observe_camera(gp, &gr);
+        let Some(fe) = self.slam.as_mut() else { return };
+        let outcome = fe.add_keyframe(&self.observations);
+        self.est = pose2_of(&fe.estimate());
+        match outcome {
+            Ok(o) if o.reregister => {
+                fe.reregister_map(&mut self.tmap);
+                self.tmap.update(&self.params.traversability, &mut self.layers);
+                self.unexplored_cache = None;
+            }
+            Ok(_) => {}
+            Err(_) => self.slam_errors += 1,
+        }
+        self.update_slam_covariance();
+    }
+
+    /// Camera observations from the true body pose into `self.observations`.
+    fn observe_camera(&mut self, gp: Point3<f64>, gr: &Rotation3<f64>) {
+        let cam = gp + gr * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
+        observe_landmarks(
+            &self.world.field,
+            &self.world.landmarks,
+            &self.landmark_index,
+            cam,
+            gp,
+            gr,
+            &self.params.camera,
+            &self.mission.camera_noise,
+            &mut self.rng,
+            &mut self.observations,
+        );
     }
 
     /// The true and estimated 3D body poses.
     fn body_poses(&self) -> (BodyPose, BodyPose) {
         let b = self.mission.drive.body_half_m;
         let gt = body_on_terrain(&self.world.field, self.gt, b);
-        // The estimate's height and attitude are the terrain's under the estimate (a SLAM would
-        // estimate them; odometry alone does not).
-        let est = body_on_terrain(&self.world.field, self.est, b);
+        // Without SLAM the estimate's height and attitude are the terrain's under the estimate
+        // (odometry alone does not estimate them); the SLAM estimates all six.
+        let est = match &self.slam {
+            Some(fe) => {
+                let e = fe.estimate();
+                (Point3::from(e.translation), e.rotation.to_rotation_matrix())
+            }
+            None => body_on_terrain(&self.world.field, self.est, b),
+        };
         (gt, est)
     }
 
@@ -572,30 +696,33 @@ impl Mission {
         }
         // Register with the estimate: p_est = T_est · T_gt⁻¹ · p.
         let (gt_inv, gp_c) = (gr.inverse(), gp.coords);
-        let same = self.est == self.gt;
-        let pts = self.points.iter().map(|p| if same { *p } else { ep + er * (gt_inv * (p.coords - gp_c)) });
-        self.tmap.insert_points(pts);
+        if let Some(fe) = self.slam.as_mut() {
+            // Kept in the keyframe's cloud too, for re-registration.
+            self.body_points.clear();
+            self.body_points.extend(self.points.iter().map(|p| gt_inv * (p.coords - gp_c)));
+            self.points.clear();
+            fe.register_points(&self.body_points, &mut self.points);
+            self.tmap.insert_points(self.points.iter().copied());
+        } else {
+            let same = self.est == self.gt;
+            let pts = self.points.iter().map(|p| if same { *p } else { ep + er * (gt_inv * (p.coords - gp_c)) });
+            self.tmap.insert_points(pts);
+        }
         self.tmap.update(&self.params.traversability, &mut self.layers);
         self.unexplored_cache = None;
         self.last_scan = (self.est, self.time_s);
         self.scans += 1;
     }
 
+    /// Periodic landmark observations (without SLAM: averaged into the landmark map; with SLAM
+    /// the camera is used at keyframes only).
     fn sense_landmarks(&mut self) {
+        if self.slam.is_some() {
+            self.last_camera_s = self.time_s;
+            return;
+        }
         let ((gp, gr), (ep, er)) = self.body_poses();
-        let cam = gp + gr * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
-        observe_landmarks(
-            &self.world.field,
-            &self.world.landmarks,
-            &self.landmark_index,
-            cam,
-            gp,
-            &gr,
-            &self.params.camera,
-            &self.mission.camera_noise,
-            &mut self.rng,
-            &mut self.observations,
-        );
+        self.observe_camera(gp, &gr);
         for o in &self.observations {
             let w = ep.coords + er * o.point_in_robot;
             let e = self.landmark_sums.entry(o.landmark_id).or_insert((Vector3::zeros(), 0));
@@ -645,6 +772,9 @@ impl Mission {
     /// still a reachable candidate. Returns `Some(NoFrontier)` at the end of the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
         let grid = self.occupancy();
+        if let Some(fe) = self.slam.as_mut() {
+            fe.refresh_landmark_covariances();
+        }
         let cloud = self.landmark_map();
         let voxels = match LandmarkVoxels::new(&cloud, self.params.u2.voxel_m, self.params.u2.sigma_landmark_m) {
             Ok(v) => v,
@@ -751,10 +881,16 @@ impl Mission {
 
     fn record_metrics(&mut self) {
         let unexplored_pct = self.unexplored_pct();
-        let pos = self.est_cov[(0, 0)] + self.est_cov[(1, 1)];
-        let rot = self.est_cov[(2, 2)];
-        let ate = (self.est.x_m - self.gt.x_m).hypot(self.est.y_m - self.gt.y_m);
+        let (pos, rot) = if self.slam.is_some() {
+            let t = CovarianceTraces::of(&self.est_cov6);
+            (t.pos_cov_trace, t.rot_cov_trace)
+        } else {
+            (self.est_cov[(0, 0)] + self.est_cov[(1, 1)], self.est_cov[(2, 2)])
+        };
+        let ((gp, gr), (ep, er)) = self.body_poses();
+        let ate = (ep - gp).norm();
         self.sq_err_sum += ate * ate;
+        let loop_closures = self.slam.as_ref().map_or(0, |f| f.loop_closures());
         self.rows.push(MetricsRow {
             time_s: self.time_s,
             unexplored_pct,
@@ -763,10 +899,9 @@ impl Mission {
             rot_cov_trace: rot,
             ate_m: ate,
             distance_m: self.distance_m,
-            loop_closures: 0,
+            loop_closures,
             plan_ms: std::mem::take(&mut self.pending_plan_ms),
         });
-        let ((gp, gr), (ep, er)) = self.body_poses();
         let stamp = |p: Point3<f64>, r: Rotation3<f64>, t: f64| {
             let q = UnitQuaternion::from_rotation_matrix(&r);
             StampedPose { time_s: t, position_m: [p.x, p.y, p.z], quaternion_xyzw: [q.i, q.j, q.k, q.w] }
@@ -791,7 +926,7 @@ impl Mission {
             distance_m: self.distance_m,
             ate_rmse_m: if self.rows.is_empty() { 0.0 } else { (self.sq_err_sum / self.rows.len() as f64).sqrt() },
             final_cov_trace: last.map(|r| r.cov_trace).unwrap_or(0.0),
-            loop_closures: 0,
+            loop_closures: self.slam.as_ref().map_or(0, |f| f.loop_closures()),
             decisions: self.decisions,
             goals_reached: self.goals_reached,
             goals_failed: self.goals_failed,
@@ -799,8 +934,11 @@ impl Mission {
             gt_violations: self.violations,
             safety_stops: self.safety_stops,
             planning_errors: self.planning_errors,
-            landmarks_mapped: self.landmark_sums.len(),
+            landmarks_mapped: self.slam.as_ref().map_or(self.landmark_sums.len(), |f| f.backend().landmark_count()),
             scans: self.scans,
+            keyframes: self.slam.as_ref().map_or(0, |f| f.backend().keyframe_count()),
+            reregistrations: self.slam.as_ref().map_or(0, |f| f.reregistrations()),
+            slam_errors: self.slam_errors,
             total_plan_ms: self.total_plan_ms,
         }
     }
@@ -836,4 +974,10 @@ impl Mission {
         }
         s
     }
+}
+
+/// The planar pose (x, y, yaw) of a 3D pose.
+fn pose2_of(t: &Se3) -> Pose2 {
+    let r = t.rotation_matrix();
+    Pose2 { x_m: t.translation.x, y_m: t.translation.y, yaw_rad: r[(1, 0)].atan2(r[(0, 0)]) }
 }

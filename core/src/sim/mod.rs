@@ -13,6 +13,7 @@ mod obstacles;
 pub mod odometry;
 pub mod robot;
 mod scan;
+pub mod slam_frontend;
 pub mod world;
 
 pub use heightfield::{DemScaling, Heightfield, HeightfieldError};

@@ -125,3 +125,61 @@ fn odometry_localisation_drifts_and_its_covariance_grows() {
     let mid = &m.rows[m.rows.len() / 2];
     assert!(last.pos_cov_trace >= mid.pos_cov_trace);
 }
+
+fn tiny_slam_mission(seed: u64, time_limit_s: f64) -> Mission {
+    let params = Params::default();
+    let world = tiny_world(&params);
+    let mp = MissionParams { time_limit_s: Some(time_limit_s), ..MissionParams::default() };
+    Mission::new(world, params, mp, Strategy::Fit, seed, Localisation::Slam).unwrap()
+}
+
+#[test]
+fn a_tiny_slam_mission_explores_safely_with_bounded_error_and_loop_closures() {
+    let mut m = tiny_slam_mission(1, 300.0);
+    let s = m.run();
+    assert_eq!(s.gt_violations, 0, "{s:?}");
+    assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
+    assert!(s.unexplored_pct < 10.0, "{s:?}");
+    assert!(s.keyframes > 10 && s.landmarks_mapped > 10 && s.slam_errors == 0, "{s:?}");
+    // The tiny world is revisited all the time: loops close, counted monotonically per row.
+    assert!(s.loop_closures >= 1, "{s:?}");
+    assert!(m.rows.windows(2).all(|w| w[1].loop_closures >= w[0].loop_closures));
+    assert_eq!(m.rows.last().unwrap().loop_closures, s.loop_closures);
+    // The error stays at the centimetre level over the whole mission (observed max ≈ 3 cm).
+    let max_ate = m.rows.iter().map(|r| r.ate_m).fold(0.0, f64::max);
+    assert!(max_ate < 0.1, "max ATE {max_ate}");
+    assert!(m.rows.iter().any(|r| r.ate_m > 0.0));
+    // A 6×6 covariance: traces add up, both parts positive once moving.
+    let last = m.rows.last().unwrap();
+    assert!(last.pos_cov_trace > 0.0 && last.rot_cov_trace > 0.0);
+    assert!((last.cov_trace - last.pos_cov_trace - last.rot_cov_trace).abs() < 1e-15);
+    // The planner's landmark map carries the SLAM covariances.
+    let cloud = m.landmark_map();
+    let covs = cloud.covariances.as_ref().unwrap();
+    assert_eq!(covs.len(), cloud.points.len());
+    assert!(covs.iter().all(|c| c.trace() > 0.0 && c.cholesky().is_some()));
+}
+
+#[test]
+fn slam_missions_are_deterministic_per_seed() {
+    let run = |seed: u64| {
+        let mut m = tiny_slam_mission(seed, 40.0);
+        m.run();
+        (m.metrics_csv(), Mission::tum(&m.trajectory_est))
+    };
+    let a = run(7);
+    assert_eq!(a, run(7));
+    assert_ne!(a.1, run(8).1);
+}
+
+#[test]
+fn slam_covariance_grows_between_exact_marginals_and_drops_at_loop_closures() {
+    let mut m = tiny_slam_mission(2, 120.0);
+    m.run();
+    let rows = &m.rows;
+    // While driving without a closure the (compounded) covariance grows row to row somewhere…
+    assert!(rows.windows(2).any(|w| w[1].cov_trace > w[0].cov_trace && w[1].distance_m > w[0].distance_m));
+    // …and some loop closure comes with a drop.
+    let drops = rows.windows(2).filter(|w| w[1].loop_closures > w[0].loop_closures && w[1].cov_trace < w[0].cov_trace).count();
+    assert!(drops >= 1, "{}", m.metrics_csv());
+}

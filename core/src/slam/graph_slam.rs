@@ -36,6 +36,11 @@ pub struct GraphSlamParams {
     /// A landmark seen again after this many keyframes without being seen closes a loop and
     /// triggers a full optimisation. Default 20.
     pub loop_closure_gap_keyframes: usize,
+    /// After a full optimisation, loop closures within this many keyframes are handled by the
+    /// window update (the re-observed landmarks are free in it, anchored by their old
+    /// observations): one revisit re-observes many old landmarks over several keyframes, and
+    /// each would otherwise re-run the full problem. Default 0 (every closure runs it).
+    pub full_cooldown_keyframes: usize,
     /// Stopping rules of each optimisation. Default: [`OptimizerParams::default`] with 20
     /// iterations.
     pub optimizer: OptimizerParams,
@@ -46,6 +51,7 @@ impl Default for GraphSlamParams {
         Self {
             window_keyframes: 10,
             loop_closure_gap_keyframes: 20,
+            full_cooldown_keyframes: 0,
             optimizer: OptimizerParams { max_iterations: 20, ..OptimizerParams::default() },
         }
     }
@@ -84,7 +90,8 @@ pub struct KeyframeUpdate {
     pub keyframe: usize,
     /// Landmarks that closed a loop.
     pub loop_closures: Vec<u64>,
-    /// Whether the update optimised the whole graph (loop closure) or a window.
+    /// Whether the update optimised the whole graph (loop closure, outside the cool-down) or a
+    /// window.
     pub full: bool,
     pub summary: Summary,
 }
@@ -156,6 +163,8 @@ pub struct GraphSlam {
     keyframes: Vec<VarId>,
     landmarks: BTreeMap<u64, LandmarkState>,
     optimizer: LevenbergMarquardt,
+    /// Keyframe of the last full optimisation triggered by a loop closure.
+    last_full_keyframe: Option<usize>,
 }
 
 impl GraphSlam {
@@ -177,6 +186,7 @@ impl GraphSlam {
             keyframes: Vec::new(),
             landmarks: BTreeMap::new(),
             optimizer,
+            last_full_keyframe: None,
         };
         let first = slam.values.push(Variable::Se3(world_from_first));
         slam.values.set_fixed(first, true);
@@ -207,6 +217,43 @@ impl GraphSlam {
     /// `world_from_robot` of the latest keyframe.
     pub fn current_pose(&self) -> Se3 {
         self.keyframes.last().and_then(|&v| self.values.se3(v)).unwrap_or_default()
+    }
+
+    /// Landmark positions by increasing id, without covariances. O(landmarks).
+    pub fn landmark_positions(&self) -> Vec<(u64, Vector3<f64>)> {
+        self.landmarks.iter().map(|(&id, s)| (id, self.values.point3(s.var).unwrap_or_default())).collect()
+    }
+
+    /// Landmarks last seen at keyframe `since_keyframe` or later, by increasing id, with their
+    /// exact marginal covariances (one factorisation, 3 solves per landmark: cheaper than
+    /// [`SlamBackend::landmarks`] when few landmarks are recent).
+    pub fn recent_landmarks(&self, since_keyframe: usize) -> Result<Vec<LandmarkEstimate>, SlamError> {
+        let recent: Vec<(u64, VarId)> =
+            self.landmarks.iter().filter(|(_, s)| s.last_seen_keyframe >= since_keyframe).map(|(&id, s)| (id, s.var)).collect();
+        if recent.is_empty() || self.keyframes.len() < 2 {
+            return Ok(Vec::new());
+        }
+        let ids: Vec<VarId> = recent.iter().map(|r| r.1).collect();
+        let covs = self.marginals()?.covariances(&ids)?;
+        Ok(recent
+            .iter()
+            .zip(covs)
+            .map(|(&(landmark_id, var), cov)| LandmarkEstimate {
+                landmark_id,
+                position_in_world: self.values.point3(var).unwrap_or_default(),
+                covariance: Matrix3::from_fn(|r, c| cov[(r, c)]),
+            })
+            .collect())
+    }
+
+    /// Number of landmarks in the map.
+    pub fn landmark_count(&self) -> usize {
+        self.landmarks.len()
+    }
+
+    /// Whether landmark `landmark_id` is in the map.
+    pub fn has_landmark(&self, landmark_id: u64) -> bool {
+        self.landmarks.contains_key(&landmark_id)
     }
 
     /// Adds the observation factors of keyframe `k`; returns the landmarks that closed a loop.
@@ -297,7 +344,11 @@ impl SlamBackend for GraphSlam {
         self.graph.add(BetweenSe3::new(prev, var, odometry.previous_from_current, noise))?;
         let k = self.keyframes.len() - 1;
         let loop_closures = self.observe(k, observations)?;
-        let full = !loop_closures.is_empty();
+        let cooling = self.last_full_keyframe.is_some_and(|f| k < f + self.params.full_cooldown_keyframes);
+        let full = !loop_closures.is_empty() && !cooling;
+        if full {
+            self.last_full_keyframe = Some(k);
+        }
         let summary = if full {
             self.optimize_full()?
         } else {

@@ -21,8 +21,12 @@
 //!
 //! Complexity: O(cells × disc cells) for [`TraversabilityMap::compute`] (one fusion per disc cell
 //! plus one 3×3 eigendecomposition per cell), no allocation per cell;
-//! [`TraversabilityMap::update`] recomputes only the cells whose disc touches a changed cell:
-//! O(changed × disc cells²).
+//! [`TraversabilityMap::update`] recomputes only the cells whose disc touches a changed cell —
+//! their union, each once, in row-major order so that neighbouring discs share cache lines:
+//! O(changed × disc cells²) at worst, O(affected × disc cells + affected log affected) in fact.
+//! The fusion runs over every cell of the disc without a data-dependent branch (empty cells add
+//! exact zeros, [`MomentSum::add_branchless`]) and equals, bit for bit, the straightforward
+//! gather-then-fuse of the non-empty cells (proptest `optimised_estimate_equals_straightforward_reference`).
 
 use super::map::TraversabilityMap;
 use super::moments::{CellMoments, MomentSum};
@@ -124,13 +128,13 @@ pub fn disc_offsets(radius_m: f64, resolution_m: f64) -> Vec<(i32, i32)> {
 }
 
 /// One cell's result (NaN fields when unknown).
-struct CellEstimate {
-    slope_rad: f64,
-    step_m: f64,
-    roughness_m: f64,
-    hazard: f64,
-    score: f64,
-    disc_points: u64,
+pub(super) struct CellEstimate {
+    pub(super) slope_rad: f64,
+    pub(super) step_m: f64,
+    pub(super) roughness_m: f64,
+    pub(super) hazard: f64,
+    pub(super) score: f64,
+    pub(super) disc_points: u64,
 }
 
 /// x / limit, with a non-positive limit meaning "any positive x is fully hazardous".
@@ -145,75 +149,76 @@ fn ratio(x: f64, limit: f64) -> f64 {
     }
 }
 
-/// The disc's offsets, precomputed once per compute / update, plus a reused buffer of the
-/// non-empty cells of the current disc.
-struct Disc {
+/// The disc's offsets, precomputed once per compute / update.
+pub(super) struct Disc {
     offsets: Vec<(i32, i32)>,
     /// Row-major index offsets `dy · width + dx`, valid for cells at least `r_cells` inside.
     flat: Vec<isize>,
     r_cells: i32,
-    cells: Vec<u32>,
 }
 
 impl Disc {
-    fn new(radius_m: f64, g: &GridGeometry) -> Self {
+    pub(super) fn new(radius_m: f64, g: &GridGeometry) -> Self {
         let offsets = disc_offsets(radius_m, g.resolution_m);
         let flat = offsets.iter().map(|&(dx, dy)| dy as isize * g.width as isize + dx as isize).collect();
         let r_cells = offsets.iter().map(|&(dx, dy)| dx.abs().max(dy.abs())).max().unwrap_or(0);
-        let cells = Vec::with_capacity(offsets.len());
-        Self { offsets, flat, r_cells, cells }
-    }
-
-    /// Fills `cells` with the non-empty cells of the disc around `index`, in offset order.
-    #[inline]
-    fn gather(&mut self, moments: &[CellMoments], g: &GridGeometry, index: usize) {
-        self.cells.clear();
-        let (w, h) = (g.width as i32, g.height as i32);
-        let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
-        let r = self.r_cells;
-        if col >= r && row >= r && col + r < w && row + r < h {
-            for &o in &self.flat {
-                let j = (index as isize + o) as usize;
-                if moments[j].count > 0 {
-                    self.cells.push(j as u32);
-                }
-            }
-        } else {
-            for &(dx, dy) in &self.offsets {
-                let (c, r) = (col + dx, row + dy);
-                if c >= 0 && r >= 0 && c < w && r < h {
-                    let j = r as usize * g.width + c as usize;
-                    if moments[j].count > 0 {
-                        self.cells.push(j as u32);
-                    }
-                }
-            }
-        }
+        Self { offsets, flat, r_cells }
     }
 }
 
-fn estimate_cell(
+/// The estimate of cell `index`: its disc's cells (all of them for an interior cell, the ones
+/// inside the grid at the border), in offset order, go to [`estimate_disc`].
+#[inline]
+pub(super) fn estimate_cell(
     moments: &[CellMoments],
     g: &GridGeometry,
     index: usize,
-    disc: &mut Disc,
+    disc: &Disc,
     p: &TraversabilityParams,
 ) -> CellEstimate {
-    disc.gather(moments, g, index);
-    let mut sum = MomentSum::new();
-    for &j in &disc.cells {
-        sum.add(&moments[j as usize]);
+    let (w, h) = (g.width as i32, g.height as i32);
+    let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
+    let r = disc.r_cells;
+    if col >= r && row >= r && col + r < w && row + r < h {
+        let base = index as isize;
+        estimate_disc(disc.flat.iter().map(|&o| &moments[(base + o) as usize]), p)
+    } else {
+        estimate_disc(
+            disc.offsets.iter().filter_map(|&(dx, dy)| {
+                let (c, r) = (col + dx, row + dy);
+                (c >= 0 && r >= 0 && c < w && r < h).then(|| &moments[r as usize * g.width + c as usize])
+            }),
+            p,
+        )
     }
-    let unknown = CellEstimate {
+}
+
+/// Slope, step, roughness, hazard and score from the moments of a disc's cells (empty cells
+/// included; they contribute nothing). Three passes over the cells — the first non-empty one
+/// (the fusion's shift origin), the branch-free fusion ([`MomentSum::add_branchless`]), and the
+/// relative step — each O(disc cells) with no data-dependent branch in the last two.
+#[inline]
+fn estimate_disc<'a, I>(members: I, p: &TraversabilityParams) -> CellEstimate
+where
+    I: Iterator<Item = &'a CellMoments> + Clone,
+{
+    let unknown = |disc_points: u64| CellEstimate {
         slope_rad: f64::NAN,
         step_m: f64::NAN,
         roughness_m: f64::NAN,
         hazard: f64::NAN,
         score: f64::NAN,
-        disc_points: sum.count(),
+        disc_points,
     };
+    let Some(first) = members.clone().find(|m| m.count > 0) else {
+        return unknown(0);
+    };
+    let mut sum = MomentSum::with_origin(first.mean);
+    for m in members.clone() {
+        sum.add_branchless(m);
+    }
     if sum.count() == 0 || sum.count() < u64::from(p.min_points) {
-        return unknown;
+        return unknown(sum.count());
     }
     let fused = sum.finish();
     // Horizontal spread: smallest eigenvalue of the 2×2 xy covariance.
@@ -223,18 +228,18 @@ fn estimate_cell(
     let min_spread = p.min_spread_ratio * p.disc_radius_m;
     let spread = lambda_xy.max(0.0).sqrt();
     if min_spread > 0.0 && (spread.is_nan() || spread < min_spread) {
-        return unknown;
+        return unknown(fused.count);
     }
     let Some(plane) = fit_plane(&fused) else {
-        return unknown;
+        return unknown(fused.count);
     };
     let raw_step_m = fused.z_max - fused.z_min;
     let mut step_m = raw_step_m;
     if p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some() {
+        // Empty cells have z_max = −∞, z_min = +∞ (and a finite mean): they change neither.
         let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
-        for &j in &disc.cells {
-            let m = &moments[j as usize];
-            let Some(z) = plane.height_at(m.mean[0], m.mean[1]) else { continue };
+        for m in members {
+            let z = plane.height_at(m.mean[0], m.mean[1]).unwrap_or(0.0);
             hi = hi.max(m.z_max - z);
             lo = lo.min(m.z_min - z);
         }
@@ -263,9 +268,9 @@ impl TraversabilityMap {
     pub fn compute(&self, params: &TraversabilityParams) -> TraversabilityLayers {
         let g = self.geometry;
         let mut layers = TraversabilityLayers::unknown(g, params);
-        let mut disc = Disc::new(params.disc_radius_m, &g);
+        let disc = Disc::new(params.disc_radius_m, &g);
         for i in 0..g.len() {
-            let e = estimate_cell(&self.moments, &g, i, &mut disc, params);
+            let e = estimate_cell(&self.moments, &g, i, &disc, params);
             layers.write(i, self.moments[i].count, &e);
         }
         layers
@@ -282,7 +287,7 @@ impl TraversabilityMap {
             self.take_dirty();
             return g.len();
         }
-        let mut disc = Disc::new(params.disc_radius_m, &g);
+        let disc = Disc::new(params.disc_radius_m, &g);
         let (w, h) = (g.width as i32, g.height as i32);
         self.affected.clear();
         for &d in &self.dirty {
@@ -298,9 +303,11 @@ impl TraversabilityMap {
                 }
             }
         }
+        // Row-major order: consecutive discs overlap, so their moments stay in cache.
+        self.affected.sort_unstable();
         for &j in &self.affected {
             let j = j as usize;
-            let e = estimate_cell(&self.moments, &g, j, &mut disc, params);
+            let e = estimate_cell(&self.moments, &g, j, &disc, params);
             layers.write(j, self.moments[j].count, &e);
             self.is_affected[j] = false;
         }

@@ -144,6 +144,33 @@ impl MomentSum {
         self.z_max = self.z_max.max(m.z_max);
     }
 
+    /// An empty sum whose shift origin is fixed to `origin` up front. With `origin` = the mean of
+    /// the first non-empty cell that will be added, [`Self::add_branchless`] over the same cells
+    /// gives bit for bit the result of [`Self::add`].
+    pub const fn with_origin(origin: [f64; 3]) -> Self {
+        Self { origin, ..Self::new() }
+    }
+
+    /// Adds one cell without testing for emptiness: an empty cell (count 0, zero mean and
+    /// scatter, z range ±∞, as [`CellMoments::EMPTY`]) adds exact zeros and leaves the z range
+    /// unchanged, so the loop over a disc has no data-dependent branch. The origin must have been
+    /// set by [`Self::with_origin`].
+    #[inline]
+    pub fn add_branchless(&mut self, m: &CellMoments) {
+        let n = m.count as f64;
+        let d = [m.mean[0] - self.origin[0], m.mean[1] - self.origin[1], m.mean[2] - self.origin[2]];
+        for (s, dk) in self.sum_d.iter_mut().zip(d) {
+            *s += n * dk;
+        }
+        for (s, o) in self.sum_s.iter_mut().zip(m.scatter) {
+            *s += o;
+        }
+        add_outer(&mut self.sum_s, d, n);
+        self.count = self.count.saturating_add(m.count);
+        self.z_min = self.z_min.min(m.z_min);
+        self.z_max = self.z_max.max(m.z_max);
+    }
+
     /// Number of points added so far.
     #[inline]
     pub fn count(&self) -> u64 {

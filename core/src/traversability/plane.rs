@@ -2,8 +2,9 @@
 //!
 //! Notes §2: the plane's normal is the eigenvector of the smallest eigenvalue λ_min of the
 //! centred covariance C = S/n; slope = angle between that normal and +z; roughness = √λ_min
-//! (the RMS distance of the points to the plane). One 3×3 symmetric eigenproblem, O(1): in
-//! closed form when well conditioned, else nalgebra's iterative `SymmetricEigen`.
+//! (the RMS distance of the points to the plane). One 3×3 symmetric eigenproblem, O(1): λ_min by
+//! Newton's method on the characteristic cubic when well separated (no trigonometry), else in
+//! closed form (trigonometric), else nalgebra's iterative `SymmetricEigen`.
 //!
 //! Degenerate geometry (not in the notes; chosen so the answer is always defined and never
 //! optimistic for vertical structures): when the points do not span a plane the least-squares
@@ -53,7 +54,9 @@ pub fn fit_plane(m: &CellMoments) -> Option<PlaneFit> {
     if !c.iter().flatten().all(|v| v.is_finite()) {
         return None;
     }
-    let (normal, roughness_m) = smallest_eigenpair_closed_form(&c).unwrap_or_else(|| normal_iterative(&c));
+    let (normal, roughness_m) = smallest_eigenpair_newton(&c)
+        .or_else(|| smallest_eigenpair_closed_form(&c))
+        .unwrap_or_else(|| normal_iterative(&c));
     let normal = if normal[2] < 0.0 { normal.map(|v| -v) } else { normal };
     let horizontal = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
     let slope_rad = horizontal.atan2(normal[2]);
@@ -73,6 +76,79 @@ fn quad(c: &[[f64; 3]; 3], n: [f64; 3]) -> f64 {
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+/// The common case, well separated λ_min (terrain: points near a plane), without trigonometry:
+/// on C scaled to unit largest entry, p(λ) = det(C − λI) = c₀ − c₁λ + c₂λ² − λ³ is decreasing
+/// and convex left of its smallest root (all roots are real and ≥ 0), so Newton's method from
+/// λ = 0 climbs to λ_min monotonically (quadratically once λ_min ≪ λ_mid; a few steps on
+/// terrain). λ_mid and λ_max come from the deflated quadratic; the eigenvector and roughness as in
+/// [`smallest_eigenpair_closed_form`]. `None` (use the closed form) for coincident or collinear
+/// points, or when Newton is slow (λ_min close to λ_mid) or the cross product is inaccurate.
+/// Agrees with the closed form to rounding (proptest below).
+fn smallest_eigenpair_newton(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> {
+    let s = c.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    if s.is_nan() || s <= COINCIDENT_VAR_M2 {
+        return None;
+    }
+    let k = 1.0 / s;
+    let a = [
+        [c[0][0] * k, c[0][1] * k, c[0][2] * k],
+        [c[1][0] * k, c[1][1] * k, c[1][2] * k],
+        [c[2][0] * k, c[2][1] * k, c[2][2] * k],
+    ];
+    let c2 = a[0][0] + a[1][1] + a[2][2];
+    let m12 = a[1][1] * a[2][2] - a[1][2] * a[1][2];
+    let c1 = a[0][0] * a[1][1] - a[0][1] * a[0][1] + a[0][0] * a[2][2] - a[0][2] * a[0][2] + m12;
+    let c0 = a[0][0] * m12 - a[0][1] * (a[0][1] * a[2][2] - a[1][2] * a[0][2])
+        + a[0][2] * (a[0][1] * a[1][2] - a[1][1] * a[0][2]);
+    let mut l = 0.0f64;
+    let mut converged = false;
+    for _ in 0..24 {
+        let p = c0 + l * (-c1 + l * (c2 - l));
+        let dp = -c1 + l * (2.0 * c2 - 3.0 * l);
+        if dp.is_nan() || dp >= 0.0 {
+            return None;
+        }
+        let step = p / dp;
+        l -= step;
+        if converged {
+            break; // one polishing step after the step fell below 1e-9
+        }
+        converged = step.abs() <= 1e-9 * c2;
+    }
+    if !converged || !l.is_finite() {
+        return None;
+    }
+    let l_min = l.max(0.0);
+    let sum = c2 - l_min;
+    let prod = c1 - l_min * sum;
+    let l_max = 0.5 * (sum + (sum * sum - 4.0 * prod).max(0.0).sqrt());
+    let l_mid = sum - l_max;
+    if s * l_max <= COINCIDENT_VAR_M2 || l_mid <= COLLINEAR_RATIO * l_max || l_mid - l_min <= 1e-3 * l_max {
+        return None;
+    }
+    let rows = [
+        [a[0][0] - l_min, a[0][1], a[0][2]],
+        [a[1][0], a[1][1] - l_min, a[1][2]],
+        [a[2][0], a[2][1], a[2][2] - l_min],
+    ];
+    let mut best = [0.0; 3];
+    let mut best_n2 = 0.0;
+    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+        let v = cross(rows[i], rows[j]);
+        let n2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        if n2 > best_n2 {
+            best = v;
+            best_n2 = n2;
+        }
+    }
+    if best_n2.is_nan() || best_n2 <= 1e-12 {
+        return None;
+    }
+    let inv = 1.0 / best_n2.sqrt();
+    let n = best.map(|v| v * inv);
+    Some((n, quad(c, n).sqrt()))
 }
 
 /// The common, well-conditioned case in closed form (about 3× faster than the iterative
@@ -256,10 +332,16 @@ mod tests {
             let m = moments(pts.into_iter().map(|(x, y, z)| [x * scale, y * scale, (z + tilt * x) * scale]));
             let c = m.covariance();
             let (n_it, r_it) = normal_iterative(&c);
-            if let Some((n_cf, r_cf)) = smallest_eigenpair_closed_form(&c) {
+            for (n_cf, r_cf) in [smallest_eigenpair_closed_form(&c), smallest_eigenpair_newton(&c)].into_iter().flatten() {
                 let dot = (n_it[0] * n_cf[0] + n_it[1] * n_cf[1] + n_it[2] * n_cf[2]).abs();
                 prop_assert!(dot > 1.0 - 1e-9, "{:?} vs {:?}", n_it, n_cf);
                 prop_assert!((r_it - r_cf).abs() <= 1e-7 * scale, "{} vs {}", r_it, r_cf);
+            }
+            // Newton and the closed form agree to rounding where both answer.
+            if let (Some((n_nt, r_nt)), Some((n_cf, r_cf))) = (smallest_eigenpair_newton(&c), smallest_eigenpair_closed_form(&c)) {
+                let dot = (n_nt[0] * n_cf[0] + n_nt[1] * n_cf[1] + n_nt[2] * n_cf[2]).abs();
+                prop_assert!(dot > 1.0 - 1e-15, "{:?} vs {:?}", n_nt, n_cf);
+                prop_assert!((r_nt - r_cf).abs() <= 1e-9 * scale.max(r_cf), "{} vs {}", r_nt, r_cf);
             }
         }
     }
@@ -274,5 +356,8 @@ mod tests {
         let t = 0.3;
         let patch = moments((0..25).map(|k| [(k % 5) as f64 * 0.1, (k / 5) as f64 * 0.1, t * (k % 5) as f64 * 0.1 + if k % 2 == 0 { 0.01 } else { -0.01 }]));
         assert!(smallest_eigenpair_closed_form(&patch.covariance()).is_some());
+        assert!(smallest_eigenpair_newton(&patch.covariance()).is_some());
+        assert!(smallest_eigenpair_newton(&line.covariance()).is_none());
+        assert!(smallest_eigenpair_newton(&blob.covariance()).is_none());
     }
 }

@@ -1,0 +1,682 @@
+//! The simulator's SLAM front end (notes §1, §2, §8): turns the measured odometry, the IMU
+//! attitude, the camera's landmark observations and the sensor clouds into keyframes for the
+//! [`GraphSlam`] back end, and gives the mission its pose estimate, 6×6 covariance, landmark map
+//! and the keyframe clouds to re-register the traversability map after a loop closure.
+//!
+//! **Keyframes.** A keyframe is taken when the odometry says the robot moved
+//! `keyframe_every_m` (0.5 m) or turned `keyframe_every_rad` (0.5 rad) since the last one (never
+//! while standing still). The first keyframe is the start pose (the map frame, fixed: the gauge).
+//!
+//! **Odometry lifted to SE(3).** The wheels + gyro give a planar dead-reckoned track
+//! (x, y, yaw; [`super::odometry`]); the gyro's roll and pitch rates integrate the tilt (each
+//! tick the true change + N(0, σ_g² dt), σ_g = `tilt_gyro_sigma_per_sqrt_s`: a random
+//! walk, smooth between scans — white per-tick attitude noise would tilt every LiDAR scan
+//! independently and, at 10 m range, turn overlapping ground into rough, lethal cells); height
+//! integrates `dz = −δs · tan(pitch)`. The odometry pose is `T_o = (R(roll, pitch, yaw),
+//! (x, y, z))`, and the odometry factor between keyframes a, b is `T_o(a)⁻¹ T_o(b)` (only
+//! relative motion enters: the odometry's absolute drift is irrelevant). Its covariance: since
+//! the keyframe, the planar error P (x, y, yaw, world axes) is propagated per tick exactly as in
+//! odometry mode (`P ← F P Fᵀ + L Q Lᵀ`), the tilt error adds σ_g² dt per axis, the height error
+//! `δs² var_tilt + σ_z² |δs|`. Written Σ_w in world axes (δt, δφ), it maps to the factor's right-perturbation
+//! tangent by `Σ = B Σ_w Bᵀ`, `B = diag(R_bᵀ, R_bᵀ)` (R_b the odometry rotation at b: the
+//! keyframe-a terms cancel in `Ad(T_rel⁻¹) · [[I, [t]×], [0, I]]`). A floor of 10⁻⁸ on the
+//! diagonal keeps it invertible when turning in place.
+//!
+//! **Landmark factors.** At each keyframe the camera observes; each observation is the landmark
+//! in the robot frame with the camera model's covariance (bearing σ_b across the line of
+//! sight, σ_d = k d² along it; [`super::camera`]). Correspondences are the landmark ids (known
+//! data association). At most `max_observations_per_keyframe` are used: landmarks already in the
+//! map first (they link keyframes and close loops), then new ones nearest first.
+//!
+//! **Between keyframes** the estimate is `T = T_k ⊕ (T_o(k)⁻¹ T_o(now))` and its covariance the
+//! keyframe's marginal compounded with the odometry since: `Σ = Ad(T_rel⁻¹) Σ_k Ad(T_rel⁻¹)ᵀ +
+//! Σ_rel` (right perturbations). **Keyframe marginals**: the exact 6×6 marginal of the full
+//! problem (one sparse Cholesky) after every loop closure and every `marginal_every_keyframes`
+//! keyframes; at the other keyframes the compounded covariance above is kept (it ignores the
+//! landmark information since the last exact marginal, so it over-estimates; the exact one drops
+//! back). Landmark covariances for the planner: at a decision, when `landmark_refresh_keyframes`
+//! keyframes were added since the last refresh, the exact marginals (3 solves each) of the
+//! landmarks seen since the last refresh; older landmarks keep their last exact covariance (a
+//! later loop closure lowers the true one: theirs is then conservative); a landmark added since
+//! the last refresh gets `R C Rᵀ + G Σ_k Gᵀ` (its observation's covariance
+//! plus its keyframe's pose covariance through `G = R [I, −[p]×]`, correlations ignored).
+//!
+//! **Re-registration.** Every sensor cloud (LiDAR, depth camera, footprint) is stored in the body
+//! frame of the latest keyframe (`p_k = T_o(k)⁻¹ T_o(now) p_body`), one point per
+//! `cloud_voxel_m` 3D voxel per keyframe, as f32. When a full optimisation moves some keyframe
+//! by more than `reregister_shift_m` (|Δt| + `reregister_lever_m` · |Δφ|, the lever standing for
+//! a typical point range) from the pose its clouds were registered with, the traversability map
+//! is rebuilt from every keyframe cloud with the new poses ([`reregister`]).
+//!
+//! Cost per tick O(1); per keyframe one window optimisation (O(window)), plus one full sparse
+//! Cholesky every `marginal_every_keyframes`; per stored point O(1) (a hash-set lookup); a
+//! re-registration O(stored points + cells × disc).
+
+use std::collections::{BTreeMap, HashSet};
+
+use nalgebra::{Matrix3, Matrix6, Point3, Rotation3, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::camera::CameraObservation;
+use crate::cloud::PointCloud;
+use crate::pose::{wrap_pi, Pose2};
+use crate::slam::lie::hat;
+use crate::slam::optimizer::OptimizerParams;
+use crate::slam::{GraphSlam, GraphSlamParams, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
+use crate::traversability::TraversabilityMap;
+
+/// Diagonal floor of an odometry factor's covariance (m², rad²).
+const COV_FLOOR: f64 = 1e-8;
+
+/// Parameters of the SLAM front end (see the module doc).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SlamParams {
+    /// New keyframe after this distance, metres. Default 0.5.
+    pub keyframe_every_m: f64,
+    /// … or this rotation, radians. Default 0.5.
+    pub keyframe_every_rad: f64,
+    /// Gyro roll/pitch rate noise σ_g, rad/√s (a random walk on the tilt). Default 2·10⁻⁴
+    /// (0.7°/√h, a consumer MEMS gyro; the odometry's yaw uses its own, noisier figure).
+    pub tilt_gyro_sigma_per_sqrt_s: f64,
+    /// Height noise σ_z per √metre driven. Default 0.01.
+    pub z_sigma_per_sqrt_m: f64,
+    /// Landmark observations used per keyframe. Default 30.
+    pub max_observations_per_keyframe: usize,
+    /// Exact pose marginal every this many keyframes (and at every loop closure). Default 20.
+    pub marginal_every_keyframes: usize,
+    /// At a decision, when this many keyframes were added since the last refresh, exact
+    /// marginals for the landmarks seen since then. Default 20.
+    pub landmark_refresh_keyframes: usize,
+    /// Keyframe clouds keep one point per voxel of this edge, metres. Default 0.05.
+    pub cloud_voxel_m: f64,
+    /// Re-register the map when a keyframe moved more than this, metres. Default 0.025 (half a
+    /// 5 cm cell).
+    pub reregister_shift_m: f64,
+    /// Lever arm turning a keyframe's rotation change into a shift, metres. Default 2.
+    pub reregister_lever_m: f64,
+    pub graph: GraphSlamParams,
+}
+
+impl Default for SlamParams {
+    fn default() -> Self {
+        Self {
+            keyframe_every_m: 0.5,
+            keyframe_every_rad: 0.5,
+            tilt_gyro_sigma_per_sqrt_s: 2e-4,
+            z_sigma_per_sqrt_m: 0.01,
+            max_observations_per_keyframe: 30,
+            marginal_every_keyframes: 20,
+            landmark_refresh_keyframes: 20,
+            cloud_voxel_m: 0.05,
+            reregister_shift_m: 0.025,
+            reregister_lever_m: 2.0,
+            graph: GraphSlamParams {
+                full_cooldown_keyframes: 20,
+                optimizer: OptimizerParams { max_iterations: 10, relative_tolerance: 1e-6, ..OptimizerParams::default() },
+                ..GraphSlamParams::default()
+            },
+        }
+    }
+}
+
+impl SlamParams {
+    /// Checks ranges; returns a message naming the first bad field.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("slam.{name} must be > 0 (got {v})")) };
+        let nonneg = |name: &str, v: f64| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("slam.{name} must be ≥ 0 (got {v})")) };
+        pos("keyframe_every_m", self.keyframe_every_m)?;
+        pos("keyframe_every_rad", self.keyframe_every_rad)?;
+        nonneg("z_sigma_per_sqrt_m", self.z_sigma_per_sqrt_m)?;
+        pos("tilt_gyro_sigma_per_sqrt_s", self.tilt_gyro_sigma_per_sqrt_s)?;
+        pos("cloud_voxel_m", self.cloud_voxel_m)?;
+        nonneg("reregister_shift_m", self.reregister_shift_m)?;
+        nonneg("reregister_lever_m", self.reregister_lever_m)?;
+        if self.marginal_every_keyframes == 0 || self.landmark_refresh_keyframes == 0 || self.graph.window_keyframes == 0 {
+            return Err("slam: marginal_every_keyframes, landmark_refresh_keyframes and graph.window_keyframes must be ≥ 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// Sensor points of every keyframe, in that keyframe's body frame (f32, flat), one per voxel
+/// per keyframe.
+#[derive(Clone, Debug)]
+pub struct KeyframeClouds {
+    voxel_m: f64,
+    points: Vec<[f32; 3]>,
+    /// Keyframe k's points are `starts[k]..starts[k + 1]` (the last one runs to the end).
+    starts: Vec<usize>,
+    /// Voxels already holding a point of the latest keyframe (membership only, never iterated).
+    occupied: HashSet<[i32; 3]>,
+}
+
+impl KeyframeClouds {
+    /// No keyframe yet.
+    pub fn new(voxel_m: f64) -> Self {
+        Self { voxel_m, points: Vec::new(), starts: Vec::new(), occupied: HashSet::new() }
+    }
+
+    /// Starts the cloud of a new keyframe (later points belong to it).
+    pub fn start_keyframe(&mut self) {
+        self.starts.push(self.points.len());
+        self.occupied.clear();
+    }
+
+    /// Stores a point of the latest keyframe (its body frame) unless its voxel already has one
+    /// or there is no keyframe; returns whether it was stored.
+    pub fn push(&mut self, point_in_keyframe: &Vector3<f64>) -> bool {
+        if self.starts.is_empty() || !point_in_keyframe.iter().all(|v| v.is_finite()) {
+            return false;
+        }
+        let key = point_in_keyframe.map(|v| (v / self.voxel_m).floor().clamp(i32::MIN as f64, i32::MAX as f64) as i32);
+        if !self.occupied.insert([key.x, key.y, key.z]) {
+            return false;
+        }
+        self.points.push([point_in_keyframe.x as f32, point_in_keyframe.y as f32, point_in_keyframe.z as f32]);
+        true
+    }
+
+    pub fn keyframes(&self) -> usize {
+        self.starts.len()
+    }
+
+    /// Points stored over all keyframes.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Keyframe `k`'s points (empty when out of range).
+    pub fn points_of(&self, k: usize) -> &[[f32; 3]] {
+        let Some(&a) = self.starts.get(k) else { return &[] };
+        let b = self.starts.get(k + 1).copied().unwrap_or(self.points.len());
+        &self.points[a..b]
+    }
+}
+
+/// Rebuilds `map` from every keyframe cloud registered with `world_from_keyframe` (keyframes
+/// beyond the shorter of the two are skipped); the next `update` recomputes every cell. Returns
+/// the number of points inserted. O(points).
+pub fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_from_keyframe: &[Se3]) -> usize {
+    map.clear();
+    let mut n = 0;
+    for (k, pose) in world_from_keyframe.iter().enumerate().take(clouds.keyframes()) {
+        let r = pose.rotation_matrix();
+        let t = pose.translation;
+        let pts = clouds.points_of(k);
+        n += map
+            .insert_points(pts.iter().map(|p| Point3::from(r * Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) + t)))
+            .inserted;
+    }
+    n
+}
+
+/// The odometry factor's covariance in its right-perturbation tangent from the world-axis
+/// errors since the keyframe: planar `(x, y, yaw)` covariance, height variance, per-axis tilt
+/// variance; `world_from_current` is the odometry rotation now. `Σ = B Σ_w Bᵀ`,
+/// `B = diag(Rᵀ, Rᵀ)` (module doc), plus the diagonal floor.
+pub fn relative_covariance(planar_world: &Matrix3<f64>, var_z_m2: f64, var_tilt_rad2: f64, world_from_current: &Matrix3<f64>) -> Matrix6<f64> {
+    let mut w = Matrix6::zeros();
+    let map = [0usize, 1, 5];
+    for (i, &a) in map.iter().enumerate() {
+        for (j, &b) in map.iter().enumerate() {
+            w[(a, b)] = planar_world[(i, j)];
+        }
+    }
+    w[(2, 2)] = var_z_m2;
+    w[(3, 3)] = var_tilt_rad2;
+    w[(4, 4)] = var_tilt_rad2;
+    let mut b = Matrix6::zeros();
+    let rt = world_from_current.transpose();
+    b.fixed_view_mut::<3, 3>(0, 0).copy_from(&rt);
+    b.fixed_view_mut::<3, 3>(3, 3).copy_from(&rt);
+    let mut s = b * w * b.transpose();
+    for i in 0..6 {
+        s[(i, i)] += COV_FLOOR;
+    }
+    (s + s.transpose()) * 0.5
+}
+
+/// Covariance of `T_k · T_rel` (right perturbations) from the keyframe's `Σ_k` and the
+/// relative motion's `Σ_rel`, independent: `Ad(T_rel⁻¹) Σ_k Ad(T_rel⁻¹)ᵀ + Σ_rel`.
+pub fn compound_covariance(keyframe: &Matrix6<f64>, keyframe_from_current: &Se3, relative: &Matrix6<f64>) -> Matrix6<f64> {
+    let ad = keyframe_from_current.inverse().adjoint();
+    let s = ad * keyframe * ad.transpose() + relative;
+    (s + s.transpose()) * 0.5
+}
+
+/// A landmark's world covariance from one observation: `R C Rᵀ + G Σ Gᵀ`, `G = R [I, −[p]×]`
+/// (first-order, pose and observation independent).
+pub fn anchored_landmark_covariance(world_from_robot: &Se3, pose_covariance: &Matrix6<f64>, point_in_robot: &Vector3<f64>, observation: &Matrix3<f64>) -> Matrix3<f64> {
+    let r = world_from_robot.rotation_matrix();
+    let mut g = nalgebra::Matrix3x6::zeros();
+    g.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
+    g.fixed_view_mut::<3, 3>(0, 3).copy_from(&(-r * hat(point_in_robot)));
+    let q = r * observation * r.transpose() + g * pose_covariance * g.transpose();
+    (q + q.transpose()) * 0.5
+}
+
+/// What one keyframe did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct KeyframeOutcome {
+    /// The update optimised the whole graph (a loop closure).
+    pub loop_closure: bool,
+    /// The traversability map must be rebuilt ([`SlamFrontend::reregister_map`]).
+    pub reregister: bool,
+}
+
+/// The front end and its [`GraphSlam`]; see the module doc.
+#[derive(Debug)]
+pub struct SlamFrontend {
+    params: SlamParams,
+    slam: GraphSlam,
+    /// Dead-reckoned planar track and height (world frame).
+    odo: Pose2,
+    odo_z_m: f64,
+    /// Gyro-integrated roll, pitch.
+    tilt_rad: [f64; 2],
+    odo_at_keyframe: Se3,
+    /// Errors since the keyframe: planar (x, y, yaw) and height.
+    rel_planar_cov: Matrix3<f64>,
+    rel_var_z_m2: f64,
+    rel_var_tilt_rad2: f64,
+    keyframe_pose: Se3,
+    keyframe_cov: Matrix6<f64>,
+    keyframes_since_marginal: usize,
+    clouds: KeyframeClouds,
+    /// The pose each keyframe's clouds were last registered with.
+    registered: Vec<Se3>,
+    loop_closures: u64,
+    reregistrations: u64,
+    landmark_cov: BTreeMap<u64, Matrix3<f64>>,
+    landmark_refreshed_at: usize,
+    scratch: Vec<LandmarkObservation>,
+}
+
+impl SlamFrontend {
+    /// Starts at `world_from_start` (the first keyframe, fixed) with its (roll, pitch)
+    /// `tilt_rad` and the camera's first observations.
+    pub fn new(params: SlamParams, world_from_start: Se3, start: Pose2, tilt_rad: [f64; 2], observations: &[CameraObservation]) -> Result<Self, SlamError> {
+        let mut scratch = Vec::new();
+        select_observations(observations, |_| false, params.max_observations_per_keyframe, &mut scratch);
+        let slam = GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?;
+        let mut clouds = KeyframeClouds::new(params.cloud_voxel_m);
+        clouds.start_keyframe();
+        let mut me = Self {
+            slam,
+            odo: start,
+            odo_z_m: world_from_start.translation.z,
+            tilt_rad,
+            odo_at_keyframe: Se3::identity(),
+            rel_planar_cov: Matrix3::zeros(),
+            rel_var_z_m2: 0.0,
+            rel_var_tilt_rad2: 0.0,
+            keyframe_pose: world_from_start,
+            keyframe_cov: Matrix6::zeros(),
+            keyframes_since_marginal: 0,
+            clouds,
+            registered: vec![world_from_start],
+            loop_closures: 0,
+            reregistrations: 0,
+            landmark_cov: BTreeMap::new(),
+            landmark_refreshed_at: 0,
+            scratch: Vec::new(),
+            params,
+        };
+        me.odo_at_keyframe = me.odometry_pose();
+        me.anchor_new_landmarks(&scratch);
+        Ok(me)
+    }
+
+    pub fn params(&self) -> &SlamParams {
+        &self.params
+    }
+
+    pub fn backend(&self) -> &GraphSlam {
+        &self.slam
+    }
+
+    pub fn clouds(&self) -> &KeyframeClouds {
+        &self.clouds
+    }
+
+    /// Full optimisations triggered by loop closures so far.
+    pub fn loop_closures(&self) -> u64 {
+        self.loop_closures
+    }
+
+    /// Traversability rebuilds requested so far.
+    pub fn reregistrations(&self) -> u64 {
+        self.reregistrations
+    }
+
+    /// One control tick of odometry: measured distance `ds_m`, turn `dtheta_rad`, change of
+    /// (roll, pitch) `dtilt_rad`, and their noise variances. O(1).
+    pub fn odometry_step(&mut self, ds_m: f64, dtheta_rad: f64, dtilt_rad: [f64; 2], var_ds: f64, var_dtheta: f64, var_dtilt: f64) {
+        let th = self.odo.yaw_rad + 0.5 * dtheta_rad;
+        let (c, s) = (th.cos(), th.sin());
+        let f = Matrix3::new(1.0, 0.0, -ds_m * s, 0.0, 1.0, ds_m * c, 0.0, 0.0, 1.0);
+        let l = nalgebra::Matrix3x2::new(c, -0.5 * ds_m * s, s, 0.5 * ds_m * c, 0.0, 1.0);
+        let q = nalgebra::Matrix2::new(var_ds, 0.0, 0.0, var_dtheta);
+        self.rel_planar_cov = f * self.rel_planar_cov * f.transpose() + l * q * l.transpose();
+        let tilt = [self.tilt_rad[0] + dtilt_rad[0], self.tilt_rad[1] + dtilt_rad[1]];
+        let pitch = 0.5 * (self.tilt_rad[1] + tilt[1]);
+        self.odo_z_m -= ds_m * pitch.tan();
+        self.rel_var_tilt_rad2 += var_dtilt;
+        self.rel_var_z_m2 += ds_m * ds_m * self.rel_var_tilt_rad2 + self.params.z_sigma_per_sqrt_m.powi(2) * ds_m.abs();
+        self.odo = Pose2 { x_m: self.odo.x_m + ds_m * c, y_m: self.odo.y_m + ds_m * s, yaw_rad: wrap_pi(self.odo.yaw_rad + dtheta_rad) };
+        self.tilt_rad = tilt;
+    }
+
+    /// The odometry (dead-reckoned) pose `T_o`.
+    fn odometry_pose(&self) -> Se3 {
+        let r = Rotation3::from_euler_angles(self.tilt_rad[0], self.tilt_rad[1], self.odo.yaw_rad);
+        Se3::new(UnitQuaternion::from_rotation_matrix(&r), Vector3::new(self.odo.x_m, self.odo.y_m, self.odo_z_m))
+    }
+
+    /// `T_o(k)⁻¹ T_o(now)`: the odometry since the latest keyframe.
+    pub fn keyframe_from_current(&self) -> Se3 {
+        self.odo_at_keyframe.inverse() * self.odometry_pose()
+    }
+
+    /// `world_from_robot` estimate: the latest keyframe ⊕ odometry since.
+    pub fn estimate(&self) -> Se3 {
+        self.keyframe_pose * self.keyframe_from_current()
+    }
+
+    fn relative_cov(&self) -> Matrix6<f64> {
+        relative_covariance(&self.rel_planar_cov, self.rel_var_z_m2, self.rel_var_tilt_rad2, &self.odometry_pose().rotation_matrix())
+    }
+
+    /// 6×6 covariance of [`Self::estimate`] (ξ = (δt, δφ), body frame).
+    pub fn covariance(&self) -> Matrix6<f64> {
+        compound_covariance(&self.keyframe_cov, &self.keyframe_from_current(), &self.relative_cov())
+    }
+
+    /// Whether the robot moved or turned enough for a new keyframe.
+    pub fn keyframe_due(&self) -> bool {
+        let k = self.odo_at_keyframe;
+        let moved = (self.odo.x_m - k.translation.x).hypot(self.odo.y_m - k.translation.y);
+        let k_yaw = k.rotation.euler_angles().2;
+        let turned = wrap_pi(self.odo.yaw_rad - k_yaw).abs();
+        moved >= self.params.keyframe_every_m || turned >= self.params.keyframe_every_rad
+    }
+
+    /// Adds a keyframe at the current odometry pose with the camera's observations, updates the
+    /// graph and the covariances, and decides on re-registration.
+    pub fn add_keyframe(&mut self, observations: &[CameraObservation]) -> Result<KeyframeOutcome, SlamError> {
+        let rel = self.keyframe_from_current();
+        let odometry = Odometry { previous_from_current: rel, covariance: self.relative_cov() };
+        let compounded = self.covariance();
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let slam = &self.slam;
+        select_observations(observations, |id| slam.has_landmark(id), self.params.max_observations_per_keyframe, &mut scratch);
+        let update = self.slam.add_keyframe(&odometry, &scratch);
+        let update = match update {
+            Ok(u) => u,
+            Err(e) => {
+                self.scratch = scratch;
+                return Err(e);
+            }
+        };
+        self.keyframe_pose = self.slam.current_pose();
+        self.odo_at_keyframe = self.odometry_pose();
+        self.rel_planar_cov = Matrix3::zeros();
+        self.rel_var_z_m2 = 0.0;
+        self.rel_var_tilt_rad2 = 0.0;
+        self.keyframes_since_marginal += 1;
+        self.keyframe_cov = compounded;
+        let exact_due = update.full || self.keyframes_since_marginal >= self.params.marginal_every_keyframes;
+        if let Some(c) = exact_due.then(|| self.slam.current_pose_covariance().ok()).flatten() {
+            self.keyframe_cov = c;
+            self.keyframes_since_marginal = 0;
+        }
+        self.anchor_new_landmarks(&scratch);
+        self.scratch = scratch;
+        self.clouds.start_keyframe();
+        self.registered.push(self.keyframe_pose);
+        let mut out = KeyframeOutcome { loop_closure: update.full, reregister: false };
+        if update.full {
+            self.loop_closures += 1;
+            let poses = self.slam.keyframe_poses();
+            let lever = self.params.reregister_lever_m;
+            let moved = poses.iter().zip(&self.registered).any(|(now, then)| {
+                let d = then.between(now);
+                d.translation.norm() + lever * crate::slam::lie::so3_log(&d.rotation).norm() > self.params.reregister_shift_m
+            });
+            if moved {
+                self.registered = poses;
+                self.reregistrations += 1;
+                out.reregister = true;
+            }
+        }
+        Ok(out)
+    }
+
+    /// Anchored covariances for landmarks first seen in `observations` (from the latest keyframe).
+    fn anchor_new_landmarks(&mut self, observations: &[LandmarkObservation]) {
+        for o in observations {
+            self.landmark_cov.entry(o.landmark_id).or_insert_with(|| {
+                anchored_landmark_covariance(&self.keyframe_pose, &self.keyframe_cov, &o.point_in_robot, &o.covariance)
+            });
+        }
+    }
+
+    /// Stores body-frame points `points_in_body` (taken now) in the latest keyframe's cloud and
+    /// appends them, registered with the current estimate, to `world_out`.
+    pub fn register_points(&mut self, points_in_body: &[Vector3<f64>], world_out: &mut Vec<Point3<f64>>) {
+        let rel = self.keyframe_from_current();
+        let est = self.keyframe_pose * rel;
+        for p in points_in_body {
+            self.clouds.push(&rel.transform_point(p));
+            world_out.push(Point3::from(est.transform_point(p)));
+        }
+    }
+
+    /// Rebuilds `map` from the keyframe clouds with the current keyframe poses.
+    pub fn reregister_map(&self, map: &mut TraversabilityMap) -> usize {
+        reregister(map, &self.clouds, &self.registered)
+    }
+
+    /// When `landmark_refresh_keyframes` keyframes were added since the last refresh, recomputes
+    /// the exact marginals of the landmarks seen since. Returns whether it did.
+    pub fn refresh_landmark_covariances(&mut self) -> bool {
+        let k = self.slam.keyframe_count();
+        if k < self.landmark_refreshed_at + self.params.landmark_refresh_keyframes {
+            return false;
+        }
+        if self.slam.keyframe_count() < 2 {
+            return false;
+        }
+        let Ok(lms) = self.slam.recent_landmarks(self.landmark_refreshed_at) else { return false };
+        for l in lms {
+            self.landmark_cov.insert(l.landmark_id, l.covariance);
+        }
+        self.landmark_refreshed_at = k;
+        true
+    }
+
+    /// The landmark map: current positions by increasing id, with the cached covariances.
+    pub fn landmark_map(&self) -> PointCloud {
+        let lms = self.slam.landmark_positions();
+        let mut points = Vec::with_capacity(lms.len());
+        let mut covs = Vec::with_capacity(lms.len());
+        for (id, p) in lms {
+            points.push(Point3::from(p));
+            covs.push(self.landmark_cov.get(&id).copied().unwrap_or_else(Matrix3::zeros));
+        }
+        PointCloud { points, covariances: Some(covs), classification: None }
+    }
+}
+
+/// The observations to use: landmarks already mapped first (by id), then new ones nearest first,
+/// at most `cap`, returned by increasing id.
+fn select_observations(observations: &[CameraObservation], known: impl Fn(u64) -> bool, cap: usize, out: &mut Vec<LandmarkObservation>) {
+    out.clear();
+    let mut order: Vec<(bool, u64, usize)> = observations
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let k = known(o.landmark_id);
+            // Known: by id; new: by squared distance (as integer micrometres², ties by id).
+            let key = if k { o.landmark_id } else { (o.point_in_robot.norm_squared() * 1e6) as u64 };
+            (!k, key, i)
+        })
+        .collect();
+    order.sort_unstable();
+    order.truncate(cap);
+    order.sort_unstable_by_key(|&(_, _, i)| observations[i].landmark_id);
+    out.extend(order.iter().map(|&(_, _, i)| {
+        let o = &observations[i];
+        LandmarkObservation { landmark_id: o.landmark_id, point_in_robot: o.point_in_robot, covariance: o.covariance }
+    }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridGeometry;
+    use crate::sim::odometry::OdometryNoise;
+    use crate::slam::CovarianceTraces;
+
+    #[test]
+    fn keyframe_clouds_keep_one_point_per_voxel_per_keyframe() {
+        let mut c = KeyframeClouds::new(0.05);
+        assert!(!c.push(&Vector3::new(0.01, 0.01, 0.0)), "no keyframe yet");
+        c.start_keyframe();
+        assert!(c.push(&Vector3::new(0.01, 0.01, 0.0)));
+        assert!(!c.push(&Vector3::new(0.04, 0.02, 0.03)), "same 5 cm voxel");
+        assert!(c.push(&Vector3::new(0.06, 0.01, 0.0)));
+        assert!(!c.push(&Vector3::new(f64::NAN, 0.0, 0.0)));
+        c.start_keyframe();
+        assert!(c.push(&Vector3::new(0.01, 0.01, 0.0)), "a new keyframe has its own voxels");
+        assert_eq!((c.keyframes(), c.len()), (2, 3));
+        assert_eq!(c.points_of(0).len(), 2);
+        assert_eq!(c.points_of(1), &[[0.01f32, 0.01, 0.0]]);
+        assert!(c.points_of(2).is_empty());
+    }
+
+    /// Cells of `map` holding at least one point.
+    fn occupied(map: &TraversabilityMap) -> Vec<usize> {
+        map.moments().iter().enumerate().filter(|(_, m)| m.count > 0).map(|(i, _)| i).collect()
+    }
+
+    #[test]
+    fn reregistration_moves_the_map_with_the_keyframes() {
+        let g = GridGeometry::new(0.0, 0.0, 0.05, 80, 80);
+        let mut map = TraversabilityMap::new(g).unwrap();
+        let mut clouds = KeyframeClouds::new(0.05);
+        // Two keyframes, each a 0.2 m × 0.2 m flat patch centred on it (body frame).
+        for _ in 0..2 {
+            clouds.start_keyframe();
+            for i in 0..4 {
+                for j in 0..4 {
+                    clouds.push(&Vector3::new(-0.075 + 0.05 * i as f64, -0.075 + 0.05 * j as f64, 0.0));
+                }
+            }
+        }
+        let at = |x: f64, y: f64, yaw: f64| Se3::new(UnitQuaternion::from_euler_angles(0.0, 0.0, yaw), Vector3::new(x, y, 0.0));
+        let cell = |x: f64, y: f64| g.index(g.cell_of(x, y).unwrap()).unwrap();
+        assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0, 0.0), at(3.0, 1.0, 0.0)]), 32);
+        let before = occupied(&map);
+        assert_eq!(before.len(), 32, "16 cells per patch");
+        assert!(before.contains(&cell(1.0, 1.0)) && before.contains(&cell(3.0, 1.0)) && !before.contains(&cell(2.0, 2.0)));
+        // The second keyframe moved by 1 m in y (and turned): its cells move, the first's stay.
+        assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0, 0.0), at(3.0, 2.0, 0.3)]), 32);
+        let after = occupied(&map);
+        assert!(after.contains(&cell(1.0, 1.0)) && after.contains(&cell(3.0, 2.0)));
+        assert!(!after.contains(&cell(3.0, 1.0)), "the old registration is gone");
+        assert_eq!(map.point_count(), 32);
+        // Fewer poses than clouds: the unposed keyframe is skipped.
+        assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0, 0.0)]), 16);
+    }
+
+    #[test]
+    fn relative_covariance_is_rotated_into_the_current_body_frame() {
+        // Body x = world y (yaw 90°): world x/y variances swap, tilt stays per axis, yaw stays.
+        let p = Matrix3::from_diagonal(&Vector3::new(1e-2, 4e-2, 9e-4));
+        let r = Rotation3::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2).into_inner();
+        let s = relative_covariance(&p, 2e-3, 5e-4, &r);
+        let expect = [4e-2, 1e-2, 2e-3, 5e-4, 5e-4, 9e-4];
+        for i in 0..6 {
+            assert!((s[(i, i)] - expect[i] - COV_FLOOR).abs() < 1e-12, "{i}: {}", s[(i, i)]);
+        }
+        assert!(s.cholesky().is_some());
+        // Turning in place (no translation noise): still invertible thanks to the floor.
+        assert!(relative_covariance(&Matrix3::zeros(), 0.0, 0.0, &Matrix3::identity()).cholesky().is_some());
+    }
+
+    #[test]
+    fn compounding_adds_the_yaw_lever_arm() {
+        // Keyframe yaw variance σ² only; 2 m straight ahead: the lateral variance is (2σ)².
+        let sigma2 = 1e-4;
+        let mut k = Matrix6::zeros();
+        k[(5, 5)] = sigma2;
+        let rel = Se3::new(UnitQuaternion::identity(), Vector3::new(2.0, 0.0, 0.0));
+        let c = compound_covariance(&k, &rel, &Matrix6::zeros());
+        assert!((c[(1, 1)] - 4.0 * sigma2).abs() < 1e-15 && c[(0, 0)].abs() < 1e-15 && (c[(5, 5)] - sigma2).abs() < 1e-15);
+        assert!((c[(1, 5)] - 2.0 * sigma2).abs() < 1e-15, "lateral error and yaw are correlated");
+    }
+
+    /// A scripted loop: a circle of radius 2 m driven in 5 cm steps, landmarks only near the
+    /// start, noise-free measurements with the model's covariances.
+    #[test]
+    fn covariance_grows_while_driving_and_drops_at_the_loop_closure() {
+        let radius = 2.0;
+        let landmarks: Vec<Vector3<f64>> = (0..12).map(|i| Vector3::new(1.0 + 0.3 * i as f64, if i % 2 == 0 { -1.2 } else { 1.2 }, 0.2)).collect();
+        // Robot at angle a on the circle centred (0, radius), heading tangent (start at origin, yaw 0).
+        let pose_at = |a: f64| Pose2 { x_m: radius * a.sin(), y_m: radius - radius * a.cos(), yaw_rad: wrap_pi(a) };
+        let se3 = |p: Pose2| Se3::new(UnitQuaternion::from_euler_angles(0.0, 0.0, p.yaw_rad), Vector3::new(p.x_m, p.y_m, 0.0));
+        let observe = |p: Pose2| -> Vec<CameraObservation> {
+            let t = se3(p);
+            landmarks
+                .iter()
+                .enumerate()
+                .filter_map(|(i, m)| {
+                    let v = t.inverse_transform_point(m);
+                    (v.x > 0.3 && v.x < 3.0 && v.y.abs() < v.x).then(|| CameraObservation { landmark_id: i as u64, point_in_robot: v, covariance: Matrix3::identity() * 1e-4 })
+                })
+                .collect()
+        };
+        let noise = OdometryNoise::default();
+        let start = pose_at(0.0);
+        let mut fe = SlamFrontend::new(SlamParams::default(), se3(start), start, [0.0, 0.0], &observe(start)).unwrap();
+        assert!(fe.backend().landmark_count() > 0);
+        let (ds, dt) = (0.05, 0.125);
+        let dth = ds / radius;
+        let steps = (std::f64::consts::TAU * radius / ds).round() as usize + 20;
+        let mut traces = Vec::new(); // (keyframe, trace before, trace after, loop closure)
+        for k in 1..=steps {
+            let (vs, vt) = noise.variances(ds, dth, dt);
+            fe.odometry_step(ds, dth, [0.0, 0.0], vs, vt, 0.0);
+            if fe.keyframe_due() {
+                let before = CovarianceTraces::of(&fe.covariance()).cov_trace;
+                let o = fe.add_keyframe(&observe(pose_at(k as f64 * dth))).unwrap();
+                let after = CovarianceTraces::of(&fe.covariance()).cov_trace;
+                traces.push((fe.backend().keyframe_count() - 1, before, after, o.loop_closure));
+            }
+        }
+        let closing = traces.iter().position(|t| t.3).expect("returning to the start closes the loop");
+        assert_eq!(fe.loop_closures(), 1, "the cool-down keeps it to one full optimisation");
+        // 0.5 m per keyframe: about 25 keyframes per lap; the landmarks ahead of the start come
+        // into view a few keyframes before it (gap ≥ 20 keyframes).
+        assert!((20..=27).contains(&traces[closing].0), "{:?}", traces[closing]);
+        // Growing while away from the landmarks (keyframes 6‥18, before the periodic exact
+        // marginal at keyframe 20, which is lower: it holds the landmark information)…
+        assert!(closing > 18);
+        let far: Vec<f64> = traces[5..18].iter().map(|t| t.2).collect();
+        assert!(far.windows(2).all(|w| w[1] >= w[0] * 0.999), "{far:?}");
+        assert!(far[far.len() - 1] > 3.0 * far[0], "{far:?}");
+        // …and dropping at the closure (the exact marginal, pulled back by the old landmarks).
+        let (_, before, after, _) = traces[closing];
+        assert!(after < 0.5 * before, "{before} → {after}");
+        // The estimate is back at the truth (noise-free measurements).
+        let truth = pose_at(steps as f64 * dth);
+        let err = (fe.estimate().translation - Vector3::new(truth.x_m, truth.y_m, 0.0)).norm();
+        assert!(err < 1e-3, "{err}"); // the arc integrated in chords: sub-millimetre
+    }
+}

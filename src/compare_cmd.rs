@@ -1,0 +1,431 @@
+//! `fitslam compare`: the paper's experiment (notes §8). Every strategy × seed runs as one
+//! `explore` mission, in parallel (rayon, `--jobs` threads), each writing explore's files into
+//! `DIR/<strategy>/seed_<s>/`. Then:
+//! - `DIR/unexplored.{png,svg}` and `DIR/cov_trace.{png,svg}` (the paper's Figs. 5–6): per
+//!   strategy, the mean over seeds and a band from the 25th to the 75th percentile, on a common
+//!   time grid of [`GRID_POINTS`] points from 0 to the longest run's end. A run that ended earlier
+//!   holds its last value (an explored map stays explored; its covariance stays where it was).
+//! - `DIR/summary.csv`: one row per run (strategy order as given, then seed order); byte-identical
+//!   whatever `--jobs` (no wall times in it).
+//! - `DIR/summary.md`: per strategy and metric the median, the interquartile range and min–max
+//!   over seeds, and per baseline and metric the two-sided Mann–Whitney U test against `fit`
+//!   (against the first strategy listed when `fit` is not).
+
+use crate::explore_cmd::{
+    localisation_of, load_setup, progress_bar, run_and_write, strategy_of, ExploreArgs, LocalisationArg, RunOutput,
+    StrategyArg, COV_TRACE_LABEL,
+};
+use crate::load;
+use crate::plot::{Curve, Figure};
+use crate::stats::{mann_whitney_u, percentile, Spread};
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use fitslam_core::sim::{EndReason, MetricsRow, Summary};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// Points of the common time grid of the figures.
+pub const GRID_POINTS: usize = 400;
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// World file (TOML, see assets/worlds/).
+    #[arg(long)]
+    pub world: PathBuf,
+    /// Comma-separated strategies: fit, greedy, random, u1.
+    #[arg(long, default_value = "fit,greedy,random")]
+    pub strategies: String,
+    /// Number of seeds per strategy (seeds seed_start ..= seed_start + N − 1).
+    #[arg(long, default_value_t = 20)]
+    pub seeds: u64,
+    /// First seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed_start: u64,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Planner parameters (TOML or YAML); default: the paper's.
+    #[arg(long)]
+    pub params: Option<PathBuf>,
+    /// Simulator parameters (TOML, `MissionParams`); default: built-in.
+    #[arg(long)]
+    pub sim_params: Option<PathBuf>,
+    /// Localisation; default: the same as `explore`'s.
+    #[arg(long, value_enum)]
+    pub localisation: Option<LocalisationArg>,
+    /// Parallel runs (rayon threads); default: the available cores.
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Overrides the world's time limit, seconds.
+    #[arg(long)]
+    pub time_limit_s: Option<f64>,
+}
+
+/// The figures of one run that the summary uses.
+#[derive(Clone, Debug)]
+struct RunFigures {
+    strategy: StrategyArg,
+    seed: u64,
+    summary: Summary,
+    mean_cov_trace: f64,
+    rows: Vec<MetricsRow>,
+}
+
+/// A metric of the summary: its name, column header, and how to read it from a run.
+struct Metric {
+    csv: &'static str,
+    header: &'static str,
+    get: fn(&RunFigures) -> f64,
+}
+
+const METRICS: [Metric; 8] = [
+    Metric { csv: "time_s", header: "end time (s)", get: |r| r.summary.time_s },
+    Metric { csv: "unexplored_pct", header: "final unexplored (%)", get: |r| r.summary.unexplored_pct },
+    Metric { csv: "mean_cov_trace", header: "mean tr(cov)", get: |r| r.mean_cov_trace },
+    Metric { csv: "final_cov_trace", header: "final tr(cov)", get: |r| r.summary.final_cov_trace },
+    Metric { csv: "ate_rmse_m", header: "ATE RMSE (m)", get: |r| r.summary.ate_rmse_m },
+    Metric { csv: "distance_m", header: "distance (m)", get: |r| r.summary.distance_m },
+    Metric { csv: "gt_violations", header: "GT violations", get: |r| r.summary.gt_violations as f64 },
+    Metric { csv: "loop_closures", header: "loop closures", get: |r| r.summary.loop_closures as f64 },
+];
+
+fn name(s: StrategyArg) -> String {
+    s.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_else(|| format!("{s:?}").to_lowercase())
+}
+
+/// Parses `fit,greedy,…` (no duplicates, at least one).
+fn parse_strategies(text: &str) -> Result<Vec<StrategyArg>> {
+    let mut out = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let s = StrategyArg::from_str(part, true)
+            .map_err(|_| anyhow::anyhow!("--strategies {text:?}: unknown strategy {part:?} (expected fit, greedy, random or u1)"))?;
+        if out.contains(&s) {
+            bail!("--strategies {text:?}: {part:?} is listed twice");
+        }
+        out.push(s);
+    }
+    Ok(out)
+}
+
+/// `explore`'s default localisation, read from its command-line definition so both stay equal.
+fn explore_default_localisation() -> Result<LocalisationArg> {
+    use clap::Args as _;
+    let cmd = ExploreArgs::augment_args(clap::Command::new("explore"));
+    let default = cmd
+        .get_arguments()
+        .find(|a| a.get_id() == "localisation")
+        .and_then(|a| a.get_default_values().first().and_then(|v| v.to_str()).map(str::to_string))
+        .context("explore has no default localisation")?;
+    LocalisationArg::from_str(&default, true).map_err(anyhow::Error::msg)
+}
+
+pub fn run(args: &CompareArgs) -> Result<()> {
+    let strategies = parse_strategies(&args.strategies)?;
+    if args.seeds == 0 {
+        bail!("--seeds 0: at least one seed is needed");
+    }
+    let Some(seed_end) = args.seed_start.checked_add(args.seeds - 1) else {
+        bail!("--seed-start {} --seeds {}: the seeds overflow u64", args.seed_start, args.seeds);
+    };
+    let jobs = match args.jobs {
+        Some(0) => bail!("--jobs 0: at least one thread is needed"),
+        Some(j) => j,
+        None => std::thread::available_parallelism().map(usize::from).unwrap_or(1),
+    };
+    let localisation = match args.localisation {
+        Some(l) => l,
+        None => explore_default_localisation()?,
+    };
+    let setup = load_setup(&args.world, args.params.as_deref(), args.sim_params.as_deref(), args.time_limit_s)?;
+    let runs: Vec<(StrategyArg, u64)> =
+        strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start the thread pool")?;
+    let bar = progress_bar(runs.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
+    let wall = std::time::Instant::now();
+    let results: Vec<Result<(RunFigures, f64)>> = pool.install(|| {
+        runs.par_iter()
+            .map(|&(strategy, seed)| {
+                let dir = args.out.join(name(strategy)).join(format!("seed_{seed}"));
+                let RunOutput { summary, rows, wall_s } = run_and_write(
+                    &setup,
+                    strategy_of(strategy),
+                    seed,
+                    localisation_of(localisation),
+                    &dir,
+                    &ProgressBar::hidden(),
+                )?;
+                bar.inc(1);
+                bar.set_message(format!("(last: {} seed {seed})", name(strategy)));
+                let mean_cov_trace =
+                    if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
+                Ok((RunFigures { strategy, seed, summary, mean_cov_trace, rows }, wall_s))
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+    let wall_s = wall.elapsed().as_secs_f64();
+    let mut figures = Vec::with_capacity(results.len());
+    let mut run_wall_s = 0.0;
+    for r in results {
+        let (f, w) = r?;
+        figures.push(f);
+        run_wall_s += w;
+    }
+
+    load::write(&args.out.join("summary.csv"), summary_csv(&figures).as_bytes())?;
+    write_figures(&args.out, &setup.world.spec.name, &strategies, &figures)?;
+    let md = summary_md(&setup.world.spec.name, &strategies, &figures, &command_line(), localisation);
+    load::write(&args.out.join("summary.md"), md.as_bytes())?;
+    println!(
+        "{}: {} runs ({} strategies × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png",
+        args.out.display(),
+        figures.len(),
+        strategies.len(),
+        args.seeds,
+        wall_s,
+        run_wall_s
+    );
+    Ok(())
+}
+
+/// The command as typed, with the program named `fitslam`.
+fn command_line() -> String {
+    let mut s = String::from("fitslam");
+    for a in std::env::args().skip(1) {
+        s.push(' ');
+        s.push_str(&a);
+    }
+    s
+}
+
+fn end_reason(r: Option<EndReason>) -> &'static str {
+    match r {
+        Some(EndReason::NoFrontier) => "no_frontier",
+        Some(EndReason::TimeLimit) => "time_limit",
+        None => "none",
+    }
+}
+
+/// One row per run, strategy order then seed order.
+fn summary_csv(figures: &[RunFigures]) -> String {
+    let mut s = String::from("strategy,seed,end_reason");
+    for m in &METRICS {
+        s.push(',');
+        s.push_str(m.csv);
+    }
+    s.push_str(",goals_reached,goals_failed,decisions\n");
+    for f in figures {
+        let _ = write!(s, "{},{},{}", name(f.strategy), f.seed, end_reason(f.summary.end_reason));
+        for m in &METRICS {
+            let _ = write!(s, ",{:.6e}", (m.get)(f));
+        }
+        let _ = writeln!(s, ",{},{},{}", f.summary.goals_reached, f.summary.goals_failed, f.summary.decisions);
+    }
+    s
+}
+
+/// `v` at each grid time: the last row at or before it (the first row before the first).
+fn resample(rows: &[MetricsRow], grid: &[f64], get: fn(&MetricsRow) -> f64) -> Vec<f64> {
+    let mut k = 0;
+    grid.iter()
+        .map(|&t| {
+            while k + 1 < rows.len() && rows[k + 1].time_s <= t {
+                k += 1;
+            }
+            rows.get(k).map(get).unwrap_or(f64::NAN)
+        })
+        .collect()
+}
+
+/// Mean and 25–75 % band per strategy over the common grid.
+fn curves(strategies: &[StrategyArg], figures: &[RunFigures], get: fn(&MetricsRow) -> f64) -> Vec<Curve> {
+    let t_end = figures.iter().filter_map(|f| f.rows.last()).map(|r| r.time_s).fold(0.0, f64::max);
+    let grid: Vec<f64> = (0..GRID_POINTS).map(|k| t_end * k as f64 / (GRID_POINTS - 1) as f64).collect();
+    strategies
+        .iter()
+        .map(|&s| {
+            let runs: Vec<Vec<f64>> =
+                figures.iter().filter(|f| f.strategy == s).map(|f| resample(&f.rows, &grid, get)).collect();
+            let column = |k: usize| -> Vec<f64> { runs.iter().map(|r| r[k]).filter(|v| v.is_finite()).collect() };
+            let (mut mean, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
+            for k in 0..grid.len() {
+                let c = column(k);
+                mean.push(if c.is_empty() { f64::NAN } else { c.iter().sum::<f64>() / c.len() as f64 });
+                lo.push(percentile(&c, 0.25).unwrap_or(f64::NAN));
+                hi.push(percentile(&c, 0.75).unwrap_or(f64::NAN));
+            }
+            Curve { label: format!("{} (n = {})", name(s), runs.len()), t_s: grid.clone(), y: mean, band: Some((lo, hi)) }
+        })
+        .collect()
+}
+
+fn write_figures(out: &std::path::Path, world: &str, strategies: &[StrategyArg], figures: &[RunFigures]) -> Result<()> {
+    let note = "mean over seeds, band 25–75 %";
+    Figure {
+        title: format!("Unexplored area — {world} ({note})"),
+        x_label: "time (s)".into(),
+        y_label: "unexplored (% of explorable cells)".into(),
+        y_range: Some((0.0, 100.0)),
+        curves: curves(strategies, figures, |r| r.unexplored_pct),
+    }
+    .write(out, "unexplored")?;
+    Figure {
+        title: format!("Pose covariance trace — {world} ({note})"),
+        x_label: "time (s)".into(),
+        y_label: COV_TRACE_LABEL.into(),
+        y_range: None,
+        curves: curves(strategies, figures, |r| r.cov_trace),
+    }
+    .write(out, "cov_trace")
+}
+
+/// A number for a table: 3 significant digits, plain when 0.01 ≤ |v| < 10⁵.
+fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if !(0.01..1e5).contains(&a) {
+        format!("{v:.2e}")
+    } else if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 10.0 {
+        format!("{v:.1}")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+fn summary_md(
+    world: &str,
+    strategies: &[StrategyArg],
+    figures: &[RunFigures],
+    command: &str,
+    localisation: LocalisationArg,
+) -> String {
+    let values = |s: StrategyArg, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
+    let mut md = format!("# fitslam compare — {world}\n\n`{command}`\n\n");
+    let seeds: Vec<u64> = figures.iter().filter(|f| f.strategy == strategies[0]).map(|f| f.seed).collect();
+    let _ = writeln!(
+        md,
+        "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds. \
+         *finished* = runs that ended with no frontier left (the others hit the time limit). \
+         tr(cov) is the trace of the (x, y, θ) pose covariance (m² + rad²); mean tr(cov) is its average over the run.\n",
+        strategies.len(),
+        seeds.len(),
+        seeds.first().copied().unwrap_or(0),
+        seeds.last().copied().unwrap_or(0),
+        localisation.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default(),
+    );
+    md.push_str("| strategy | runs | finished |");
+    for m in &METRICS {
+        let _ = write!(md, " {} |", m.header);
+    }
+    md.push_str("\n|---|---|---|");
+    md.push_str(&"---|".repeat(METRICS.len()));
+    md.push('\n');
+    for &s in strategies {
+        let runs: Vec<&RunFigures> = figures.iter().filter(|f| f.strategy == s).collect();
+        let finished = runs.iter().filter(|f| f.summary.end_reason == Some(EndReason::NoFrontier)).count();
+        let _ = write!(md, "| {} | {} | {finished} |", name(s), runs.len());
+        for m in &METRICS {
+            match Spread::of(&values(s, m)) {
+                Some(sp) => {
+                    let _ = write!(md, " **{}** [{}–{}] ({}–{}) |", num(sp.median), num(sp.q25), num(sp.q75), num(sp.min), num(sp.max));
+                }
+                None => md.push_str(" – |"),
+            }
+        }
+        md.push('\n');
+    }
+    let reference = strategies.iter().copied().find(|&s| s == StrategyArg::Fit).unwrap_or(strategies[0]);
+    let baselines: Vec<StrategyArg> = strategies.iter().copied().filter(|&s| s != reference).collect();
+    if !baselines.is_empty() {
+        let _ = writeln!(
+            md,
+            "\n## Each baseline against `{r}`\n\nTwo-sided Mann–Whitney U test, normal approximation with tie and continuity \
+             corrections: p-value, and whether `{r}`'s median is lower, higher or equal. With {n} seeds per strategy, p < 0.05 \
+             is the usual threshold; a metric where every run is equal gives p = 1.\n",
+            r = name(reference),
+            n = seeds.len()
+        );
+        md.push_str("| baseline |");
+        for m in &METRICS {
+            let _ = write!(md, " {} |", m.header);
+        }
+        md.push_str("\n|---|");
+        md.push_str(&"---|".repeat(METRICS.len()));
+        md.push('\n');
+        for &b in &baselines {
+            let _ = write!(md, "| {} |", name(b));
+            for m in &METRICS {
+                let (x, y) = (values(reference, m), values(b, m));
+                match (mann_whitney_u(&x, &y), percentile(&x, 0.5), percentile(&y, 0.5)) {
+                    (Some(t), Some(mx), Some(my)) => {
+                        let dir = if mx < my {
+                            "lower"
+                        } else if mx > my {
+                            "higher"
+                        } else {
+                            "equal"
+                        };
+                        let _ = write!(md, " p = {:.3} ({} {dir}) |", t.p, name(reference));
+                    }
+                    _ => md.push_str(" – |"),
+                }
+            }
+            md.push('\n');
+        }
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(time_s: f64, unexplored_pct: f64) -> MetricsRow {
+        MetricsRow {
+            time_s,
+            unexplored_pct,
+            cov_trace: 0.0,
+            pos_cov_trace: 0.0,
+            rot_cov_trace: 0.0,
+            ate_m: 0.0,
+            distance_m: 0.0,
+            loop_closures: 0,
+            plan_ms: 0.0,
+        }
+    }
+
+    #[test]
+    fn resample_holds_the_last_value() {
+        let rows = [row(0.0, 100.0), row(10.0, 50.0), row(20.0, 30.0)];
+        let grid = [0.0, 5.0, 10.0, 15.0, 25.0, 100.0];
+        assert_eq!(resample(&rows, &grid, |r| r.unexplored_pct), vec![100.0, 100.0, 50.0, 50.0, 30.0, 30.0]);
+        assert!(resample(&[], &grid, |r| r.unexplored_pct).iter().all(|v| v.is_nan()));
+    }
+
+    #[test]
+    fn strategies_parse_and_reject() {
+        assert_eq!(parse_strategies("fit, greedy,U1").unwrap(), vec![StrategyArg::Fit, StrategyArg::Greedy, StrategyArg::U1]);
+        assert!(parse_strategies("fit,best").unwrap_err().to_string().contains("\"best\""));
+        assert!(parse_strategies("fit,fit").is_err());
+        assert!(parse_strategies("").is_err());
+    }
+
+    #[test]
+    fn numbers_in_tables() {
+        assert_eq!(num(0.0), "0");
+        assert_eq!(num(1234.4), "1234");
+        assert_eq!(num(12.34), "12.3");
+        assert_eq!(num(1.234), "1.23");
+        assert_eq!(num(0.001234), "1.23e-3");
+    }
+
+    #[test]
+    fn explore_default_is_readable() {
+        assert!(explore_default_localisation().is_ok());
+    }
+}

@@ -1,0 +1,96 @@
+//! `fitslam compare` end to end on the tiny world with a short time limit: the per-run and
+//! aggregate outputs exist, summary.md has one row per strategy, summary.csv is byte-identical
+//! with 1 and 2 threads, and bad input exits 1 with one line.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_fitslam");
+
+fn world() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/worlds/tiny_test.toml").display().to_string()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("fitslam-compare-{}-{name}", std::process::id()))
+}
+
+fn compare(out: &PathBuf, extra: &[&str]) -> Output {
+    let world = world();
+    let mut args = vec!["compare", "--world", &world, "--time-limit-s", "30"];
+    args.extend_from_slice(extra);
+    Command::new(BIN).args(&args).arg("--out").arg(out).output().expect("run fitslam")
+}
+
+/// Asserts a failed run: exit code 1, no panic, exactly one line on stderr containing `needle`.
+fn assert_clear_error(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line expected: {stderr:?}");
+    assert!(stderr.contains(needle), "expected {needle:?} in {stderr:?}");
+}
+
+#[test]
+fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
+    let a = scratch("j1");
+    let b = scratch("j2");
+    let o = compare(&a, &["--strategies", "fit,random", "--seeds", "2", "--jobs", "1"]);
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    for f in ["summary.csv", "summary.md", "unexplored.png", "unexplored.svg", "cov_trace.png", "cov_trace.svg"] {
+        assert!(a.join(f).is_file(), "missing {f}");
+    }
+    for s in ["fit", "random"] {
+        for seed in [1, 2] {
+            let run = a.join(s).join(format!("seed_{seed}"));
+            for f in ["metrics.csv", "summary.json", "trajectory_est.tum", "trajectory_gt.tum", "map.yaml", "unexplored.png"] {
+                assert!(run.join(f).is_file(), "missing {s}/seed_{seed}/{f}");
+            }
+        }
+    }
+    let csv = std::fs::read_to_string(a.join("summary.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 1 + 4, "{csv}");
+    assert!(lines[0].starts_with("strategy,seed,end_reason,time_s,unexplored_pct,"));
+    let keys: Vec<String> = lines[1..].iter().map(|l| l.split(',').take(2).collect::<Vec<_>>().join(",")).collect();
+    assert_eq!(keys, ["fit,1", "fit,2", "random,1", "random,2"]);
+    // The per-run summary.json agrees with its summary.csv row.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("random/seed_2/summary.json")).unwrap()).unwrap();
+    let time_s: f64 = lines[4].split(',').nth(3).unwrap().parse().unwrap();
+    assert!((json["time_s"].as_f64().unwrap() - time_s).abs() < 1e-6 * time_s.max(1.0));
+
+    let md = std::fs::read_to_string(a.join("summary.md")).unwrap();
+    assert_eq!(md.lines().filter(|l| l.starts_with("| fit |")).count(), 1, "{md}");
+    assert_eq!(md.lines().filter(|l| l.starts_with("| random |")).count(), 2, "per-strategy row + test row: {md}");
+    assert!(md.contains("Mann–Whitney"));
+    assert!(md.contains("p = "));
+    let svg = std::fs::read_to_string(a.join("unexplored.svg")).unwrap();
+    assert!(svg.contains("fit (n = 2)") && svg.contains("random (n = 2)") && svg.contains("time (s)"));
+
+    let o = compare(&b, &["--strategies", "fit,random", "--seeds", "2", "--jobs", "2"]);
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(csv.as_bytes(), std::fs::read(b.join("summary.csv")).unwrap().as_slice(), "jobs 1 vs 2");
+    assert_eq!(
+        std::fs::read(a.join("fit/seed_2/metrics.csv")).unwrap(),
+        std::fs::read(b.join("fit/seed_2/metrics.csv")).unwrap()
+    );
+    for d in [a, b] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn compare_rejects_bad_input_with_one_line() {
+    let out = scratch("bad");
+    assert_clear_error(&compare(&out, &["--strategies", "fit,best", "--seeds", "1"]), "best");
+    assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "0"]), "--seeds");
+    assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "1", "--jobs", "0"]), "--jobs");
+    let o = Command::new(BIN)
+        .args(["compare", "--world", "/nonexistent/w.toml", "--seeds", "1", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run fitslam");
+    assert_clear_error(&o, "/nonexistent/w.toml");
+    assert!(!out.join("summary.csv").exists());
+}
