@@ -311,7 +311,7 @@ fn summary_md(
         md,
         "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds. \
          *finished* = runs that ended with no frontier left (the others hit the time limit). \
-         tr(cov) is the trace of the (x, y, θ) pose covariance (m² + rad²); mean tr(cov) is its average over the run.\n",
+         tr(cov) is the trace of the current pose's covariance (m² + rad²: the 6×6 SLAM marginal with `slam` localisation, the (x, y, θ) one with `odometry`); mean tr(cov) is its average over the run.\n",
         strategies.len(),
         seeds.len(),
         seeds.first().copied().unwrap_or(0),

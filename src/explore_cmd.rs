@@ -234,5 +234,6 @@ pub fn run_and_write(
     Ok(RunOutput { summary, rows, wall_s })
 }
 
-/// The y label of cov_trace plots: the trace of the 3×3 (x, y, θ) covariance adds m² and rad².
+/// The y label of cov_trace plots: the trace of the pose covariance (6×6 with SLAM, (x, y, θ) with
+/// odometry) adds m² and rad².
 pub const COV_TRACE_LABEL: &str = "tr(cov) (m² + rad²)";

@@ -611,8 +611,12 @@ impl Mission {
     fn slam_keyframe(&mut self) {
         let (gp, gr) = body_on_terrain(&self.world.field, self.gt, self.mission.drive.body_half_m);
         self.observe_camera(gp, &gr);
+        // The accelerometer's up direction in the body frame, with the IMU's tilt noise.
+        let sg = self.mission.slam.gravity_sigma_rad;
+        let up_true = gr.inverse() * Vector3::z();
+        let up_measured = up_true + Vector3::new(sg * gaussian(&mut self.rng), sg * gaussian(&mut self.rng), 0.0);
         let Some(fe) = self.slam.as_mut() else { return };
-        let outcome = fe.add_keyframe(&self.observations);
+        let outcome = fe.add_keyframe(&self.observations, Some(up_measured));
         self.est = pose2_of(&fe.estimate());
         match outcome {
             Ok(o) if o.reregister => {

@@ -54,7 +54,7 @@ pub mod victoria;
 
 pub use factors::{Factor, FactorError, GaussianNoise, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
-pub use graph_slam::{CovarianceTraces, GraphSlam, GraphSlamParams, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
+pub use graph_slam::{CovarianceTraces, Gravity, GraphSlam, GraphSlamParams, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
 pub use lie::{Se2, Se3};
 pub use marginals::{MarginalError, Marginals};
 pub use problem::{Gauge, Problem};

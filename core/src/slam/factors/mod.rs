@@ -10,12 +10,14 @@
 
 pub mod bearing_range;
 pub mod between;
+pub mod gravity;
 pub mod noise;
 pub mod point_observation;
 pub mod prior;
 
 pub use bearing_range::BearingRange2;
 pub use between::{BetweenSe2, BetweenSe3};
+pub use gravity::GravitySe3;
 pub use noise::{GaussianNoise, NoiseError};
 
 pub use point_observation::PointObservation3;
@@ -178,6 +180,9 @@ pub(crate) mod fixtures {
         let noise6 = GaussianNoise::from_information(&info6).unwrap_or_else(|e| panic!("{e}"));
         out.push((Box::new(PriorSe3::new(a, z3, noise6)), v3.clone()));
         out.push((Box::new(BetweenSe3::new(a, b, z3, noise6)), v3.clone()));
+        let g2 = GaussianNoise::from_sigmas(&[0.002, 0.003]).unwrap_or_else(|e| panic!("{e}"));
+        let up = Vector3::new(0.1 * s, -0.05, 1.0);
+        out.push((Box::new(GravitySe3::new(b, up, g2).unwrap_or_else(|e| panic!("{e}"))), v3.clone()));
         out.push((
             Box::new(PointObservation3::new(b, m, Vector3::new(1.0, 2.0, s), noise3)),
             v3,
@@ -196,7 +201,7 @@ mod tests {
     fn every_factor_has_correct_jacobians() {
         for seed in [0.0, 0.37, -0.81, 1.3] {
             let all = fixtures::all_factors(seed);
-            assert_eq!(all.len(), 8, "one fixture per factor type and residual kind");
+            assert_eq!(all.len(), 9, "one fixture per factor type and residual kind");
             for (factor, values) in &all {
                 let worst = check_factor_jacobians(factor.as_ref(), values, 1e-6)
                     .unwrap_or_else(|e| panic!("{factor:?}: {e}"));
