@@ -204,6 +204,7 @@ fn end_reason(r: Option<EndReason>) -> &'static str {
     match r {
         Some(EndReason::NoFrontier) => "no_frontier",
         Some(EndReason::TimeLimit) => "time_limit",
+        Some(EndReason::Stuck) => "stuck",
         None => "none",
     }
 }
@@ -310,7 +311,7 @@ fn summary_md(
     let _ = writeln!(
         md,
         "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds. \
-         *finished* = runs that ended with no frontier left (the others hit the time limit). \
+         *finished* = runs that ended with no frontier left (the others hit the time limit or got stuck: see summary.csv). \
          tr(cov) is the trace of the current pose's covariance (m² + rad²: the 6×6 SLAM marginal with `slam` localisation, the (x, y, θ) one with `odometry`); mean tr(cov) is its average over the run.\n",
         strategies.len(),
         seeds.len(),

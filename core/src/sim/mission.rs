@@ -95,6 +95,9 @@ pub struct MissionParams {
     pub safety_stop: bool,
     /// Overrides the world's time limit, seconds.
     pub time_limit_s: Option<f64>,
+    /// Decisions in a row without a plan (each followed by 2 s of looking around) before the
+    /// mission ends as [`EndReason::Stuck`]. Default 30.
+    pub max_failed_decisions: u32,
     /// The SLAM front end and back end ([`Localisation::Slam`] only).
     pub slam: SlamParams,
 }
@@ -118,6 +121,7 @@ impl Default for MissionParams {
             metrics_period_s: 1.0,
             safety_stop: true,
             time_limit_s: None,
+            max_failed_decisions: 30,
             slam: SlamParams::default(),
         }
     }
@@ -152,6 +156,9 @@ impl MissionParams {
         }
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;
+        }
+        if self.max_failed_decisions == 0 {
+            return Err("max_failed_decisions must be ≥ 1".into());
         }
         self.slam.validate()
     }
@@ -191,6 +198,9 @@ pub enum EndReason {
     /// No non-blacklisted reachable frontier candidate left.
     NoFrontier,
     TimeLimit,
+    /// `max_failed_decisions` decisions in a row found no plan (e.g. the robot's own cell stayed
+    /// untraversable in its map): the robot is stuck.
+    Stuck,
 }
 
 /// What one [`Mission::step`] did.
@@ -302,6 +312,8 @@ pub struct Mission {
     violations: u64,
     safety_stops: u64,
     planning_errors: u64,
+    /// Decisions in a row that found no plan.
+    failed_decisions: u32,
     scans: u64,
     pub end: Option<EndReason>,
     points: Vec<Point3<f64>>,
@@ -382,6 +394,7 @@ impl Mission {
             violations: 0,
             safety_stops: 0,
             planning_errors: 0,
+            failed_decisions: 0,
             scans: 0,
             end: None,
             points: Vec::new(),
@@ -807,6 +820,10 @@ impl Mission {
                 Err(_) => {
                     // Typically the robot's cell is not free in its own map yet: look around.
                     self.planning_errors += 1;
+                    self.failed_decisions += 1;
+                    if self.failed_decisions >= self.mission.max_failed_decisions {
+                        return Some(EndReason::Stuck);
+                    }
                     self.goal = None;
                     self.phase = Phase::Spinning(self.time_s + 2.0);
                     self.next_replan_s = self.time_s + 2.0;
@@ -833,6 +850,7 @@ impl Mission {
                         })
                         .filter(|c| (c.x_m - goal.x_m).hypot(c.y_m - goal.y_m) <= r);
                     if let Some(c) = same {
+                        self.failed_decisions = 0;
                         self.follower = PathFollower::new(c.path_m.clone());
                         self.next_replan_s = self.time_s + self.mission.replan_period_s;
                         self.last_decision = Some(decision);
@@ -863,10 +881,15 @@ impl Mission {
                 + self.mission.goal_timeout_extra_s;
             self.next_replan_s = self.time_s + self.mission.replan_period_s;
             self.phase = Phase::Driving;
+            self.failed_decisions = 0;
             self.last_decision = Some(decision);
             return None;
         }
         // Every retry re-chose a reached goal: treat as a failure and look around.
+        self.failed_decisions += 1;
+        if self.failed_decisions >= self.mission.max_failed_decisions {
+            return Some(EndReason::Stuck);
+        }
         self.phase = Phase::Spinning(self.time_s + 2.0);
         self.next_replan_s = self.time_s + 2.0;
         None
