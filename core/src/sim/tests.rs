@@ -183,3 +183,22 @@ fn slam_covariance_grows_between_exact_marginals_and_drops_at_loop_closures() {
     let drops = rows.windows(2).filter(|w| w[1].loop_closures > w[0].loop_closures && w[1].cov_trace < w[0].cov_trace).count();
     assert!(drops >= 1, "{}", m.metrics_csv());
 }
+
+/// Regression (paper world, random, seed 13): a robot whose own cell stays untraversable in its
+/// map could look around until the time limit. Here the start is on top of a 0.4 m box whose
+/// edges, inflated by the robot radius, cover the whole top: every decision fails, and the
+/// mission ends as `Stuck` after `max_failed_decisions` of them, long before the time limit.
+#[test]
+fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
+    let params = Params::default();
+    let text = TINY.replace("start = [1.0, 1.0, 0.0]", "start = [1.2, 1.2, 0.0]")
+        + "\n[[boxes]]\nmin_m = [1.0, 1.0]\nmax_m = [1.4, 1.4]\nheight_m = 0.3\n";
+    let spec = WorldSpec::from_toml(&text, "stuck.toml").unwrap();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
+    let mission = MissionParams { max_failed_decisions: 3, ..MissionParams::default() };
+    let mut m = Mission::new(world, params, mission, Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
+    let s = m.run();
+    assert_eq!(s.end_reason, Some(EndReason::Stuck), "{s:?}");
+    assert_eq!(s.planning_errors, 3);
+    assert!(s.time_s < 60.0 && s.gt_violations == 0, "{s:?}");
+}
