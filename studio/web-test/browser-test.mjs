@@ -25,8 +25,10 @@ import { fileURLToPath } from "node:url";
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const repo = path.resolve(here, "../..");
-const bundle = path.resolve(process.argv[2] ?? path.join(repo, "target/studio-web"));
-const outDir = path.resolve(process.argv[3] ?? path.join(repo, "target/studio-web-test"));
+// The target dir as cargo sees it (build-web.sh writes under $CARGO_TARGET_DIR when set).
+const targetDir = path.resolve(repo, process.env.CARGO_TARGET_DIR ?? "target");
+const bundle = path.resolve(process.argv[2] ?? path.join(targetDir, "studio-web"));
+const outDir = path.resolve(process.argv[3] ?? path.join(targetDir, "studio-web-test"));
 const assetDir = path.join(repo, "assets/maps/jacksboro");
 const executablePath = process.env.CHROMIUM ?? "/usr/bin/chromium";
 fs.mkdirSync(outDir, { recursive: true });
