@@ -5,7 +5,7 @@
 //!
 //! `cargo bench --bench decision` (optionally `-- RUNS`).
 
-use fitslam_core::fixtures::{synthetic_world, SyntheticWorldSpec};
+use fitslam_core::fixtures::{SyntheticWorldSpec, synthetic_world};
 use fitslam_core::frontier::Blacklist;
 use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
 use fitslam_core::params::{Params, Strategy};
@@ -47,7 +47,15 @@ fn main() {
     let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
     let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
 
-    let names = ["inflate + robot cell", "frontiers (WFD + clusters)", "Dijkstra", "u1 (paths, rays, Θ*)", "u2 (waypoints, FIM)", "total (stages)", "FitSlam::select"];
+    let names = [
+        "inflate + robot cell",
+        "frontiers (WFD + clusters)",
+        "Dijkstra",
+        "u1 (paths, rays, Θ*)",
+        "u2 (waypoints, FIM)",
+        "total (stages)",
+        "FitSlam::select",
+    ];
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let mut summary = String::new();
     for run in 0..runs {

@@ -5,14 +5,14 @@
 //! it was made).
 
 use crate::load;
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use fitslam_core::{
+    Params, PointCloud,
     grid::GridGeometry,
     io,
-    sim::{line_of_sight, scatter_landmarks, scatter_rocks, visible_ground_points, DemScaling, Heightfield, LandmarkDensity},
+    sim::{DemScaling, Heightfield, LandmarkDensity, line_of_sight, scatter_landmarks, scatter_rocks, visible_ground_points},
     traversability::TraversabilityMap,
-    Params, PointCloud,
 };
 use nalgebra::{Matrix3, Point3};
 use std::path::PathBuf;
@@ -51,7 +51,11 @@ pub struct BuildAssetArgs {
 
 pub fn run(args: &BuildAssetArgs) -> Result<()> {
     let params = Params::default();
-    let px: Vec<f64> = args.dem_pixel_m.split(',').map(|s| s.trim().parse::<f64>()).collect::<Result<_, _>>()
+    let px: Vec<f64> = args
+        .dem_pixel_m
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
         .with_context(|| format!("--dem-pixel-m {:?}: expected X,Y", args.dem_pixel_m))?;
     if px.len() != 2 {
         bail!("--dem-pixel-m {:?}: expected X,Y", args.dem_pixel_m);
@@ -109,11 +113,8 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
         })
         .collect();
     let sigma2 = params.u2.sigma_landmark_m.powi(2);
-    let landmarks = PointCloud {
-        covariances: Some(vec![Matrix3::identity() * sigma2; mapped.len()]),
-        points: mapped,
-        classification: None,
-    };
+    let landmarks =
+        PointCloud { covariances: Some(vec![Matrix3::identity() * sigma2; mapped.len()]), points: mapped, classification: None };
 
     let (yaml, pgm) = io::save_map(&grid, "map.pgm");
     load::write(&args.out.join("map.yaml"), yaml.as_bytes())?;

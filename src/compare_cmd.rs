@@ -12,13 +12,13 @@
 //!   (against the first strategy listed when `fit` is not).
 
 use crate::explore_cmd::{
-    localisation_of, load_setup, progress_bar, run_and_write, strategy_of, ExploreArgs, LocalisationArg, RunOutput,
-    StrategyArg, COV_TRACE_LABEL,
+    COV_TRACE_LABEL, ExploreArgs, LocalisationArg, RunOutput, StrategyArg, load_setup, localisation_of, progress_bar, run_and_write,
+    strategy_of,
 };
 use crate::load;
 use crate::plot::{Curve, Figure};
-use crate::stats::{mann_whitney_u, percentile, Spread};
-use anyhow::{bail, Context, Result};
+use crate::stats::{Spread, mann_whitney_u, percentile};
+use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use fitslam_core::sim::{EndReason, MetricsRow, Summary};
 use indicatif::ProgressBar;
@@ -139,8 +139,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         None => explore_default_localisation()?,
     };
     let setup = load_setup(&args.world, args.params.as_deref(), args.sim_params.as_deref(), args.time_limit_s)?;
-    let runs: Vec<(StrategyArg, u64)> =
-        strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
+    let runs: Vec<(StrategyArg, u64)> = strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start the thread pool")?;
     let bar = progress_bar(runs.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
     let wall = std::time::Instant::now();
@@ -148,18 +147,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         runs.par_iter()
             .map(|&(strategy, seed)| {
                 let dir = args.out.join(name(strategy)).join(format!("seed_{seed}"));
-                let RunOutput { summary, rows, wall_s } = run_and_write(
-                    &setup,
-                    strategy_of(strategy),
-                    seed,
-                    localisation_of(localisation),
-                    &dir,
-                    &ProgressBar::hidden(),
-                )?;
+                let RunOutput { summary, rows, wall_s } =
+                    run_and_write(&setup, strategy_of(strategy), seed, localisation_of(localisation), &dir, &ProgressBar::hidden())?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", name(strategy)));
-                let mean_cov_trace =
-                    if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
+                let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
                 Ok((RunFigures { strategy, seed, summary, mean_cov_trace, rows }, wall_s))
             })
             .collect()
@@ -247,8 +239,7 @@ fn curves(strategies: &[StrategyArg], figures: &[RunFigures], get: fn(&MetricsRo
     strategies
         .iter()
         .map(|&s| {
-            let runs: Vec<Vec<f64>> =
-                figures.iter().filter(|f| f.strategy == s).map(|f| resample(&f.rows, &grid, get)).collect();
+            let runs: Vec<Vec<f64>> = figures.iter().filter(|f| f.strategy == s).map(|f| resample(&f.rows, &grid, get)).collect();
             let column = |k: usize| -> Vec<f64> { runs.iter().map(|r| r[k]).filter(|v| v.is_finite()).collect() };
             let (mut mean, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
             for k in 0..grid.len() {
@@ -298,13 +289,7 @@ fn num(v: f64) -> String {
     }
 }
 
-fn summary_md(
-    world: &str,
-    strategies: &[StrategyArg],
-    figures: &[RunFigures],
-    command: &str,
-    localisation: LocalisationArg,
-) -> String {
+fn summary_md(world: &str, strategies: &[StrategyArg], figures: &[RunFigures], command: &str, localisation: LocalisationArg) -> String {
     let values = |s: StrategyArg, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
     let mut md = format!("# fitslam compare — {world}\n\n`{command}`\n\n");
     let seeds: Vec<u64> = figures.iter().filter(|f| f.strategy == strategies[0]).map(|f| f.seed).collect();

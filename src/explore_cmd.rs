@@ -9,7 +9,7 @@
 
 use crate::load;
 use crate::plot::{Curve, Figure};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use fitslam_core::{
     io,
@@ -185,9 +185,8 @@ pub fn run_and_write(
     progress: &ProgressBar,
 ) -> Result<RunOutput> {
     let world_name = &setup.world_name;
-    let mut mission =
-        Mission::new(setup.world.clone(), setup.params.clone(), setup.mission_params.clone(), strategy, seed, localisation)
-            .map_err(|e| anyhow::anyhow!("{world_name}: {e}"))?;
+    let mut mission = Mission::new(setup.world.clone(), setup.params.clone(), setup.mission_params.clone(), strategy, seed, localisation)
+        .map_err(|e| anyhow::anyhow!("{world_name}: {e}"))?;
     let t0 = std::time::Instant::now();
     mission.set_clock(Box::new(move || t0.elapsed().as_secs_f64() * 1e3));
     let wall = std::time::Instant::now();

@@ -1,7 +1,7 @@
 //! File loading for the CLI: read bytes, hand them to the core's parsers, name the file in errors.
 
-use anyhow::{bail, Context, Result};
-use fitslam_core::{io, OccupancyGrid, Params, PointCloud, Pose2};
+use anyhow::{Context, Result, bail};
+use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2, io};
 use std::path::{Path, PathBuf};
 
 /// Reads a whole file, naming it on failure.
@@ -30,11 +30,7 @@ pub fn map(path: &Path, params: &Params) -> Result<OccupancyGrid> {
 /// A path named in a file, taken relative to that file's folder.
 fn resolve(relative_to: &Path, named: &str) -> PathBuf {
     let p = Path::new(named);
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        relative_to.parent().unwrap_or(Path::new(".")).join(p)
-    }
+    if p.is_absolute() { p.to_path_buf() } else { relative_to.parent().unwrap_or(Path::new(".")).join(p) }
 }
 
 /// Loads a point cloud or landmark set (.pcd, .ply, .csv, .las, .laz).

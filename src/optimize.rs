@@ -15,8 +15,7 @@ use anyhow::{Context, Result, bail};
 use fitslam_core::slam::g2o::read_g2o;
 use fitslam_core::slam::victoria::read_victoria;
 use fitslam_core::slam::{
-    Gauge, GaussNewton, LambdaSchedule, LevenbergMarquardt, Marginals, OptError, Optimizer, OptimizerParams, Problem,
-    Se2Residual,
+    Gauge, GaussNewton, LambdaSchedule, LevenbergMarquardt, Marginals, OptError, Optimizer, OptimizerParams, Problem, Se2Residual,
 };
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,10 +127,7 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
     let summary = match result {
         Ok(s) => s,
         Err(OptError::MaxIterations(s)) => {
-            eprintln!(
-                "warning: no convergence after {} iterations; reporting the best estimate",
-                s.iterations
-            );
+            eprintln!("warning: no convergence after {} iterations; reporting the best estimate", s.iterations);
             s
         }
         Err(e) => return Err(e).context("optimisation failed"),

@@ -6,7 +6,7 @@
 //! system font. The SVGs carry `<text>` elements (the viewer's sans-serif font).
 
 use crate::load;
-use anyhow::{anyhow, Result};
+use anyhow::{Result, anyhow};
 use fitslam_core::io;
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -1,12 +1,12 @@
 //! `fitslam select`: one goal decision on a map and a landmark set, printed as a table or JSON.
 
 use crate::load;
-use anyhow::{bail, Result};
+use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
 use fitslam_core::{
     frontier::{Blacklist, Boundary},
     params::Strategy,
-    select::{make_selector, CandidateReport, Decision, DecisionInput, DropReason},
+    select::{CandidateReport, Decision, DecisionInput, DropReason, make_selector},
     utility::LandmarkVoxels,
 };
 use serde::Serialize;
@@ -83,7 +83,10 @@ pub fn run(args: &SelectArgs) -> Result<()> {
 }
 
 fn parse_boundary(text: &str) -> Result<Boundary> {
-    let v: Vec<f64> = text.split(',').map(|s| s.trim().parse::<f64>()).collect::<Result<_, _>>()
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
         .map_err(|_| anyhow::anyhow!("--boundary {text:?}: expected MIN_X,MIN_Y,MAX_X,MAX_Y"))?;
     if v.len() != 4 || v.iter().any(|x| !x.is_finite()) || v[0] >= v[2] || v[1] >= v[3] {
         bail!("--boundary {text:?}: expected finite MIN_X,MIN_Y,MAX_X,MAX_Y with MIN < MAX");
@@ -174,7 +177,10 @@ fn print_table(d: &Decision) {
         if d.start_snapped { ", start snapped to the nearest free cell" } else { "" },
         d.candidates.len()
     );
-    println!("{:>4} {:>4} {:>8} {:>8} {:>7} {:>8} {:>7} {:>6} {:>6} {:>6}  {}", "rank", "idx", "x_m", "y_m", "rho_m", "dE_bits", "theta*", "u1", "I_p", "u2", "note");
+    println!(
+        "{:>4} {:>4} {:>8} {:>8} {:>7} {:>8} {:>7} {:>6} {:>6} {:>6}  {}",
+        "rank", "idx", "x_m", "y_m", "rho_m", "dE_bits", "theta*", "u1", "I_p", "u2", "note"
+    );
     let mut order = d.ranking();
     order.extend((0..d.candidates.len()).filter(|&i| d.candidates[i].rank.is_none()));
     for i in order {

@@ -4,7 +4,11 @@
 use crate::load;
 use anyhow::{Context, Result};
 use clap::Args;
-use fitslam_core::{grid::inflate_lethal, io, traversability::{score_to_rgb, TraversabilityMap}};
+use fitslam_core::{
+    grid::inflate_lethal,
+    io,
+    traversability::{TraversabilityMap, score_to_rgb},
+};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]

@@ -108,7 +108,10 @@ fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
     // Truncated PGM.
     let pgm = std::fs::read(Path::new(&asset("maps/jacksboro/map.pgm"))).unwrap();
     write("trunc.pgm", &pgm[..pgm.len() / 2]);
-    let yaml = write("trunc.yaml", b"image: trunc.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n");
+    let yaml = write(
+        "trunc.yaml",
+        b"image: trunc.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+    );
     assert_clear_error(&select(&yaml, &good_lm, "3,3,0"), "trunc.pgm");
 
     // YAML without `image`.

@@ -55,8 +55,7 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     let keys: Vec<String> = lines[1..].iter().map(|l| l.split(',').take(2).collect::<Vec<_>>().join(",")).collect();
     assert_eq!(keys, ["fit,1", "fit,2", "random,1", "random,2"]);
     // The per-run summary.json agrees with its summary.csv row.
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(a.join("random/seed_2/summary.json")).unwrap()).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.join("random/seed_2/summary.json")).unwrap()).unwrap();
     let time_s: f64 = lines[4].split(',').nth(3).unwrap().parse().unwrap();
     assert!((json["time_s"].as_f64().unwrap() - time_s).abs() < 1e-6 * time_s.max(1.0));
 
@@ -71,10 +70,7 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     let o = compare(&b, &["--strategies", "fit,random", "--seeds", "2", "--jobs", "2"]);
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(csv.as_bytes(), std::fs::read(b.join("summary.csv")).unwrap().as_slice(), "jobs 1 vs 2");
-    assert_eq!(
-        std::fs::read(a.join("fit/seed_2/metrics.csv")).unwrap(),
-        std::fs::read(b.join("fit/seed_2/metrics.csv")).unwrap()
-    );
+    assert_eq!(std::fs::read(a.join("fit/seed_2/metrics.csv")).unwrap(), std::fs::read(b.join("fit/seed_2/metrics.csv")).unwrap());
     for d in [a, b] {
         let _ = std::fs::remove_dir_all(d);
     }

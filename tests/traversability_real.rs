@@ -5,7 +5,7 @@
 
 use fitslam_core::grid::inflate_lethal;
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
-use fitslam_core::{io, Cell, GridGeometry, Params, PointCloud};
+use fitslam_core::{Cell, GridGeometry, Params, PointCloud, io};
 use nalgebra::Point3;
 use std::time::Instant;
 
@@ -112,8 +112,7 @@ impl Confusion {
 /// cover every class-2 point within 4 m.
 fn height_above_ground(cloud: &PointCloud, class: &[u8]) -> Vec<Option<f64>> {
     let (min_x, min_y) = cloud.points.iter().fold((f64::INFINITY, f64::INFINITY), |(a, b), p| (a.min(p.x), b.min(p.y)));
-    let (max_x, max_y) =
-        cloud.points.iter().fold((f64::NEG_INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.max(p.x), b.max(p.y)));
+    let (max_x, max_y) = cloud.points.iter().fold((f64::NEG_INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.max(p.x), b.max(p.y)));
     let bucket = 2.0;
     let g = GridGeometry::new(min_x, min_y, bucket, ((max_x - min_x) / bucket) as usize + 1, ((max_y - min_y) / bucket) as usize + 1);
     let mut buckets: Vec<Vec<usize>> = vec![Vec::new(); g.len()];
@@ -228,7 +227,8 @@ fn autzen_traversable_cells_are_ground() {
 fn paper_scale_incremental_update_matches_full_compute() {
     let params = Params::default();
     let g = GridGeometry::new(-10.0, -10.0, params.grid.resolution_m, 400, 400);
-    let terrain = |x: f64, y: f64| 0.1 * (0.5 * x).sin() * (0.35 * y).cos() + if (x - 3.0).abs() < 1.0 && (y + 2.0).abs() < 1.0 { 0.3 } else { 0.0 };
+    let terrain =
+        |x: f64, y: f64| 0.1 * (0.5 * x).sin() * (0.35 * y).cos() + if (x - 3.0).abs() < 1.0 && (y + 2.0).abs() < 1.0 { 0.3 } else { 0.0 };
     // Points every 2.5 cm; scan k covers the band of rows with y in [-10 + 2k, -8 + 2k).
     let scan = |k: usize| {
         (0..800usize).flat_map(move |i| {
@@ -272,4 +272,3 @@ fn paper_scale_incremental_update_matches_full_compute() {
     // The 2 m × 2 m box of 0.3 m is lethal at its edges; the gentle waves are free.
     assert!(free < known && free > known * 9 / 10, "{free} of {known}");
 }
-

@@ -13,7 +13,7 @@
 //!   west, FIT-SLAM east.
 
 use crate::cloud::PointCloud;
-use crate::grid::{Cell, Grid, GridGeometry, OccupancyGrid, FREE, LETHAL, UNKNOWN};
+use crate::grid::{Cell, FREE, Grid, GridGeometry, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::pose::Pose2;
 use nalgebra::Point3;
 use rand::{RngExt, SeedableRng};
@@ -77,8 +77,11 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
     let jitter: Vec<f64> = (0..BINS).map(|_| rng.random_range(-0.04..0.04) * r0).collect();
     let radius_at = |phi: f64| {
         let bin = ((phi.rem_euclid(TAU) / TAU) * BINS as f64) as usize % BINS;
-        r0 * (1.0 + 0.22 * (3.0 * phi + phases[0]).sin() + 0.1 * (7.0 * phi + phases[1]).sin()
-            + 0.05 * (17.0 * phi + phases[2]).sin() + 0.03 * (41.0 * phi + phases[3]).sin())
+        r0 * (1.0
+            + 0.22 * (3.0 * phi + phases[0]).sin()
+            + 0.1 * (7.0 * phi + phases[1]).sin()
+            + 0.05 * (17.0 * phi + phases[2]).sin()
+            + 0.03 * (41.0 * phi + phases[3]).sin())
             + jitter[bin]
     };
     for r in 0..n {
@@ -112,7 +115,11 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
         let pocket = rng.random_range(0.0..1.0) < 0.3;
         let (pdx, pdy) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
         let mut stamp = |x0: f64, y0: f64, x1: f64, y1: f64, value: i8, shape: &dyn Fn(f64, f64) -> bool| {
-            let (Some(a), Some(b)) = (geometry.cell_of(x0.max(0.0), y0.max(0.0)), geometry.cell_of(x1.min(spec.size_m - 1e-9), y1.min(spec.size_m - 1e-9))) else { return };
+            let (Some(a), Some(b)) =
+                (geometry.cell_of(x0.max(0.0), y0.max(0.0)), geometry.cell_of(x1.min(spec.size_m - 1e-9), y1.min(spec.size_m - 1e-9)))
+            else {
+                return;
+            };
             for r in a.row..=b.row {
                 for c in a.col..=b.col {
                     let (x, y) = geometry.center_of(Cell::new(c, r));

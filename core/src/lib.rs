@@ -28,8 +28,8 @@ pub mod params;
 pub mod path;
 pub mod pose;
 pub mod select;
-pub mod slam;
 pub mod sim;
+pub mod slam;
 pub mod traversability;
 pub mod utility;
 

@@ -97,10 +97,7 @@ pub fn pose2_of_pose(p: &msgs::Pose) -> Result<Pose2, ConvertError> {
 
 /// Planar pose → `Pose` (z = 0, rotation about +z).
 pub fn pose_of_pose2(p: Pose2) -> msgs::Pose {
-    msgs::Pose {
-        position: msgs::Point { x: p.x_m, y: p.y_m, z: 0.0 },
-        orientation: msgs::Quaternion::from_yaw(p.yaw_rad),
-    }
+    msgs::Pose { position: msgs::Point { x: p.x_m, y: p.y_m, z: 0.0 }, orientation: msgs::Quaternion::from_yaw(p.yaw_rad) }
 }
 
 /// The f64 a float32 resolution stands for: its shortest decimal form (0.05f32 is
@@ -266,13 +263,8 @@ pub fn cloud_of_points(points: &[Point3<f64>], header: Header) -> PointCloud2 {
 /// `geometry_msgs/PolygonStamped` → boundary (x, y of its vertices). Non-finite vertices are
 /// dropped; fewer than 3 left is an error. A repeated closing vertex is removed.
 pub fn boundary_of_polygon(msg: &msgs::PolygonStamped) -> Result<Boundary, ConvertError> {
-    let mut v: Vec<[f64; 2]> = msg
-        .polygon
-        .points
-        .iter()
-        .filter(|p| p.x.is_finite() && p.y.is_finite())
-        .map(|p| [p.x as f64, p.y as f64])
-        .collect();
+    let mut v: Vec<[f64; 2]> =
+        msg.polygon.points.iter().filter(|p| p.x.is_finite() && p.y.is_finite()).map(|p| [p.x as f64, p.y as f64]).collect();
     if v.len() > 1 && v.first() == v.last() {
         v.pop();
     }
@@ -296,10 +288,7 @@ mod tests {
                 resolution: 0.5,
                 width,
                 height,
-                origin: msgs::Pose {
-                    position: msgs::Point { x: -1.0, y: 2.0, z: 0.3 },
-                    orientation: msgs::Quaternion::default(),
-                },
+                origin: msgs::Pose { position: msgs::Point { x: -1.0, y: 2.0, z: 0.3 }, orientation: msgs::Quaternion::default() },
             },
             data,
         }
@@ -325,10 +314,7 @@ mod tests {
 
     #[test]
     fn map_errors_are_typed() {
-        assert_eq!(
-            occupancy_of_msg(&map_msg(3, 2, vec![0; 5])),
-            Err(ConvertError::MapSizeMismatch { width: 3, height: 2, data_len: 5 })
-        );
+        assert_eq!(occupancy_of_msg(&map_msg(3, 2, vec![0; 5])), Err(ConvertError::MapSizeMismatch { width: 3, height: 2, data_len: 5 }));
         let mut m = map_msg(1, 1, vec![0]);
         m.info.resolution = f32::NAN;
         assert!(matches!(occupancy_of_msg(&m), Err(ConvertError::BadResolution(_))));
@@ -385,7 +371,12 @@ mod tests {
             header: Header::default(),
             height: 1,
             width: width as u32,
-            fields: vec![PointField { name: "pad".into(), offset: 0, datatype: PointField::UINT8, count: 3 }, f("z", 0), f("x", 1), f("y", 2)],
+            fields: vec![
+                PointField { name: "pad".into(), offset: 0, datatype: PointField::UINT8, count: 3 },
+                f("z", 0),
+                f("x", 1),
+                f("y", 2),
+            ],
             is_bigendian: big,
             point_step: point_step as u32,
             row_step: row_step as u32,
@@ -454,10 +445,7 @@ mod tests {
         let b = boundary_of_polygon(&poly(&[[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0], [0.0, 0.0]])).unwrap();
         assert_eq!(b.vertices_m.len(), 4);
         assert_eq!(b.area_m2(), 4.0);
-        assert_eq!(
-            boundary_of_polygon(&poly(&[[0.0, 0.0], [f32::NAN, 0.0], [2.0, 2.0]])),
-            Err(ConvertError::PolygonTooFewVertices(2))
-        );
+        assert_eq!(boundary_of_polygon(&poly(&[[0.0, 0.0], [f32::NAN, 0.0], [2.0, 2.0]])), Err(ConvertError::PolygonTooFewVertices(2)));
     }
 
     proptest! {

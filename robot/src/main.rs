@@ -6,8 +6,8 @@ use clap::Parser;
 use fitslam_robot::config::ConfigFile;
 use fitslam_robot::ros::{self, NoObserver, Observer};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// FIT-SLAM exploration node for ROS 2 (LeoRover defaults).
 #[derive(Parser, Debug)]

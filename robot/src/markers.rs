@@ -139,7 +139,7 @@ mod tests {
     use super::*;
     use fitslam_core::fixtures::corridor_two_frontiers;
     use fitslam_core::frontier::BlacklistReason;
-    use fitslam_core::select::{make_selector, DecisionInput};
+    use fitslam_core::select::{DecisionInput, make_selector};
     use fitslam_core::utility::LandmarkVoxels;
 
     #[test]

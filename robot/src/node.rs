@@ -26,10 +26,10 @@
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{self, ConvertError};
 use crate::msgs;
-use crate::tf::{normalise_frame, TfBuffer};
-use fitslam_core::frontier::{BlacklistReason, Blacklist, Boundary};
-use fitslam_core::grid::{inflate_lethal, CellClass, GridGeometry};
-use fitslam_core::select::{make_selector, Decision, DecisionInput, GoalSelector};
+use crate::tf::{TfBuffer, normalise_frame};
+use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary};
+use fitslam_core::grid::{CellClass, GridGeometry, inflate_lethal};
+use fitslam_core::select::{Decision, DecisionInput, GoalSelector, make_selector};
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2};
@@ -277,8 +277,16 @@ impl Explorer {
                 let (a, b) = (old.grid.geometry, grid.geometry);
                 let text = format!(
                     "map geometry changed: {}×{} cells at {} m from ({}, {}) → {}×{} at {} m from ({}, {})",
-                    a.width, a.height, a.resolution_m, a.origin_x_m, a.origin_y_m, b.width, b.height, b.resolution_m,
-                    b.origin_x_m, b.origin_y_m
+                    a.width,
+                    a.height,
+                    a.resolution_m,
+                    a.origin_x_m,
+                    a.origin_y_m,
+                    b.width,
+                    b.height,
+                    b.resolution_m,
+                    b.origin_x_m,
+                    b.origin_y_m
                 );
                 self.info(now_s, text);
             }
@@ -364,13 +372,8 @@ impl Explorer {
         if self.cloud_mapper.is_none() {
             let c = &self.cfg.cloud_map;
             let res = self.params.grid.resolution_m;
-            let geometry = GridGeometry::new(
-                c.origin_x_m,
-                c.origin_y_m,
-                res,
-                (c.size_x_m / res).ceil() as usize,
-                (c.size_y_m / res).ceil() as usize,
-            );
+            let geometry =
+                GridGeometry::new(c.origin_x_m, c.origin_y_m, res, (c.size_x_m / res).ceil() as usize, (c.size_y_m / res).ceil() as usize);
             match TraversabilityMap::new(geometry) {
                 Ok(map) => {
                     let layers = map.compute(&self.params.traversability);
@@ -516,7 +519,9 @@ impl Explorer {
     /// Age of the pose, seconds (for the stale-pose message).
     fn pose_age_s(&self, now_s: f64) -> Option<f64> {
         match self.cfg.pose_source {
-            PoseSource::Tf => self.tf.lookup(&self.cfg.map_frame, &self.cfg.base_frame).map(|l| now_s - l.oldest_received_s.unwrap_or(now_s)),
+            PoseSource::Tf => {
+                self.tf.lookup(&self.cfg.map_frame, &self.cfg.base_frame).map(|l| now_s - l.oldest_received_s.unwrap_or(now_s))
+            }
             PoseSource::Topic => self.topic_pose.map(|s| now_s - s.received_s),
         }
     }
@@ -614,7 +619,8 @@ impl Explorer {
             }
             Some(t) if now_s - t > self.cfg.goal_timeout_s => {
                 self.stats.timed_out += 1;
-                let text = format!("goal {} at ({x:.2}, {y:.2}) not reached within {} s: cancelled, blacklisted", g.id, self.cfg.goal_timeout_s);
+                let text =
+                    format!("goal {} at ({x:.2}, {y:.2}) not reached within {} s: cancelled, blacklisted", g.id, self.cfg.goal_timeout_s);
                 self.warn("goal", now_s, text);
                 out.push(Command::CancelGoal { id: g.id });
                 self.end_goal(Some(BlacklistReason::Failed), true);
@@ -724,9 +730,8 @@ impl Explorer {
                 self.empty_decisions = 0;
                 self.phase = Phase::Navigating;
                 let same = (new.x_m - cur.goal.x_m).hypot(new.y_m - cur.goal.y_m) <= radius;
-                let still_frontier = decision.candidates.iter().any(|c| {
-                    c.is_scored() && (c.x_m - cur.goal.x_m).hypot(c.y_m - cur.goal.y_m) <= radius
-                });
+                let still_frontier =
+                    decision.candidates.iter().any(|c| c.is_scored() && (c.x_m - cur.goal.x_m).hypot(c.y_m - cur.goal.y_m) <= radius);
                 if !same && !still_frontier {
                     let text = format!("goal {} at ({:.2}, {:.2}) is no longer a frontier: replaced", cur.id, cur.goal.x_m, cur.goal.y_m);
                     self.info(now_s, text);

@@ -132,10 +132,14 @@ impl Observer for RerunLogger {
                     .with_origins([[goal.x_m as f32, goal.y_m as f32, 0.05]])
                     .with_colors([[30, 230, 60]]),
             );
-            let _ = self.rec.log("map/goal", &rerun::Points2D::new([to_px(&g, goal.x_m, goal.y_m)]).with_radii([4.0]).with_colors([[30, 230, 60]]));
+            let _ = self
+                .rec
+                .log("map/goal", &rerun::Points2D::new([to_px(&g, goal.x_m, goal.y_m)]).with_radii([4.0]).with_colors([[30, 230, 60]]));
         }
         let r = d.robot;
-        let _ = self.rec.log("world/robot", &rerun::Points3D::new([[r.x_m as f32, r.y_m as f32, 0.1]]).with_radii([0.2]).with_colors([[40, 120, 255]]));
+        let _ = self
+            .rec
+            .log("world/robot", &rerun::Points3D::new([[r.x_m as f32, r.y_m as f32, 0.1]]).with_radii([0.2]).with_colors([[40, 120, 255]]));
         let _ = self.rec.log("map/robot", &rerun::Points2D::new([to_px(&g, r.x_m, r.y_m)]).with_radii([4.0]).with_colors([[40, 120, 255]]));
     }
 

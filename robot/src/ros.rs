@@ -9,7 +9,7 @@
 
 use crate::config::{ConfigFile, GoalInterface, MapSource, PoseSource, ServiceMappingChoice};
 use crate::markers::decision_markers;
-use crate::msgs::{self, nav2, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, RosMessage, Time};
+use crate::msgs::{self, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, RosMessage, Time, nav2};
 use crate::node::{Command, Explorer, GoalEvent, Level, LogLine};
 use ros2_client::action::{ActionClient, ActionClientQosPolicies, GoalId, GoalStatusEnum};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
@@ -18,8 +18,8 @@ use ros2_client::{
     ActionTypeName, Context, Name, NodeName, NodeOptions, Publisher, QosProfile, RmwRequestId, ServiceMapping, Subscription,
 };
 use std::net::Ipv4Addr;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use thiserror::Error;
 

@@ -8,7 +8,7 @@
 //!
 //! Lookup: O(depth) to walk both frames up to the root (depth ≤ [`MAX_DEPTH`]).
 
-use crate::convert::{isometry_of_transform, ConvertError};
+use crate::convert::{ConvertError, isometry_of_transform};
 use crate::msgs::TransformStamped;
 use nalgebra::Isometry3;
 use std::collections::HashMap;
@@ -70,12 +70,7 @@ impl TfBuffer {
         }
         self.edges.insert(
             child.to_owned(),
-            Edge {
-                parent: parent.to_owned(),
-                parent_from_child: iso,
-                stamp_s,
-                received_s: (!is_static).then_some(received_s),
-            },
+            Edge { parent: parent.to_owned(), parent_from_child: iso, stamp_s, received_s: (!is_static).then_some(received_s) },
         );
         Ok(true)
     }

@@ -11,12 +11,12 @@
 
 mod common;
 
-use common::{private_domain, scratch_dir, NodeProcess};
+use common::{NodeProcess, private_domain, scratch_dir};
 use fitslam_core::io::{load_cloud, load_map};
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
 use fitslam_robot::msgs::{
-    nav2, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2,
-    Quaternion, StringMsg, TFMessage, Transform, TransformStamped, Vector3,
+    Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, Quaternion, StringMsg,
+    TFMessage, Transform, TransformStamped, Vector3, nav2,
 };
 use fitslam_robot::ros::{advertise, latched, make_context, now_stamp, reliable, subscribe, topic_name};
 use ros2_client::action::{ActionServerQosPolicies, SendGoalResponse};
@@ -108,7 +108,8 @@ fn cpu_use_at_1hz_replanning_on_the_asset_map() {
         }
         while let Ok(Some((rid, _))) = server.receive_goal() {
             goals += 1;
-            let _ = server.send_goal_response(rid, SendGoalResponse { accepted: true, stamp: ros2_client::builtin_interfaces::Time::now() });
+            let _ =
+                server.send_goal_response(rid, SendGoalResponse { accepted: true, stamp: ros2_client::builtin_interfaces::Time::now() });
         }
         while let Ok(Some(_)) = server.receive_result_request() {}
         while let Ok(Some((s, _))) = status_sub.take() {
@@ -123,7 +124,10 @@ fn cpu_use_at_1hz_replanning_on_the_asset_map() {
     let (c0, ts0) = cpu0.unwrap();
     let (c1, ts1) = (cpu_s(pid), t0.elapsed().as_secs_f64());
     let decisions = decisions_in(&last_status).unwrap_or(0) - dec0.unwrap_or(0);
-    let ms: f64 = serde_json::from_str::<serde_json::Value>(&last_status).ok().and_then(|v| v["stats"]["last_decision_ms"].as_f64()).unwrap_or(f64::NAN);
+    let ms: f64 = serde_json::from_str::<serde_json::Value>(&last_status)
+        .ok()
+        .and_then(|v| v["stats"]["last_decision_ms"].as_f64())
+        .unwrap_or(f64::NAN);
     let pct = 100.0 * (c1 - c0) / (ts1 - ts0);
     eprintln!(
         "node CPU: {:.2} s over {:.1} s = {pct:.2}% of one core; {decisions} decisions ({:.2}/s), last decision {ms:.1} ms; {goals} goals",

@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{private_domain, scratch_dir, NodeProcess};
+use common::{NodeProcess, private_domain, scratch_dir};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 

@@ -5,8 +5,8 @@
 
 mod common;
 
-use common::sim::{two_rooms, GridSim, SimRobot};
-use fitslam_core::grid::{inflate_lethal, CellClass};
+use common::sim::{GridSim, SimRobot, two_rooms};
+use fitslam_core::grid::{CellClass, inflate_lethal};
 use fitslam_core::{Params, Pose2};
 use fitslam_robot::config::NodeConfig;
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};

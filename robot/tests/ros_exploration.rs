@@ -8,14 +8,14 @@
 mod common;
 
 use common::core_sim::CoreSim;
-use common::sim::{two_rooms, GridSim, SimRobot};
-use common::{private_domain, scratch_dir, NodeProcess};
-use fitslam_core::grid::{inflate_lethal, CellClass, Grid, UNKNOWN};
+use common::sim::{GridSim, SimRobot, two_rooms};
+use common::{NodeProcess, private_domain, scratch_dir};
+use fitslam_core::grid::{CellClass, Grid, UNKNOWN, inflate_lethal};
 use fitslam_core::{GridGeometry, OccupancyGrid, Pose2};
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy, pose2_of_pose};
 use fitslam_robot::msgs::{
-    nav2, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2,
-    Quaternion, StringMsg, TFMessage, Transform, TransformStamped, Vector3,
+    Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, Quaternion, StringMsg,
+    TFMessage, Transform, TransformStamped, Vector3, nav2,
 };
 use fitslam_robot::ros::{advertise, latched, make_context, now_stamp, reliable, subscribe, topic_name};
 use ros2_client::action::{ActionServerQosPolicies, GetResultResponse, GoalId, GoalStatusEnum, SendGoalResponse};
@@ -147,9 +147,9 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
             let grid = cropped(sim.map());
             let mut m = msg_of_occupancy(&grid, Header::new(now_stamp(), "map"));
             match maps % 6 {
-                2 => m.info.resolution = f32::NAN,                        // NaN field
+                2 => m.info.resolution = f32::NAN,                                   // NaN field
                 4 => m.header.stamp = fitslam_robot::msgs::Time::from_secs_f64(1.0), // late
-                5 => {}                                                  // dropped
+                5 => {}                                                              // dropped
                 _ => {
                     let _ = map_pub.publish(m.clone());
                     published.push(grid);
@@ -170,14 +170,15 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
         // The action server.
         while let Ok(Some((req_id, req))) = server.receive_goal() {
             let g = pose2_of_pose(&req.goal.pose.pose).unwrap_or(Pose2::new(f64::NAN, f64::NAN, 0.0));
-            let free_somewhere = published.iter().any(|m| {
-                inflate_lethal(m, ROBOT_RADIUS_M).at_world(g.x_m, g.y_m).is_some_and(|&v| CellClass::of(v) == CellClass::Free)
-            });
+            let free_somewhere = published
+                .iter()
+                .any(|m| inflate_lethal(m, ROBOT_RADIUS_M).at_world(g.x_m, g.y_m).is_some_and(|&v| CellClass::of(v) == CellClass::Free));
             if !free_somewhere || sim.truth_lethal(g.x_m, g.y_m) || req.goal.pose.header.frame_id != "map" {
                 bad_goals.push(format!("{g:?} in '{}'", req.goal.pose.header.frame_id));
             }
             goals.push(g);
-            let _ = server.send_goal_response(req_id, SendGoalResponse { accepted: true, stamp: ros2_client::builtin_interfaces::Time::now() });
+            let _ =
+                server.send_goal_response(req_id, SendGoalResponse { accepted: true, stamp: ros2_client::builtin_interfaces::Time::now() });
             if let Some(rid) = running.take().and_then(|r| r.result_req) {
                 // Preempted, as Nav2 does.
                 finished.push((rid, GoalStatusEnum::Canceled, NavigateToPoseResult::default()));
@@ -209,7 +210,8 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
                     finished.push((rid, GoalStatusEnum::Canceled, NavigateToPoseResult::default()));
                 }
             }
-            let _ = server.send_cancel_response(rid, CancelGoalResponse { return_code: CancelGoalResponseEnum::None, goals_canceling: vec![] });
+            let _ =
+                server.send_cancel_response(rid, CancelGoalResponse { return_code: CancelGoalResponseEnum::None, goals_canceling: vec![] });
         }
         if running.as_ref().is_some_and(|r| r.outcome.is_none()) && sim.advance(dt) {
             if let Some(r) = &mut running {
@@ -256,7 +258,13 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
         let bytes = std::fs::read(&rrd).unwrap_or_default();
         assert!(bytes.len() > 10_000 && bytes.starts_with(b"RRF"), "rerun recording: {} bytes", bytes.len());
     }
-    for needle in ["map rejected: map resolution", "late map dropped", "aborted (error 9000: simulated controller failure)", "pose stale", "map geometry changed"] {
+    for needle in [
+        "map rejected: map resolution",
+        "late map dropped",
+        "aborted (error 9000: simulated controller failure)",
+        "pose stale",
+        "map geometry changed",
+    ] {
         assert!(log.contains(needle), "node log lacks '{needle}':\n{log}");
     }
 }

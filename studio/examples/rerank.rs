@@ -52,8 +52,7 @@ fn main() {
         // Where the time goes, stage by stage (same calls as the selector).
         let params = Params::default();
         let grid = to_occupancy(&scene.map.score, params.traversability.tau);
-        let voxels =
-            LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
+        let voxels = LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
         let input = DecisionInput::new(&grid, &voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
         let t = Instant::now();
         let prepared = prepare(&input, &params).unwrap();

@@ -70,10 +70,7 @@ impl StudioApp {
         let builtin = asset.and_then(assets::builtin).unwrap_or(&assets::builtins()[0]);
         let mut messages = Vec::new();
         if let Some(name) = asset.filter(|n| assets::builtin(n).is_none()) {
-            messages.push(Message {
-                error: true,
-                text: format!("no built-in asset named '{name}'; showing '{}'", builtin.name),
-            });
+            messages.push(Message { error: true, text: format!("no built-in asset named '{name}'; showing '{}'", builtin.name) });
         }
         let scene = match builtin.build(params.frontier.blacklist_radius_m) {
             Ok(s) => s,
@@ -236,11 +233,7 @@ impl StudioApp {
         egui::Panel::right("details").resizable(true).default_size(270.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| panels::details_panel(ui, self));
         });
-        egui::Panel::bottom("table")
-            .resizable(true)
-            .default_size(200.0)
-            .min_size(120.0)
-            .show(ui, |ui| panels::candidate_table(ui, self));
+        egui::Panel::bottom("table").resizable(true).default_size(200.0).min_size(120.0).show(ui, |ui| panels::candidate_table(ui, self));
         egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, self));
 
         // The parameters or the scene may have changed above: bring the decision up to date.
@@ -269,17 +262,9 @@ impl StudioApp {
     pub fn open_lane_in_planner(&mut self, i: usize) {
         let Some(lane) = self.mission.runner.as_ref().and_then(|r| r.lanes.get(i)) else { return };
         let m = &lane.mission;
-        let name = format!(
-            "{} / {} at t = {:.1} s",
-            m.world.spec.name,
-            crate::sim_runner::strategy_label(lane.strategy),
-            m.time_s
-        );
-        let map = crate::scene::MapLayers {
-            score: m.layers.score.clone(),
-            source: name.clone(),
-            kind: crate::scene::MapKind::Traversability,
-        };
+        let name = format!("{} / {} at t = {:.1} s", m.world.spec.name, crate::sim_runner::strategy_label(lane.strategy), m.time_s);
+        let map =
+            crate::scene::MapLayers { score: m.layers.score.clone(), source: name.clone(), kind: crate::scene::MapKind::Traversability };
         let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
         let mut scene = Scene::new(map, landmarks, Some(m.est), self.params.frontier.blacklist_radius_m);
         scene.robot = m.est;
@@ -351,15 +336,13 @@ impl StudioApp {
 
     fn menu_bar(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
-        let r =
-            ui.selectable_label(self.mode == Mode::Planner, "Planner").on_hover_text("One decision: see and tune it.");
+        let r = ui.selectable_label(self.mode == Mode::Planner, "Planner").on_hover_text("One decision: see and tune it.");
         self.widget_rects.insert("mode_planner", r.rect);
         if r.clicked() {
             self.mode = Mode::Planner;
         }
-        let r = ui
-            .selectable_label(self.mode == Mode::Mission, "Mission")
-            .on_hover_text("Play simulated missions, strategies side by side.");
+        let r =
+            ui.selectable_label(self.mode == Mode::Mission, "Mission").on_hover_text("Play simulated missions, strategies side by side.");
         self.widget_rects.insert("mode_mission", r.rect);
         if r.clicked() {
             self.mode = Mode::Mission;

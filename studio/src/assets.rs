@@ -164,11 +164,7 @@ fn corridor(blacklist_radius_m: f64) -> Result<Scene, String> {
 }
 
 fn synthetic_small(blacklist_radius_m: f64) -> Result<Scene, String> {
-    Ok(from_fixture(
-        fixtures::synthetic_world(&fixtures::SyntheticWorldSpec::small(1)),
-        "synthetic",
-        blacklist_radius_m,
-    ))
+    Ok(from_fixture(fixtures::synthetic_world(&fixtures::SyntheticWorldSpec::small(1)), "synthetic", blacklist_radius_m))
 }
 
 /// Axis-aligned boxes (min x, min y, max x, max y) of the courtyard's obstacles, metres.
@@ -183,8 +179,7 @@ const OBSTACLES: [[f64; 4]; 7] = [
 ];
 
 /// Ground patches with an intermediate score (rough, sloped): lethal only when τ exceeds it.
-const ROUGH: [([f64; 4], f32); 3] =
-    [([8.0, 3.0, 9.5, 4.5], 0.45), ([4.5, 4.5, 5.8, 6.0], 0.7), ([9.5, 8.0, 11.0, 9.0], 0.3)];
+const ROUGH: [([f64; 4], f32); 3] = [([8.0, 3.0, 9.5, 4.5], 0.45), ([4.5, 4.5, 5.8, 6.0], 0.7), ([9.5, 8.0, 11.0, 9.0], 0.3)];
 
 fn synthetic_courtyard(blacklist_radius_m: f64) -> Result<Scene, String> {
     let geometry = GridGeometry::new(0.0, 0.0, 0.05, 320, 240);
@@ -289,12 +284,7 @@ mod tests {
         let mut differ = 0;
         for i in 0..occ.data.len() {
             if CellClass::of(occ.data[i]) != CellClass::of(again.data[i]) {
-                assert!(
-                    (score.data[i] - 0.5).abs() <= 1.0 / 1020.0 + 1e-6,
-                    "cell {i}: {} vs {}",
-                    occ.data[i],
-                    score.data[i]
-                );
+                assert!((score.data[i] - 0.5).abs() <= 1.0 / 1020.0 + 1e-6, "cell {i}: {} vs {}", occ.data[i], score.data[i]);
                 differ += 1;
             }
         }

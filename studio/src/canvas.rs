@@ -157,18 +157,12 @@ impl View {
 
     pub fn to_screen(&self, x_m: f64, y_m: f64) -> Pos2 {
         let c = self.rect.center();
-        Pos2::new(
-            c.x + ((x_m - self.center_m[0]) * self.px_per_m) as f32,
-            c.y - ((y_m - self.center_m[1]) * self.px_per_m) as f32,
-        )
+        Pos2::new(c.x + ((x_m - self.center_m[0]) * self.px_per_m) as f32, c.y - ((y_m - self.center_m[1]) * self.px_per_m) as f32)
     }
 
     pub fn to_world(&self, p: Pos2) -> [f64; 2] {
         let c = self.rect.center();
-        [
-            self.center_m[0] + f64::from(p.x - c.x) / self.px_per_m,
-            self.center_m[1] - f64::from(p.y - c.y) / self.px_per_m,
-        ]
+        [self.center_m[0] + f64::from(p.x - c.x) / self.px_per_m, self.center_m[1] - f64::from(p.y - c.y) / self.px_per_m]
     }
 
     pub fn len(&self, m: f64) -> f32 {
@@ -231,20 +225,21 @@ fn map_texture(ui: &egui::Ui, app: &mut StudioApp) -> Option<egui::TextureId> {
         Layer::Inflated => (layer, m, t, radius.to_bits(), 0),
     };
     if app.canvas.texture.as_ref().is_none_or(|(k, _)| *k != key) {
-        let image = match layer {
-            Layer::Score => layer_image(&app.scene.map.score, |s| {
-                let [r, g, b] = score_rgb(*s);
-                Color32::from_rgb(r, g, b)
-            }),
-            Layer::Unknown => layer_image(&app.scene.map.score, |s| {
-                if s.is_nan() { Color32::from_rgb(150, 60, 170) } else { Color32::from_rgb(60, 60, 60) }
-            }),
-            Layer::Thresholded => layer_image(app.pipeline.occupancy()?, |v| occupancy_pixel(*v)),
-            Layer::Inflated => {
-                let (g, _) = app.pipeline.inflated(radius)?;
-                layer_image::<i8>(g as &OccupancyGrid, |v| occupancy_pixel(*v))
-            }
-        };
+        let image =
+            match layer {
+                Layer::Score => layer_image(&app.scene.map.score, |s| {
+                    let [r, g, b] = score_rgb(*s);
+                    Color32::from_rgb(r, g, b)
+                }),
+                Layer::Unknown => layer_image(&app.scene.map.score, |s| {
+                    if s.is_nan() { Color32::from_rgb(150, 60, 170) } else { Color32::from_rgb(60, 60, 60) }
+                }),
+                Layer::Thresholded => layer_image(app.pipeline.occupancy()?, |v| occupancy_pixel(*v)),
+                Layer::Inflated => {
+                    let (g, _) = app.pipeline.inflated(radius)?;
+                    layer_image::<i8>(g as &OccupancyGrid, |v| occupancy_pixel(*v))
+                }
+            };
         let max = ui.ctx().input(|i| i.max_texture_side);
         if image.size[0] > max || image.size[1] > max {
             return None;
@@ -280,11 +275,7 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     // Refit when asked, on the first frame, and when the canvas is resized (panels or messages
     // changed) as long as the user has not panned or zoomed since the last fit.
     let resized = app.canvas.rect.is_some_and(|r| r.size() != rect.size());
-    if app.canvas.fit_requested
-        || app.canvas.px_per_m <= 0.0
-        || app.canvas.rect.is_none()
-        || (resized && !app.canvas.user_view)
-    {
+    if app.canvas.fit_requested || app.canvas.px_per_m <= 0.0 || app.canvas.rect.is_none() || (resized && !app.canvas.user_view) {
         app.canvas.user_view = false;
         let fitted = View::fit(rect, (x0, y0, x1, y1));
         app.canvas.px_per_m = fitted.px_per_m;
@@ -365,9 +356,10 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
             // planner can start from (free on the inflated grid).
             let radius = app.params.robot.radius_m;
             let robot = app.scene.robot;
-            let snapped = app.pipeline.inflated(radius).and_then(|(grid, _)| {
-                crate::scene::nearest_pose(grid, robot, |v| CellClass::of(*v) == CellClass::Free)
-            });
+            let snapped = app
+                .pipeline
+                .inflated(radius)
+                .and_then(|(grid, _)| crate::scene::nearest_pose(grid, robot, |v| CellClass::of(*v) == CellClass::Free));
             if let Some(p) = snapped.filter(|p| *p != robot) {
                 app.scene.robot = p;
                 app.layout_changed();
@@ -381,13 +373,7 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
         let r = Rect::from_two_pos(view.to_screen(x0, y1), view.to_screen(x1, y0));
         painter.image(tex, r, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
     } else {
-        painter.text(
-            rect.center(),
-            Align2::CENTER_CENTER,
-            "map too large for a texture",
-            FontId::proportional(16.0),
-            Color32::LIGHT_RED,
-        );
+        painter.text(rect.center(), Align2::CENTER_CENTER, "map too large for a texture", FontId::proportional(16.0), Color32::LIGHT_RED);
     }
 
     if app.overlays.boundary {
@@ -422,12 +408,10 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     if let Some(d) = app.pipeline.ok_decision() {
         draw_decision(&painter, &view, app, d);
         // Candidate positions for page scripts and tests (first 10 by rank).
-        const NAMES: [&str; 10] =
-            ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
+        const NAMES: [&str; 10] = ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
         for (k, i) in d.ranking().into_iter().take(10).enumerate() {
             let c = &d.candidates[i];
-            rank_rects
-                .push((NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX))));
+            rank_rects.push((NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX))));
         }
     }
     app.widget_rects.extend(rank_rects);
@@ -480,14 +464,13 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
 
     if app.overlays.frontiers {
         for (i, c) in d.candidates.iter().enumerate() {
-            let color =
-                if c.dropped == Some(DropReason::NoPath) || matches!(c.dropped, Some(DropReason::Blacklisted(_))) {
-                    Color32::from_rgba_unmultiplied(200, 60, 60, 200)
-                } else if i % 2 == 0 {
-                    Color32::from_rgba_unmultiplied(0, 200, 255, 200)
-                } else {
-                    Color32::from_rgba_unmultiplied(255, 90, 230, 200)
-                };
+            let color = if c.dropped == Some(DropReason::NoPath) || matches!(c.dropped, Some(DropReason::Blacklisted(_))) {
+                Color32::from_rgba_unmultiplied(200, 60, 60, 200)
+            } else if i % 2 == 0 {
+                Color32::from_rgba_unmultiplied(0, 200, 255, 200)
+            } else {
+                Color32::from_rgba_unmultiplied(255, 90, 230, 200)
+            };
             let g = app.scene.map.geometry();
             for cell in &c.cluster_cells {
                 let (x, y) = g.center_of(*cell);
@@ -603,9 +586,7 @@ pub(crate) fn draw_candidate(
 ) {
     let p = view.to_screen(c.x_m, c.y_m);
     let (fill, label) = match (c.rank, c.dropped) {
-        (Some(r), _) => {
-            (if d.chosen == Some(i) { Color32::from_rgb(255, 215, 0) } else { rank_color(r) }, Some(r.to_string()))
-        }
+        (Some(r), _) => (if d.chosen == Some(i) { Color32::from_rgb(255, 215, 0) } else { rank_color(r) }, Some(r.to_string())),
         (None, Some(DropReason::NotInTopN)) => (Color32::from_rgb(120, 140, 170), None),
         (None, Some(DropReason::NoPath)) => (Color32::from_rgb(220, 60, 60), None),
         (None, Some(DropReason::Blacklisted(_))) => (Color32::from_rgb(130, 30, 30), None),
@@ -675,13 +656,7 @@ fn legend(painter: &egui::Painter, rect: Rect, app: &StudioApp) {
         );
         painter.rect_filled(r, 0.0, ramp(t));
     }
-    painter.text(
-        Pos2::new(bar.left(), bar.bottom() + 2.0),
-        Align2::LEFT_TOP,
-        "low",
-        FontId::proportional(11.0),
-        Color32::from_gray(200),
-    );
+    painter.text(Pos2::new(bar.left(), bar.bottom() + 2.0), Align2::LEFT_TOP, "low", FontId::proportional(11.0), Color32::from_gray(200));
     painter.text(
         Pos2::new(bar.right(), bar.bottom() + 2.0),
         Align2::RIGHT_TOP,

@@ -35,10 +35,9 @@ pub fn drop_text(d: Option<DropReason>) -> String {
         None => String::new(),
         Some(DropReason::NoPath) => "no_path".into(),
         Some(DropReason::NotInTopN) => "not_in_top_n".into(),
-        Some(DropReason::Blacklisted(r)) => format!(
-            "blacklisted_{}",
-            serde_json::to_value(r).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()
-        ),
+        Some(DropReason::Blacklisted(r)) => {
+            format!("blacklisted_{}", serde_json::to_value(r).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default())
+        }
     }
 }
 
@@ -139,13 +138,8 @@ pub fn ranking_brief_json(decision: &Decision) -> String {
             }
         })
         .collect();
-    serde_json::to_string(&Brief {
-        strategy: decision.strategy,
-        chosen: decision.chosen,
-        candidates: decision.candidates.len(),
-        ranked,
-    })
-    .unwrap_or_default()
+    serde_json::to_string(&Brief { strategy: decision.strategy, chosen: decision.chosen, candidates: decision.candidates.len(), ranked })
+        .unwrap_or_default()
 }
 
 #[cfg(test)]
@@ -208,9 +202,6 @@ mod tests {
         let v: serde_json::Value = serde_json::from_str(&ranking_brief_json(&decision())).unwrap();
         assert_eq!(v["chosen"], 1);
         assert_eq!(v["candidates"], 3);
-        assert_eq!(
-            v["ranked"].as_array().unwrap().iter().map(|r| r["index"].as_u64().unwrap()).collect::<Vec<_>>(),
-            vec![1, 0]
-        );
+        assert_eq!(v["ranked"].as_array().unwrap().iter().map(|r| r["index"].as_u64().unwrap()).collect::<Vec<_>>(), vec![1, 0]);
     }
 }

@@ -151,8 +151,7 @@ impl FileBrowser {
                 for e in rd.flatten() {
                     let name = e.file_name().to_string_lossy().into_owned();
                     let is_dir = e.file_type().map(|t| t.is_dir()).unwrap_or(false);
-                    let ext_ok =
-                        name.rsplit_once('.').is_some_and(|(_, x)| exts.contains(&x.to_ascii_lowercase().as_str()));
+                    let ext_ok = name.rsplit_once('.').is_some_and(|(_, x)| exts.contains(&x.to_ascii_lowercase().as_str()));
                     if (is_dir || ext_ok) && !name.starts_with('.') {
                         self.entries.push((name, is_dir));
                     }
@@ -234,11 +233,7 @@ pub fn read_sibling(name: &str, sibling: &str) -> Option<(String, Result<Vec<u8>
     #[cfg(not(target_arch = "wasm32"))]
     {
         let base = std::path::Path::new(name).parent().filter(|p| !p.as_os_str().is_empty())?;
-        let path = if std::path::Path::new(sibling).is_absolute() {
-            std::path::PathBuf::from(sibling)
-        } else {
-            base.join(sibling)
-        };
+        let path = if std::path::Path::new(sibling).is_absolute() { std::path::PathBuf::from(sibling) } else { base.join(sibling) };
         let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()));
         Some((path.display().to_string(), bytes))
     }

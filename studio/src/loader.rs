@@ -52,11 +52,7 @@ fn is_image(ext: &str) -> bool {
 /// batch whose base name matches its `image:` key; `pending` holds YAMLs still waiting for their
 /// image from an earlier batch and is updated. `params` gives the resolution of bare images and
 /// the traversability parameters for clouds.
-pub fn load_batch(
-    files: Vec<IncomingFile>,
-    pending: &mut Vec<(String, Vec<u8>, String)>,
-    params: &Params,
-) -> Vec<Result<Loaded, String>> {
+pub fn load_batch(files: Vec<IncomingFile>, pending: &mut Vec<(String, Vec<u8>, String)>, params: &Params) -> Vec<Result<Loaded, String>> {
     let mut out = Vec::new();
     // Images of this batch, by base name, so YAMLs can claim them.
     let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
@@ -123,8 +119,7 @@ fn map_from_yaml(yaml: &[u8], yaml_name: &str, image: &[u8], image_name: &str) -
 }
 
 fn bare_image_map(bytes: &[u8], name: &str, resolution_m: f64) -> Result<Loaded, String> {
-    let grid = io::load_map_image(bytes, name, resolution_m, [0.0, 0.0], &MapThresholds::default())
-        .map_err(|e| e.to_string())?;
+    let grid = io::load_map_image(bytes, name, resolution_m, [0.0, 0.0], &MapThresholds::default()).map_err(|e| e.to_string())?;
     Ok(Loaded::Map(MapLayers::from_occupancy(&grid, base_name(name))))
 }
 
@@ -152,15 +147,9 @@ fn load_cloud(name: String, bytes: Vec<u8>, intent: Intent, params: &Params) -> 
             let cloud = io::load_cloud(&bytes, &name).map_err(|e| e.to_string())?;
             let map = TraversabilityMap::from_cloud(&cloud, params).map_err(|e| format!("{name}: {e}"))?;
             let layers = map.compute(&params.traversability);
-            Ok(Loaded::Map(MapLayers {
-                score: layers.score,
-                source: base_name(&name).to_string(),
-                kind: MapKind::Traversability,
-            }))
+            Ok(Loaded::Map(MapLayers { score: layers.score, source: base_name(&name).to_string(), kind: MapKind::Traversability }))
         }
-        Intent::Any | Intent::Map | Intent::Params => {
-            Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent }))
-        }
+        Intent::Any | Intent::Map | Intent::Params => Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent })),
     }
 }
 

@@ -98,10 +98,8 @@ impl MissionView {
     pub fn restart(&mut self, params: &fitslam_core::Params) {
         self.generation += 1;
         self.textures.clear();
-        let reuse = self
-            .runner
-            .as_ref()
-            .is_some_and(|r| r.config.world == self.config.world && r.params.traversability == params.traversability);
+        let reuse =
+            self.runner.as_ref().is_some_and(|r| r.config.world == self.config.world && r.params.traversability == params.traversability);
         let result = match (reuse, self.runner.as_mut()) {
             (true, Some(r)) => {
                 r.config = self.config.clone();
@@ -239,13 +237,11 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
         let l = ui.label("seed");
         ui.add(egui::DragValue::new(&mut m.config.seed)).labelled_by(l.id);
     });
-    egui::ComboBox::from_label("localisation")
-        .selected_text(sim_runner::localisation_label(m.config.localisation))
-        .show_ui(ui, |ui| {
-            for l in LOCALISATIONS {
-                ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
-            }
-        });
+    egui::ComboBox::from_label("localisation").selected_text(sim_runner::localisation_label(m.config.localisation)).show_ui(ui, |ui| {
+        for l in LOCALISATIONS {
+            ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
+        }
+    });
     let pending = m.runner.as_ref().is_none_or(|r| r.config != m.config);
     if pending {
         ui.colored_label(Color32::from_rgb(255, 200, 120), "settings changed: press Reset to apply");
@@ -272,9 +268,8 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
         {
             run.pause();
         }
-        let r = ui
-            .add_enabled(!finished, egui::Button::new("Step tick"))
-            .on_hover_text("One control tick (0.1 s simulated) of every mission.");
+        let r =
+            ui.add_enabled(!finished, egui::Button::new("Step tick")).on_hover_text("One control tick (0.1 s simulated) of every mission.");
         rects.push(("mission_step_tick", r.rect));
         if r.clicked()
             && let Some(run) = &mut m.runner
@@ -299,9 +294,7 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
     });
     ui.add_space(4.0);
     ui.add_enabled_ui(!m.max_speed, |ui| {
-        let r = ui.add(
-            egui::Slider::new(&mut m.speed, 1.0..=500.0).logarithmic(true).text("speed [sim s / s]").fixed_decimals(0),
-        );
+        let r = ui.add(egui::Slider::new(&mut m.speed, 1.0..=500.0).logarithmic(true).text("speed [sim s / s]").fixed_decimals(0));
         rects.push(("mission_speed", r.rect));
     });
     let r = ui.checkbox(&mut m.max_speed, "as fast as possible");
@@ -486,9 +479,9 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
                 None => String::new(),
             }
         ));
-        let b = ui
-            .small_button("open in planner")
-            .on_hover_text("Load this mission's current map, landmarks, pose and blacklist into the Planner mode, which re-ranks from them.");
+        let b = ui.small_button("open in planner").on_hover_text(
+            "Load this mission's current map, landmarks, pose and blacklist into the Planner mode, which re-ranks from them.",
+        );
         if i < OPEN.len() {
             rects.push((OPEN[i], b.rect));
         }
@@ -557,15 +550,13 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
         pts
     };
     painter.add(Shape::line(track(&mission.trajectory_gt, mission.gt), Stroke::new(1.2, Color32::from_gray(230))));
-    painter
-        .add(Shape::line(track(&mission.trajectory_est, mission.est), Stroke::new(1.8, strategy_color(lane.strategy))));
+    painter.add(Shape::line(track(&mission.trajectory_est, mission.est), Stroke::new(1.8, strategy_color(lane.strategy))));
     // The robot: estimate (disc + heading), truth (ring) when they differ.
     let body_r = view.len(mission.params.robot.radius_m).max(5.0);
     let gt = view.to_screen(mission.gt.x_m, mission.gt.y_m);
     painter.circle_stroke(gt, body_r, Stroke::new(1.5, Color32::from_gray(230)));
     let p = view.to_screen(mission.est.x_m, mission.est.y_m);
-    let heading =
-        p + Vec2::new(mission.est.yaw_rad.cos() as f32, -(mission.est.yaw_rad.sin() as f32)) * (body_r + 10.0);
+    let heading = p + Vec2::new(mission.est.yaw_rad.cos() as f32, -(mission.est.yaw_rad.sin() as f32)) * (body_r + 10.0);
     canvas::draw_robot(&painter, p, body_r, heading, false);
     painter.text(
         rect.left_top() + Vec2::new(6.0, 6.0),

@@ -34,12 +34,11 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
     let mut rects: Vec<(&'static str, egui::Rect)> = Vec::new();
 
     ui.label(egui::RichText::new("Strategy").strong());
-    let strat =
-        egui::ComboBox::from_label("strategy").selected_text(strategy_name(p.selector.strategy)).show_ui(ui, |ui| {
-            for s in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {
-                ui.selectable_value(&mut p.selector.strategy, s, strategy_name(s));
-            }
-        });
+    let strat = egui::ComboBox::from_label("strategy").selected_text(strategy_name(p.selector.strategy)).show_ui(ui, |ui| {
+        for s in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {
+            ui.selectable_value(&mut p.selector.strategy, s, strategy_name(s));
+        }
+    });
     rects.push(("strategy", strat.response.rect));
     if p.selector.strategy == Strategy::Random {
         ui.horizontal(|ui| {
@@ -50,16 +49,15 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
 
     ui.add_space(6.0);
     ui.label(egui::RichText::new("u1: path length vs entropy").strong());
-    let r = ui.add(egui::Slider::new(&mut p.u1.alpha, 0.0..=1.0).text("α").fixed_decimals(2)).on_hover_text(
-        "α weights the path-length term ρ_min/ρ; 1 − α weights the entropy term ΔE/ΔE_max (paper 0.35).",
-    );
+    let r = ui
+        .add(egui::Slider::new(&mut p.u1.alpha, 0.0..=1.0).text("α").fixed_decimals(2))
+        .on_hover_text("α weights the path-length term ρ_min/ρ; 1 − α weights the entropy term ΔE/ΔE_max (paper 0.35).");
     rects.push(("alpha", r.rect));
-    let r = scaled_slider(ui, &mut p.u1.delta_theta_rad, deg, 1.0..=45.0, "Δθ [°]", 1)
-        .on_hover_text("Angle between rays (paper 8.5°).");
+    let r = scaled_slider(ui, &mut p.u1.delta_theta_rad, deg, 1.0..=45.0, "Δθ [°]", 1).on_hover_text("Angle between rays (paper 8.5°).");
     rects.push(("delta_theta", r.rect));
-    let r = ui.add(egui::Slider::new(&mut p.u1.gamma, 0.9..=1.0).text("γ").fixed_decimals(3)).on_hover_text(
-        "Visibility decay per cell along a ray: an unknown cell N cells out gains 1 − H((1 + γ^N)/2) bits.",
-    );
+    let r = ui
+        .add(egui::Slider::new(&mut p.u1.gamma, 0.9..=1.0).text("γ").fixed_decimals(3))
+        .on_hover_text("Visibility decay per cell along a ray: an unknown cell N cells out gains 1 − H((1 + γ^N)/2) bits.");
     rects.push(("gamma", r.rect));
     let r = scaled_slider(ui, &mut p.camera.hfov_rad, deg, 10.0..=360.0, "Φ [°]", 0)
         .on_hover_text("Camera horizontal field of view: the Θ* window (D435: 87°).");
@@ -152,10 +150,7 @@ pub fn candidate_summary(ui: &mut egui::Ui, d: &Decision, i: usize, c: &Candidat
         row("ρ (path)", format!("{} m", fmt(c.rho_m, 2)));
         row("ΔE", format!("{} bits", fmt(c.delta_e_bits, 2)));
         row("Θ*", format!("{}°", fmt(c.theta_star_rad.map(f64::to_degrees), 1)));
-        row(
-            "u1",
-            format!("{} (rank {})", fmt(c.u1, 3), c.u1_rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into())),
-        );
+        row("u1", format!("{} (rank {})", fmt(c.u1, 3), c.u1_rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into())));
         row("I_p", format!("{} (raw {})", fmt(c.path_info, 3), fmt(c.path_info_raw, 1)));
         row("u2", fmt(c.u2, 3));
         row("cluster", format!("{} cells", c.cluster_size));
@@ -223,16 +218,8 @@ pub enum Column {
 }
 
 impl Column {
-    const ALL: [Column; 8] = [
-        Column::Index,
-        Column::Rank,
-        Column::Rho,
-        Column::DeltaE,
-        Column::ThetaStar,
-        Column::U1,
-        Column::Ip,
-        Column::U2,
-    ];
+    const ALL: [Column; 8] =
+        [Column::Index, Column::Rank, Column::Rho, Column::DeltaE, Column::ThetaStar, Column::U1, Column::Ip, Column::U2];
 
     fn title(self) -> &'static str {
         match self {
@@ -357,10 +344,7 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
         if app.table.column == col {
             app.table.descending = !app.table.descending;
         } else {
-            app.table = TableState {
-                column: col,
-                descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE),
-            };
+            app.table = TableState { column: col, descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE) };
         }
     }
     if let Some(sel) = new_sel {
@@ -375,8 +359,7 @@ mod tests {
 
     #[test]
     fn rows_sort_by_column_with_missing_values_last() {
-        let mut cs: Vec<CandidateReport> =
-            (0..4).map(|i| CandidateReport::new(Cell::new(i, 0), f64::from(i), 0.0, vec![])).collect();
+        let mut cs: Vec<CandidateReport> = (0..4).map(|i| CandidateReport::new(Cell::new(i, 0), f64::from(i), 0.0, vec![])).collect();
         cs[0].rho_m = Some(2.0);
         cs[1].rho_m = None;
         cs[2].rho_m = Some(1.0);

@@ -89,8 +89,7 @@ impl Pipeline {
             let t = Instant::now();
             let result = match (&self.occupancy, &self.voxels) {
                 (Some((_, grid)), Some((_, Ok(voxels)))) => {
-                    let input =
-                        DecisionInput::new(grid, voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
+                    let input = DecisionInput::new(grid, voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
                     make_selector(&params.selector).select(&input, params).map_err(|e| e.to_string())
                 }
                 (_, Some((_, Err(e)))) => Err(e.clone()),

@@ -78,13 +78,7 @@ impl Scene {
     pub fn new(map: MapLayers, landmarks: Landmarks, robot: Option<Pose2>, blacklist_radius_m: f64) -> Self {
         let (x0, y0, x1, y1) = map.geometry().bounds_m();
         let boundary = Boundary::from_bounds(x0, y0, x1, y1);
-        let mut scene = Self {
-            map,
-            landmarks,
-            robot: Pose2::new(0.0, 0.0, 0.0),
-            boundary,
-            blacklist: Blacklist::new(blacklist_radius_m),
-        };
+        let mut scene = Self { map, landmarks, robot: Pose2::new(0.0, 0.0, 0.0), boundary, blacklist: Blacklist::new(blacklist_radius_m) };
         let start = robot.unwrap_or(Pose2::new(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0));
         scene.robot = scene.nearest_free_pose(start, 0.5).unwrap_or(start);
         scene

@@ -242,8 +242,7 @@ impl SimRunner {
             .map_err(|e| format!("{} / {}: {e}", self.config.world, strategy_label(s)))?;
             let decisions = mission.summary().decisions;
             let mut lane = Lane { strategy: s, mission, end: None, decisions };
-            lane.mission
-                .set_clock(Box::new(|| web_time::Instant::now().duration_since(clock_origin()).as_secs_f64() * 1e3));
+            lane.mission.set_clock(Box::new(|| web_time::Instant::now().duration_since(clock_origin()).as_secs_f64() * 1e3));
             lanes.push(lane);
         }
         self.lanes = lanes;
@@ -315,9 +314,7 @@ impl SimRunner {
                         .lanes
                         .iter()
                         .enumerate()
-                        .filter(|(_, l)| {
-                            l.running() && l.mission.time_s + 0.5 * l.mission.mission.dt_s <= self.target_s
-                        })
+                        .filter(|(_, l)| l.running() && l.mission.time_s + 0.5 * l.mission.mission.dt_s <= self.target_s)
                         .min_by(|a, b| a.1.mission.time_s.total_cmp(&b.1.mission.time_s))
                         .map(|(i, _)| i);
                     let Some(i) = next else { break };

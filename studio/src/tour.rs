@@ -58,13 +58,7 @@ const STEPS: [Step; 7] = [
         apply: |app| {
             app.params.u1.alpha = 1.0;
             app.params.u2.beta = 1.0;
-            app.overlays = Overlays {
-                rays: RayMode::Ranked,
-                all_cones: true,
-                paths: false,
-                frustums: false,
-                ..Overlays::default()
-            };
+            app.overlays = Overlays { rays: RayMode::Ranked, all_cones: true, paths: false, frustums: false, ..Overlays::default() };
             app.selected = None;
         },
     },

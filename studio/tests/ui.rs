@@ -105,8 +105,7 @@ fn strategy_combo_switches_to_greedy() {
 #[test]
 fn tau_slider_changes_the_thresholded_map_and_the_decision() {
     let mut h = harness_with(Some("courtyard"));
-    let lethal =
-        |h: &Harness<'_, StudioApp>| h.state().pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
+    let lethal = |h: &Harness<'_, StudioApp>| h.state().pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
     let before_lethal = lethal(&h);
     let before = decision(&h);
     // The courtyard's rough patches score 0.3–0.7: τ = 0.75 makes them all lethal.
@@ -200,11 +199,7 @@ fn bad_files_give_messages_not_crashes() {
             intent: Intent::Landmarks,
         },
         IncomingFile { name: "nonsense.yaml".into(), bytes: Ok(b"foo: [1, 2".to_vec()), intent: Intent::Any },
-        IncomingFile {
-            name: "picture.png".into(),
-            bytes: Ok(b"\x89PNG\r\n\x1a\nnot really".to_vec()),
-            intent: Intent::Any,
-        },
+        IncomingFile { name: "picture.png".into(), bytes: Ok(b"\x89PNG\r\n\x1a\nnot really".to_vec()), intent: Intent::Any },
         IncomingFile { name: "notes.txt".into(), bytes: Ok(b"hello".to_vec()), intent: Intent::Any },
         IncomingFile { name: "gone.pcd".into(), bytes: Err("permission denied".into()), intent: Intent::Any },
     ];
@@ -225,11 +220,7 @@ fn a_map_yaml_waits_for_its_image_then_loads_with_landmarks() {
     let read = |f: &str| std::fs::read(format!("{dir}{f}")).unwrap();
     let mut h = harness_with(Some("courtyard"));
     // The web gives bare names: the YAML alone cannot find its image yet.
-    h.state_mut().load_files(vec![IncomingFile {
-        name: "map.yaml".into(),
-        bytes: Ok(read("map.yaml")),
-        intent: Intent::Any,
-    }]);
+    h.state_mut().load_files(vec![IncomingFile { name: "map.yaml".into(), bytes: Ok(read("map.yaml")), intent: Intent::Any }]);
     h.run_ok();
     assert_eq!(h.state().scene.map.source, "courtyard");
     h.state_mut().load_files(vec![
@@ -268,10 +259,8 @@ fn exports_carry_the_params_and_the_ranking() {
     assert_eq!(lines.len(), d.candidates.len() + 1);
     let chosen = d.chosen.unwrap();
     assert!(lines[1].starts_with(&format!("{chosen},1,")), "{}", lines[1]);
-    let json: serde_json::Value =
-        serde_json::from_str(&fitslam_studio::export::ranking_json(&d, &app.params, "m", "l")).unwrap();
-    let ranking: Vec<usize> =
-        json["ranking"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect();
+    let json: serde_json::Value = serde_json::from_str(&fitslam_studio::export::ranking_json(&d, &app.params, "m", "l")).unwrap();
+    let ranking: Vec<usize> = json["ranking"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect();
     assert_eq!(ranking, d.ranking());
     assert_eq!(json["decision"]["chosen"].as_u64(), Some(chosen as u64));
     assert_eq!(json["params"]["u1"]["alpha"].as_f64(), Some(0.35));

@@ -30,8 +30,8 @@
 //! O(F log F) for F frontier cells (each cell is swept three times over its 8 neighbours; the
 //! log is the per-wave sort), on the caller's `u8` state layer plus a few reused index buffers.
 
-use super::wfd::FRONTIER;
 use super::FrontierCluster;
+use super::wfd::FRONTIER;
 use crate::grid::GridGeometry;
 use crate::params::FrontierParams;
 
@@ -297,8 +297,22 @@ mod tests {
         }
         let order = order_of(7, 7, &cells);
         let expect = [
-            (1, 1), (2, 1), (1, 2), (3, 1), (4, 1), (5, 1), (5, 2), (5, 3),
-            (5, 4), (4, 5), (5, 5), (3, 5), (2, 5), (1, 4), (1, 5), (1, 3),
+            (1, 1),
+            (2, 1),
+            (1, 2),
+            (3, 1),
+            (4, 1),
+            (5, 1),
+            (5, 2),
+            (5, 3),
+            (5, 4),
+            (4, 5),
+            (5, 5),
+            (3, 5),
+            (2, 5),
+            (1, 4),
+            (1, 5),
+            (1, 3),
         ];
         let expect: Vec<Cell> = expect.iter().map(|&(c, r)| Cell::new(c, r)).collect();
         assert_eq!(order, expect);

@@ -18,7 +18,7 @@ mod boundary;
 mod cluster;
 mod wfd;
 
-pub use blacklist::{end_of_mission, filter_blacklisted, partition_blacklisted, Blacklist, BlacklistEntry, BlacklistReason};
+pub use blacklist::{Blacklist, BlacklistEntry, BlacklistReason, end_of_mission, filter_blacklisted, partition_blacklisted};
 pub use boundary::Boundary;
 pub use cluster::split_lengths;
 pub use wfd::{detect_frontiers, frontier_cells};

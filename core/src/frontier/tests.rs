@@ -2,7 +2,7 @@
 //! against the planner's reachability, and an ignored timing run for BENCHMARKS.md.
 
 use super::*;
-use crate::grid::{CellClass, Grid, OccupancyGrid, FREE, LETHAL, UNKNOWN};
+use crate::grid::{CellClass, FREE, Grid, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::FrontierParams;
 use crate::path::dijkstra;
 use proptest::prelude::*;
@@ -146,10 +146,7 @@ fn typed_errors() {
     assert_eq!(detect_frontiers(&g, Cell::new(3, 3), None, &params(0, 0)), Err(FrontierError::ZeroMaxClusterCells));
     let mut bad = g.clone();
     bad.data.pop();
-    assert_eq!(
-        detect_frontiers(&bad, Cell::new(3, 3), None, &p),
-        Err(FrontierError::GridSizeMismatch { data_len: 90, cells: 91 })
-    );
+    assert_eq!(detect_frontiers(&bad, Cell::new(3, 3), None, &p), Err(FrontierError::GridSizeMismatch { data_len: 90, cells: 91 }));
 }
 
 #[test]
@@ -195,11 +192,7 @@ fn brute_force_frontier(g: &OccupancyGrid, robot: Cell, boundary: Option<&Bounda
             .iter()
             .any(|&(dc, dr)| g.get(Cell::new(c.col + dc, c.row + dr)).is_some_and(|&v| CellClass::of(v) == CellClass::Unknown));
         let (x, y) = g.geometry.center_of(c);
-        if CellClass::of(g.data[i]) == CellClass::Free
-            && field.reachable(c)
-            && unknown_nb
-            && boundary.is_none_or(|b| b.contains(x, y))
-        {
+        if CellClass::of(g.data[i]) == CellClass::Free && field.reachable(c) && unknown_nb && boundary.is_none_or(|b| b.contains(x, y)) {
             set.insert(c);
         }
     }
@@ -312,11 +305,6 @@ fn bench_detect_frontiers_2000x2000() {
         best = best.min(t.elapsed().as_secs_f64());
     }
     let n_cells: usize = out.iter().map(FrontierCluster::len).sum();
-    println!(
-        "frontier detection 2000x2000: {} clusters, {} frontier cells, best of 5: {:.1} ms",
-        out.len(),
-        n_cells,
-        best * 1e3
-    );
+    println!("frontier detection 2000x2000: {} clusters, {} frontier cells, best of 5: {:.1} ms", out.len(), n_cells, best * 1e3);
     assert!(!out.is_empty());
 }

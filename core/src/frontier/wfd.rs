@@ -25,11 +25,7 @@ pub(super) const FRONTIER: u8 = 2;
 
 /// The BFS: returns the state layer (every reachable free cell `REACHED` or `FRONTIER`) and the
 /// frontier cells' flat indices in increasing order.
-pub(super) fn wavefront(
-    grid: &OccupancyGrid,
-    robot: Cell,
-    boundary: Option<&Boundary>,
-) -> Result<(Vec<u8>, Vec<usize>), FrontierError> {
+pub(super) fn wavefront(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Boundary>) -> Result<(Vec<u8>, Vec<usize>), FrontierError> {
     let g = grid.geometry;
     if grid.data.len() != g.len() {
         return Err(FrontierError::GridSizeMismatch { data_len: grid.data.len(), cells: g.len() });

@@ -74,8 +74,7 @@ impl GridGeometry {
     pub fn cell_unchecked(&self, x_m: f64, y_m: f64) -> Option<Cell> {
         let c = ((x_m - self.origin_x_m) / self.resolution_m).floor();
         let r = ((y_m - self.origin_y_m) / self.resolution_m).floor();
-        (c.is_finite() && r.is_finite() && c.abs() < i32::MAX as f64 && r.abs() < i32::MAX as f64)
-            .then(|| Cell::new(c as i32, r as i32))
+        (c.is_finite() && r.is_finite() && c.abs() < i32::MAX as f64 && r.abs() < i32::MAX as f64).then(|| Cell::new(c as i32, r as i32))
     }
 
     /// The cell containing world point (x, y), if it is inside the grid.
@@ -87,10 +86,7 @@ impl GridGeometry {
     /// World position of the centre of `cell` (defined for outside cells too).
     #[inline]
     pub fn center_of(&self, cell: Cell) -> (f64, f64) {
-        (
-            self.origin_x_m + (cell.col as f64 + 0.5) * self.resolution_m,
-            self.origin_y_m + (cell.row as f64 + 0.5) * self.resolution_m,
-        )
+        (self.origin_x_m + (cell.col as f64 + 0.5) * self.resolution_m, self.origin_y_m + (cell.row as f64 + 0.5) * self.resolution_m)
     }
 
     /// World extent `(min_x, min_y, max_x, max_y)` in metres.

@@ -7,7 +7,7 @@
 //! add anything new). O(B · r²) for B boundary cells and r the radius in cells. Unknown cells
 //! stay unknown unless the disc covers them (then lethal: they are within reach of an obstacle).
 
-use super::{CellClass, OccupancyGrid, LETHAL};
+use super::{CellClass, LETHAL, OccupancyGrid};
 
 /// Returns a copy of `grid` with every cell within `radius_m` of a lethal cell set to [`LETHAL`].
 pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
@@ -53,7 +53,7 @@ pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::{Cell, Grid, GridGeometry, FREE};
+    use crate::grid::{Cell, FREE, Grid, GridGeometry};
 
     #[test]
     fn single_obstacle_inflates_to_a_disc() {

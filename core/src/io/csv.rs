@@ -17,14 +17,14 @@
 //! Errors name the 1-based line: non-numbers, non-finite coordinates, a wrong or changing number
 //! of columns, negative variances.
 
-use super::{check_cov, cov_from_upper, CloudError};
+use super::{CloudError, check_cov, cov_from_upper};
 use crate::cloud::PointCloud;
 use nalgebra::{Matrix3, Point3};
 
 /// Loads a CSV point cloud; `name` is used in messages.
 pub fn load_csv(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
-    let text = std::str::from_utf8(bytes)
-        .map_err(|e| CloudError::Header { name: name.to_string(), detail: format!("not UTF-8 text ({e})") })?;
+    let text =
+        std::str::from_utf8(bytes).map_err(|e| CloudError::Header { name: name.to_string(), detail: format!("not UTF-8 text ({e})") })?;
     let line_err = |line: usize, detail: String| CloudError::Line { name: name.to_string(), line, detail };
     let mut points = Vec::new();
     let mut covariances: Vec<Matrix3<f64>> = Vec::new();

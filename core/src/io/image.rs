@@ -56,10 +56,7 @@ impl Raster {
             1 => (self.sample(base), 1.0),
             2 => (self.sample(base), self.sample(base + 1)),
             3 => ((self.sample(base) + self.sample(base + 1) + self.sample(base + 2)) / 3.0, 1.0),
-            _ => (
-                (self.sample(base) + self.sample(base + 1) + self.sample(base + 2)) / 3.0,
-                self.sample(base + 3),
-            ),
+            _ => ((self.sample(base) + self.sample(base + 1) + self.sample(base + 2)) / 3.0, self.sample(base + 3)),
         }
     }
 }
@@ -123,9 +120,7 @@ impl Netpbm<'_> {
 fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
     let binary = bytes.starts_with(b"P5");
     let mut cur = Netpbm { bytes, pos: 2 };
-    let mut header = |what: &str| {
-        cur.number().ok_or_else(|| image_err(name, format!("PGM header: missing or invalid {what}")))
-    };
+    let mut header = |what: &str| cur.number().ok_or_else(|| image_err(name, format!("PGM header: missing or invalid {what}")));
     let width = header("width")? as usize;
     let height = header("height")? as usize;
     let maxval = header("maxval")?;
@@ -136,19 +131,14 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
         return Err(image_err(name, format!("PGM maxval {maxval} is not in 1..=65535")));
     }
     let bytes_per_sample = if maxval > 255 { 2 } else { 1 };
-    let count = width
-        .checked_mul(height)
-        .ok_or_else(|| image_err(name, format!("PGM size {width} × {height} is too large")))?;
+    let count = width.checked_mul(height).ok_or_else(|| image_err(name, format!("PGM size {width} × {height} is too large")))?;
     let need = count.saturating_mul(bytes_per_sample);
     let data = if binary {
         // Exactly one whitespace byte separates maxval from the samples.
         let start = cur.pos + 1;
         let available = bytes.len().saturating_sub(start);
         if available < need {
-            return Err(image_err(
-                name,
-                format!("PGM data truncated: {width} × {height} pixels need {need} bytes, found {available}"),
-            ));
+            return Err(image_err(name, format!("PGM data truncated: {width} × {height} pixels need {need} bytes, found {available}")));
         }
         bytes[start..start + need].to_vec()
     } else {
@@ -156,9 +146,7 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
         // is bounded by the input length.
         let mut data = Vec::with_capacity(need.min(bytes.len()));
         for k in 0..count {
-            let v = cur.number().ok_or_else(|| {
-                image_err(name, format!("PGM data: sample {k} of {count} is missing or not a number"))
-            })?;
+            let v = cur.number().ok_or_else(|| image_err(name, format!("PGM data: sample {k} of {count} is missing or not a number")))?;
             if v > maxval {
                 return Err(image_err(name, format!("PGM data: sample {k} is {v}, above maxval {maxval}")));
             }

@@ -71,7 +71,12 @@ fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
     let len = bytes.len() as u64;
     if compressed {
         if count > len.saturating_mul(LAZ_MAX_POINTS_PER_BYTE) {
-            return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found: 0 });
+            return Err(CloudError::WrongPointCount {
+                name: name.to_string(),
+                keyword: "number of point records",
+                declared: count,
+                found: 0,
+            });
         }
         check_chunk_table(bytes, offset_to_points, name)?;
     } else {
@@ -131,7 +136,12 @@ pub fn load_las(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
         classification.extend(batch.classification());
     }
     if points.len() as u64 != count {
-        return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found: points.len() as u64 });
+        return Err(CloudError::WrongPointCount {
+            name: name.to_string(),
+            keyword: "number of point records",
+            declared: count,
+            found: points.len() as u64,
+        });
     }
     Ok(PointCloud { points, covariances: None, classification: Some(classification) })
 }

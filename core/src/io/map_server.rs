@@ -22,8 +22,8 @@
 //! defaults to trinary; other keys are ignored. We also require resolution > 0 and
 //! 0 ≤ free_thresh < occupied_thresh ≤ 1.
 
-use super::image::{decode_image, write_pgm};
 use super::MapError;
+use super::image::{decode_image, write_pgm};
 use crate::grid::{CellClass, GridGeometry, OccupancyGrid};
 use serde_yaml::Value;
 
@@ -84,9 +84,7 @@ impl MapYaml {
         let text = std::str::from_utf8(bytes).map_err(|e| yaml_err(format!("not UTF-8 ({e})")))?;
         let doc: Value = serde_yaml::from_str(text).map_err(|e| yaml_err(e.to_string()))?;
         let map = doc.as_mapping().ok_or_else(|| yaml_err("the document is not a mapping of keys".to_string()))?;
-        let get = |key: &'static str| {
-            map.get(key).filter(|v| !v.is_null()).ok_or(MapError::MissingKey { name: name.to_string(), key })
-        };
+        let get = |key: &'static str| map.get(key).filter(|v| !v.is_null()).ok_or(MapError::MissingKey { name: name.to_string(), key });
         let bad = |key: &'static str, detail: String| MapError::BadValue { name: name.to_string(), key, detail };
 
         let image = match get("image")? {
@@ -99,7 +97,8 @@ impl MapYaml {
             return Err(bad("resolution", format!("must be a positive number of metres, got {resolution_m}")));
         }
         let origin_v = get("origin")?;
-        let origin_seq = origin_v.as_sequence().ok_or_else(|| bad("origin", format!("expected [x, y, yaw], got {}", describe(origin_v))))?;
+        let origin_seq =
+            origin_v.as_sequence().ok_or_else(|| bad("origin", format!("expected [x, y, yaw], got {}", describe(origin_v))))?;
         if origin_seq.len() != 3 {
             return Err(bad("origin", format!("expected 3 numbers [x, y, yaw], got {}", origin_seq.len())));
         }
@@ -142,12 +141,7 @@ impl MapYaml {
 
     /// The thresholds and mode of this map.
     pub fn thresholds(&self) -> MapThresholds {
-        MapThresholds {
-            occupied_thresh: self.occupied_thresh,
-            free_thresh: self.free_thresh,
-            negate: self.negate,
-            mode: self.mode,
-        }
+        MapThresholds { occupied_thresh: self.occupied_thresh, free_thresh: self.free_thresh, negate: self.negate, mode: self.mode }
     }
 }
 

@@ -14,7 +14,7 @@
 //! compressed size (LZF's maximum expansion), so hostile headers cannot make us allocate.
 //! O(file size).
 
-use super::{CloudBuilder, CloudError, FieldMap, COV_NAMES};
+use super::{COV_NAMES, CloudBuilder, CloudError, FieldMap};
 use crate::cloud::PointCloud;
 
 /// LZF expands at most 264 output bytes per 3 input bytes.
@@ -92,9 +92,7 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, CloudError> {
         // The DATA line may be the last line without a newline (an empty ascii cloud).
         let nl = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
         line_no += 1;
-        let line = std::str::from_utf8(&rest[..nl])
-            .map_err(|_| header_err(name, format!("header line {line_no} is not text")))?
-            .trim();
+        let line = std::str::from_utf8(&rest[..nl]).map_err(|_| header_err(name, format!("header line {line_no} is not text")))?.trim();
         pos = (pos + nl + 1).min(bytes.len());
         let mut words = line.split_ascii_whitespace();
         let Some(key) = words.next() else { continue };
@@ -140,7 +138,13 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, CloudError> {
             "COUNT" => {
                 counts = Some(
                     list.iter()
-                        .map(|s| s.parse::<u32>().ok().filter(|c| *c >= 1).map(|c| c as usize).ok_or_else(|| bad(&format!("count '{s}' is not a positive integer"))))
+                        .map(|s| {
+                            s.parse::<u32>()
+                                .ok()
+                                .filter(|c| *c >= 1)
+                                .map(|c| c as usize)
+                                .ok_or_else(|| bad(&format!("count '{s}' is not a positive integer")))
+                        })
                         .collect::<Result<_, _>>()?,
                 )
             }
@@ -237,11 +241,19 @@ fn read_ascii(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Result
                 values.push(0.0); // one too many: reported below
                 break;
             }
-            let v = tok.parse::<f64>().map_err(|_| line_err(line_no, format!("'{}' is not a number", tok.chars().take(40).collect::<String>())))?;
+            let v = tok
+                .parse::<f64>()
+                .map_err(|_| line_err(line_no, format!("'{}' is not a number", tok.chars().take(40).collect::<String>())))?;
             values.push(v);
         }
         if values.len() != total {
-            return Err(line_err(line_no, format!("expected {total} values, found {}", if values.len() > total { "more".to_string() } else { values.len().to_string() })));
+            return Err(line_err(
+                line_no,
+                format!(
+                    "expected {total} values, found {}",
+                    if values.len() > total { "more".to_string() } else { values.len().to_string() }
+                ),
+            ));
         }
         builder.push(|k| values[first_value[k]]).map_err(|e| match e {
             CloudError::NonFinitePoint { .. } => line_err(line_no, "non-finite coordinate".to_string()),
@@ -286,7 +298,13 @@ fn read_binary(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Resul
             return Err(header_err(name, "binary_compressed data has no size words"));
         };
         let payload = data.get(8..8 + compressed).ok_or_else(|| {
-            header_err(name, format!("binary_compressed data truncated: {compressed} compressed bytes declared, {} present", data.len().saturating_sub(8)))
+            header_err(
+                name,
+                format!(
+                    "binary_compressed data truncated: {compressed} compressed bytes declared, {} present",
+                    data.len().saturating_sub(8)
+                ),
+            )
         })?;
         if need != Some(uncompressed) {
             // Report the count the uncompressed size implies.
@@ -295,8 +313,7 @@ fn read_binary(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Resul
         if uncompressed > compressed.saturating_mul(LZF_MAX_RATIO) {
             return Err(header_err(name, format!("binary_compressed: {uncompressed} bytes cannot come from {compressed} LZF bytes")));
         }
-        decompressed = lzf_decompress(payload, uncompressed)
-            .ok_or_else(|| header_err(name, "binary_compressed: corrupt LZF data"))?;
+        decompressed = lzf_decompress(payload, uncompressed).ok_or_else(|| header_err(name, "binary_compressed: corrupt LZF data"))?;
         // Structure of arrays: field k occupies points × size × count bytes.
         let points = uncompressed / record;
         let mut offsets = Vec::with_capacity(header.fields.len());
@@ -488,7 +505,10 @@ mod tests {
         let mut b = HEAD.replace("WIDTH 2", "WIDTH 100").replace("POINTS 2", "POINTS 100").into_bytes();
         b.extend_from_slice(b"DATA binary\n");
         b.extend(vec![0u8; 16 * 37 + 5]);
-        assert_eq!(load_pcd(&b, "landmarks.pcd").unwrap_err().to_string(), "landmarks.pcd: header says POINTS 100 but the data holds 37 points");
+        assert_eq!(
+            load_pcd(&b, "landmarks.pcd").unwrap_err().to_string(),
+            "landmarks.pcd: header says POINTS 100 but the data holds 37 points"
+        );
         let t = format!("{HEAD}DATA ascii\n1 2 3 4\n");
         assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: header says POINTS 2 but the data holds 1 points");
         let t = format!("{HEAD}DATA ascii\n1 2 3 4\n1 2 3 4\n1 2 3 4\n");
@@ -531,7 +551,8 @@ mod tests {
                 .prop_map(move |(pts, class, cov)| PointCloud {
                     points: pts.into_iter().map(|(x, y, z)| Point3::new(x, y, z)).collect(),
                     classification: with_class.then_some(class),
-                    covariances: with_cov.then(|| cov.into_iter().map(|(a, b, c)| super::super::cov_from_upper([a, b, -b, c, 0.5 * b, a + c])).collect()),
+                    covariances: with_cov
+                        .then(|| cov.into_iter().map(|(a, b, c)| super::super::cov_from_upper([a, b, -b, c, 0.5 * b, a + c])).collect()),
                 })
         })
     }

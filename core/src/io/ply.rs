@@ -10,7 +10,7 @@
 //! Hostile headers: element counts are checked against the bytes left (a binary record of a
 //! known size must fit; an ascii record needs at least one byte per property) before reserving.
 
-use super::{CloudBuilder, CloudError, FieldMap, COV_NAMES};
+use super::{COV_NAMES, CloudBuilder, CloudError, FieldMap};
 use crate::cloud::PointCloud;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,7 +171,8 @@ fn parse_header(bytes: &[u8], name: &str) -> Result<Header, CloudError> {
                 let w: Vec<&str> = words.collect();
                 let (kind, pname) = match w.as_slice() {
                     ["list", c, i, n] => {
-                        let count = Scalar::parse(c).filter(|s| s.is_integer()).ok_or_else(|| bad("list count type must be an integer type"))?;
+                        let count =
+                            Scalar::parse(c).filter(|s| s.is_integer()).ok_or_else(|| bad("list count type must be an integer type"))?;
                         let item = Scalar::parse(i).ok_or_else(|| bad("unknown list item type"))?;
                         (PropKind::List { count, item }, *n)
                     }
@@ -217,16 +218,28 @@ fn wrong_count(name: &str, declared: u64, found: usize) -> CloudError {
     CloudError::WrongPointCount { name: name.to_string(), keyword: "element vertex", declared, found: found as u64 }
 }
 
-fn read_binary(data: &[u8], header: &Header, vertex_index: usize, map: FieldMap, name: &str, big_endian: bool) -> Result<PointCloud, CloudError> {
+fn read_binary(
+    data: &[u8],
+    header: &Header,
+    vertex_index: usize,
+    map: FieldMap,
+    name: &str,
+    big_endian: bool,
+) -> Result<PointCloud, CloudError> {
     let mut pos = 0usize;
     let truncated_elem = |e: &Element| header_err(name, format!("data truncated inside element '{}'", e.name));
     for (k, element) in header.elements.iter().enumerate() {
         if k == vertex_index {
             let vertex = element;
-            let min_size = vertex.properties.iter().map(|p| match p.kind {
-                PropKind::Scalar(s) => s.size(),
-                PropKind::List { count, .. } => count.size(),
-            }).sum::<usize>().max(1);
+            let min_size = vertex
+                .properties
+                .iter()
+                .map(|p| match p.kind {
+                    PropKind::Scalar(s) => s.size(),
+                    PropKind::List { count, .. } => count.size(),
+                })
+                .sum::<usize>()
+                .max(1);
             let left = data.len() - pos;
             let capacity = usize::try_from(vertex.count).unwrap_or(usize::MAX).min(left / min_size);
             let mut builder = CloudBuilder::new(name, map, capacity);
@@ -344,7 +357,14 @@ fn parse_number(tok: &[u8]) -> Option<f64> {
     std::str::from_utf8(tok).ok()?.parse::<f64>().ok()
 }
 
-fn read_ascii(data: &[u8], first_data_line: usize, header: &Header, vertex_index: usize, map: FieldMap, name: &str) -> Result<PointCloud, CloudError> {
+fn read_ascii(
+    data: &[u8],
+    first_data_line: usize,
+    header: &Header,
+    vertex_index: usize,
+    map: FieldMap,
+    name: &str,
+) -> Result<PointCloud, CloudError> {
     let mut tokens = Tokens { data, pos: 0, line: first_data_line };
     let line_err = |line: usize, detail: String| CloudError::Line { name: name.to_string(), line, detail };
     for (k, element) in header.elements.iter().enumerate() {
@@ -371,7 +391,8 @@ fn read_ascii(data: &[u8], first_data_line: usize, header: &Header, vertex_index
                         header_err(name, format!("data truncated inside element '{}'", element.name))
                     });
                 };
-                let v = parse_number(tok).ok_or_else(|| line_err(line, format!("'{}' is not a number", String::from_utf8_lossy(&tok[..tok.len().min(40)]))))?;
+                let v = parse_number(tok)
+                    .ok_or_else(|| line_err(line, format!("'{}' is not a number", String::from_utf8_lossy(&tok[..tok.len().min(40)]))))?;
                 match p.kind {
                     PropKind::Scalar(_) => *slot = v,
                     PropKind::List { .. } => {
@@ -412,7 +433,10 @@ fn read_ascii(data: &[u8], first_data_line: usize, header: &Header, vertex_index
 /// whose length differs from the number of points is not written.
 pub fn write_ply_binary(cloud: &PointCloud) -> Vec<u8> {
     let (class, cov) = super::writable_attributes(cloud);
-    let mut header = format!("ply\nformat binary_little_endian 1.0\ncomment written by fitslam\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\n", cloud.points.len());
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment written by fitslam\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\n",
+        cloud.points.len()
+    );
     if class.is_some() {
         header.push_str("property uchar classification\n");
     }
@@ -484,9 +508,11 @@ mod tests {
 
     #[test]
     fn errors_are_clear() {
-        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n", "cloud.ply").unwrap_err();
+        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n", "cloud.ply")
+            .unwrap_err();
         assert_eq!(e.to_string(), "cloud.ply: vertex element has no 'z' property");
-        let hdr = "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+        let hdr =
+            "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
         let mut b = hdr.as_bytes().to_vec();
         b.extend(le(&[0.0; 3 * 37 + 2]));
         let e = load_ply(&b, "landmarks.ply").unwrap_err();
@@ -495,11 +521,23 @@ mod tests {
         b.extend(le(&[0.0, 0.0, 0.0, 1.0, f32::NAN, 2.0]));
         let e = load_ply(&b, "n.ply").unwrap_err();
         assert_eq!(e.to_string(), "n.ply: point 1: non-finite coordinate");
-        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 inf 6\n", "a.ply").unwrap_err();
+        let e = load_ply(
+            b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 inf 6\n",
+            "a.ply",
+        )
+        .unwrap_err();
         assert_eq!(e.to_string(), "a.ply: line 9: non-finite coordinate");
-        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 5\n", "a.ply").unwrap_err();
+        let e = load_ply(
+            b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n4 5\n",
+            "a.ply",
+        )
+        .unwrap_err();
         assert_eq!(e.to_string(), "a.ply: header says element vertex 2 but the data holds 1 points");
-        let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 x\n", "a.ply").unwrap_err();
+        let e = load_ply(
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 x\n",
+            "a.ply",
+        )
+        .unwrap_err();
         assert_eq!(e.to_string(), "a.ply: line 8: 'x' is not a number");
         let e = load_ply(b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nproperty float classification\nend_header\n1 2 3 2.5\n", "a.ply").unwrap_err();
         assert!(e.to_string().contains("classification 2.5 is not an integer"), "{e}");
@@ -538,7 +576,8 @@ mod tests {
                 .prop_map(move |(pts, class, cov)| PointCloud {
                     points: pts.into_iter().map(|(x, y, z)| Point3::new(x, y, z)).collect(),
                     classification: with_class.then_some(class),
-                    covariances: with_cov.then(|| cov.into_iter().map(|(a, b, c, d, e, f)| super::super::cov_from_upper([a, b, c, d, e, f])).collect()),
+                    covariances: with_cov
+                        .then(|| cov.into_iter().map(|(a, b, c, d, e, f)| super::super::cov_from_upper([a, b, c, d, e, f])).collect()),
                 })
         })
     }

@@ -11,9 +11,9 @@ macro_rules! lidar {
 }
 
 fn min_corner(points: &[Point3<f64>]) -> Point3<f64> {
-    points.iter().fold(Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY), |m, p| {
-        Point3::new(m.x.min(p.x), m.y.min(p.y), m.z.min(p.z))
-    })
+    points
+        .iter()
+        .fold(Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY), |m, p| Point3::new(m.x.min(p.x), m.y.min(p.y), m.z.min(p.z)))
 }
 
 fn extent(points: &[Point3<f64>]) -> [f64; 3] {
@@ -77,7 +77,11 @@ fn dispatch_on_extension() {
 #[test]
 fn ply_from_one_format_reads_same_in_others() {
     let c = load_cloud(lidar!("plane.ply"), "plane.ply").unwrap();
-    let small = PointCloud { points: c.points[..500].to_vec(), covariances: None, classification: c.classification.as_ref().map(|k| k[..500].to_vec()) };
+    let small = PointCloud {
+        points: c.points[..500].to_vec(),
+        covariances: None,
+        classification: c.classification.as_ref().map(|k| k[..500].to_vec()),
+    };
     let via_ply = ply::load_ply(&ply::write_ply_binary(&small), "a.ply").unwrap();
     let via_pcd = pcd::load_pcd(&pcd::write_pcd(&small, pcd::PcdEncoding::Ascii), "a.pcd").unwrap();
     let via_csv = csv::load_csv(csv::write_csv(&small).as_bytes(), "a.csv").unwrap();

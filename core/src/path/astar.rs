@@ -2,7 +2,7 @@
 //! for these move costs, so the first pop of the goal is optimal). O(n log n) in the cells
 //! expanded.
 
-use super::{check_start, step, HeapEntry, Path, PathError, MOVES, passable};
+use super::{HeapEntry, MOVES, Path, PathError, check_start, passable, step};
 use crate::grid::{Cell, OccupancyGrid};
 use std::collections::BinaryHeap;
 

@@ -15,7 +15,7 @@
 //!
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
 
-use super::{check_start, Path, PathError};
+use super::{Path, PathError, check_start};
 use crate::grid::{Cell, GridGeometry, OccupancyGrid};
 
 const PASSABLE: u8 = 1;

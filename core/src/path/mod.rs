@@ -7,7 +7,7 @@ mod astar;
 mod dijkstra;
 
 pub use astar::astar;
-pub use dijkstra::{dijkstra, dijkstra_to, DistanceField};
+pub use dijkstra::{DistanceField, dijkstra, dijkstra_to};
 
 use crate::grid::{Cell, CellClass, GridGeometry, OccupancyGrid};
 use serde::{Deserialize, Serialize};
@@ -38,10 +38,13 @@ pub struct Path {
 impl Path {
     /// Cell centres in world metres.
     pub fn points_m(&self, geometry: &GridGeometry) -> Vec<[f64; 2]> {
-        self.cells.iter().map(|&c| {
-            let (x, y) = geometry.center_of(c);
-            [x, y]
-        }).collect()
+        self.cells
+            .iter()
+            .map(|&c| {
+                let (x, y) = geometry.center_of(c);
+                [x, y]
+            })
+            .collect()
     }
 }
 

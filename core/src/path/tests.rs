@@ -1,5 +1,5 @@
 use super::*;
-use crate::grid::{Grid, GridGeometry, FREE, LETHAL, UNKNOWN};
+use crate::grid::{FREE, Grid, GridGeometry, LETHAL, UNKNOWN};
 use proptest::prelude::*;
 
 fn grid_from(rows: &[&str]) -> OccupancyGrid {

@@ -19,11 +19,11 @@
 
 use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
-use crate::frontier::{detect_frontiers, FrontierCluster};
-use crate::grid::{inflate_lethal, Cell, CellClass, OccupancyGrid};
+use crate::frontier::{FrontierCluster, detect_frontiers};
+use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal};
 use crate::params::{Params, Strategy};
-use crate::path::{dijkstra_to, DistanceField};
-use crate::utility::{normalise_path_information, path_information, u1_scores, u2_score, FovWindows, RayFan};
+use crate::path::{DistanceField, dijkstra_to};
+use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// Output of [`prepare`]: the planning grid and the start cell.
 #[derive(Clone, Debug)]
@@ -48,9 +48,8 @@ pub fn prepare(input: &DecisionInput, params: &Params) -> Result<Prepared, Selec
     if !input.robot.is_finite() {
         return Err(SelectError::RobotPoseNotFinite);
     }
-    let requested = g
-        .cell_of(input.robot.x_m, input.robot.y_m)
-        .ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
+    let requested =
+        g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
     let inflated = inflate_lethal(input.grid, params.robot.radius_m);
     let free = |c: Cell| g.index(c).is_some_and(|i| CellClass::of(inflated.data[i]) == CellClass::Free);
     if free(requested) {
@@ -156,9 +155,8 @@ pub fn score_u1(
 /// other scored candidates are dropped as [`DropReason::NotInTopN`].
 pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params) {
     let top: Vec<usize> = {
-        let mut t: Vec<usize> = (0..decision.candidates.len())
-            .filter(|&i| decision.candidates[i].u1_rank.is_some_and(|r| r <= params.u2.top_n))
-            .collect();
+        let mut t: Vec<usize> =
+            (0..decision.candidates.len()).filter(|&i| decision.candidates[i].u1_rank.is_some_and(|r| r <= params.u2.top_n)).collect();
         t.sort_by_key(|&i| decision.candidates[i].u1_rank);
         t
     };

@@ -1,8 +1,8 @@
 use super::candidates::{distances, frontier_clusters, prepare, score_u1};
 use super::*;
-use crate::fixtures::{corridor_two_frontiers, synthetic_world, SyntheticWorldSpec};
+use crate::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use crate::frontier::{BlacklistReason, FrontierCluster};
-use crate::grid::{Grid, GridGeometry, FREE, LETHAL, UNKNOWN};
+use crate::grid::{FREE, Grid, GridGeometry, LETHAL, UNKNOWN};
 use crate::pose::wrap_pi;
 use std::f64::consts::PI;
 
@@ -243,14 +243,31 @@ fn decision_json_has_the_keys() {
     assert_eq!(sel.strategy(), Strategy::Fit);
     let d = sel.select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
     let v = serde_json::to_value(&d).unwrap();
-    for k in ["strategy", "chosen", "goal", "robot", "robot_cell", "requested_robot_cell", "start_snapped", "ray_angles_rad", "candidates"] {
+    for k in ["strategy", "chosen", "goal", "robot", "robot_cell", "requested_robot_cell", "start_snapped", "ray_angles_rad", "candidates"]
+    {
         assert!(v.get(k).is_some(), "decision lacks {k}");
     }
     assert_eq!(v["strategy"], "fit");
     let c = &v["candidates"][0];
     for k in [
-        "cell", "x_m", "y_m", "cluster_size", "cluster_cells", "rho_m", "path_m", "delta_e_bits", "theta_star_rad",
-        "ray_gains_bits", "u1", "u1_rank", "waypoints", "path_info_raw", "path_info", "u2", "rank", "dropped",
+        "cell",
+        "x_m",
+        "y_m",
+        "cluster_size",
+        "cluster_cells",
+        "rho_m",
+        "path_m",
+        "delta_e_bits",
+        "theta_star_rad",
+        "ray_gains_bits",
+        "u1",
+        "u1_rank",
+        "waypoints",
+        "path_info_raw",
+        "path_info",
+        "u2",
+        "rank",
+        "dropped",
     ] {
         assert!(c.get(k).is_some(), "candidate lacks {k}");
     }
@@ -258,6 +275,9 @@ fn decision_json_has_the_keys() {
     for k in ["x_m", "y_m", "z_m", "yaw_rad", "arc_length_m", "is_goal", "voxels_seen", "info"] {
         assert!(wp.get(k).is_some(), "waypoint lacks {k}");
     }
-    assert_eq!(serde_json::to_value(DropReason::Blacklisted(BlacklistReason::NoPath)).unwrap(), serde_json::json!({"blacklisted": "no_path"}));
+    assert_eq!(
+        serde_json::to_value(DropReason::Blacklisted(BlacklistReason::NoPath)).unwrap(),
+        serde_json::json!({"blacklisted": "no_path"})
+    );
     assert_eq!(serde_json::to_value(DropReason::NotInTopN).unwrap(), serde_json::json!("not_in_top_n"));
 }

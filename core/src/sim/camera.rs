@@ -6,7 +6,7 @@
 //! O(landmarks in a bucket box × line-of-sight steps).
 
 use super::lidar::gaussian;
-use super::{line_of_sight, Heightfield};
+use super::{Heightfield, line_of_sight};
 use crate::params::CameraParams;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use rand_chacha::ChaCha8Rng;
@@ -132,7 +132,8 @@ mod tests {
     #[test]
     fn frustum_and_occlusion() {
         // Flat ground with a 1 m wall at 4.0 ≤ x ≤ 4.2.
-        let field = Heightfield::from_fn(GridGeometry::new(0.0, 0.0, 0.05, 200, 200), |x, _| if (4.0..=4.2).contains(&x) { 1.0 } else { 0.0 });
+        let field =
+            Heightfield::from_fn(GridGeometry::new(0.0, 0.0, 0.05, 200, 200), |x, _| if (4.0..=4.2).contains(&x) { 1.0 } else { 0.0 });
         let lms = vec![
             Point3::new(3.0, 5.0, 0.1),  // ahead, 2 m: seen
             Point3::new(1.0, 5.0, 0.1),  // behind: no
@@ -145,7 +146,18 @@ mod tests {
         let mut out = Vec::new();
         let cam = Point3::new(1.0, 5.0, 0.2);
         let noise = CameraNoise { bearing_sigma_rad: 0.0, depth_sigma_coeff: 0.0 };
-        observe_landmarks(&field, &lms, &idx, cam, Point3::new(1.0, 5.0, 0.0), &Rotation3::identity(), &CameraParams::default(), &noise, &mut rng, &mut out);
+        observe_landmarks(
+            &field,
+            &lms,
+            &idx,
+            cam,
+            Point3::new(1.0, 5.0, 0.0),
+            &Rotation3::identity(),
+            &CameraParams::default(),
+            &noise,
+            &mut rng,
+            &mut out,
+        );
         let ids: Vec<u64> = out.iter().map(|o| o.landmark_id).collect();
         assert_eq!(ids, vec![0, 4]);
         // Noise-free: the point in the body frame is exact.
@@ -164,7 +176,18 @@ mod tests {
             let mut s2 = 0.0;
             let n = 4000;
             for _ in 0..n {
-                observe_landmarks(&field, &lms, &idx, Point3::new(1.0, 5.0, 0.2), Point3::new(1.0, 5.0, 0.2), &Rotation3::identity(), &CameraParams::default(), &noise, rng, &mut out);
+                observe_landmarks(
+                    &field,
+                    &lms,
+                    &idx,
+                    Point3::new(1.0, 5.0, 0.2),
+                    Point3::new(1.0, 5.0, 0.2),
+                    &Rotation3::identity(),
+                    &CameraParams::default(),
+                    &noise,
+                    rng,
+                    &mut out,
+                );
                 s2 += (out[0].point_in_robot.x - d).powi(2);
             }
             (s2 / n as f64).sqrt()

@@ -3,7 +3,7 @@
 //! variation, path information could not matter (notes §6). Deterministic in `seed`.
 //! O(area / spacing²).
 
-use super::{fractal_noise, hash_unit, Heightfield, Rock};
+use super::{Heightfield, Rock, fractal_noise, hash_unit};
 use nalgebra::Point3;
 
 /// How landmarks are scattered.

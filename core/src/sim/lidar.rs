@@ -293,11 +293,7 @@ fn first_root(c0: f64, c1: f64, c2: f64, b: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, b);
     for _ in 0..64 {
         let m = 0.5 * (lo + hi);
-        if f(m) > 0.0 {
-            lo = m
-        } else {
-            hi = m
-        }
+        if f(m) > 0.0 { lo = m } else { hi = m }
     }
     hi
 }
@@ -438,11 +434,7 @@ mod tests {
                         let (mut a, mut b) = (t, next);
                         for _ in 0..8 {
                             let m = 0.5 * (a + b);
-                            if above(m).unwrap_or(false) {
-                                a = m
-                            } else {
-                                b = m
-                            }
+                            if above(m).unwrap_or(false) { a = m } else { b = m }
                         }
                         return Some(0.5 * (a + b));
                     }

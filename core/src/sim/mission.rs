@@ -26,22 +26,22 @@
 
 #![allow(clippy::collapsible_if)] // nested ifs mirror the decision steps
 
-use super::camera::{observe_landmarks, CameraNoise, CameraObservation, LandmarkIndex};
-use super::lidar::{gaussian, scan, LidarParams, RayCaster};
-use super::odometry::OdometryNoise;
-use super::robot::{body_on_terrain, integrate, DriveParams, PathFollower, Twist};
-use super::slam_frontend::{SlamFrontend, SlamParams};
-use crate::slam::{CovarianceTraces, Se3};
 use super::World;
-use crate::frontier::BlacklistReason;
+use super::camera::{CameraNoise, CameraObservation, LandmarkIndex, observe_landmarks};
+use super::lidar::{LidarParams, RayCaster, gaussian, scan};
+use super::odometry::OdometryNoise;
+use super::robot::{DriveParams, PathFollower, Twist, body_on_terrain, integrate};
+use super::slam_frontend::{SlamFrontend, SlamParams};
+use crate::PointCloud;
 use crate::frontier::Blacklist;
+use crate::frontier::BlacklistReason;
 use crate::grid::OccupancyGrid;
 use crate::params::{Params, Strategy};
-use crate::pose::{wrap_pi, Pose2};
-use crate::select::{make_selector, DecisionInput, DropReason, GoalSelector};
+use crate::pose::{Pose2, wrap_pi};
+use crate::select::{DecisionInput, DropReason, GoalSelector, make_selector};
+use crate::slam::{CovarianceTraces, Se3};
 use crate::traversability::{TraversabilityLayers, TraversabilityMap};
 use crate::utility::LandmarkVoxels;
-use crate::PointCloud;
 use nalgebra::{Matrix3, Matrix6, Point3, Rotation3, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -876,9 +876,8 @@ impl Mission {
             self.follower = PathFollower::new(c.path_m.clone());
             self.goal = Some(goal);
             self.goal_started_s = self.time_s;
-            self.goal_deadline_s = self.time_s
-                + self.mission.goal_timeout_factor * rho / self.mission.drive.max_speed_mps
-                + self.mission.goal_timeout_extra_s;
+            self.goal_deadline_s =
+                self.time_s + self.mission.goal_timeout_factor * rho / self.mission.drive.max_speed_mps + self.mission.goal_timeout_extra_s;
             self.next_replan_s = self.time_s + self.mission.replan_period_s;
             self.phase = Phase::Driving;
             self.failed_decisions = 0;

@@ -17,11 +17,11 @@ pub mod slam_frontend;
 pub mod world;
 
 pub use heightfield::{DemScaling, Heightfield, HeightfieldError};
-pub use landmarks::{scatter_landmarks, texture_richness, LandmarkDensity};
-pub use noise::{fractal_noise, hash_unit};
-pub use obstacles::{scatter_rocks, Rock};
-pub use scan::{line_of_sight, visible_ground_points};
+pub use landmarks::{LandmarkDensity, scatter_landmarks, texture_richness};
 pub use mission::{EndReason, Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary};
+pub use noise::{fractal_noise, hash_unit};
+pub use obstacles::{Rock, scatter_rocks};
+pub use scan::{line_of_sight, visible_ground_points};
 pub use world::{World, WorldError, WorldSpec};
 #[cfg(test)]
 mod tests;

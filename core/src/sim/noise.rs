@@ -5,9 +5,7 @@
 /// A uniform value in [0, 1) from integer coordinates and a seed (SplitMix64 finaliser).
 #[inline]
 pub fn hash_unit(ix: i64, iy: i64, seed: u64) -> f64 {
-    let mut z = seed
-        ^ (ix as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-        ^ (iy as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
+    let mut z = seed ^ (ix as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (iy as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^= z >> 31;

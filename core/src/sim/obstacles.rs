@@ -2,7 +2,7 @@
 //! seeded Poisson-like process (one candidate per lattice cell, kept with a probability).
 //! O(rocks × footprint cells).
 
-use super::{hash_unit, Heightfield};
+use super::{Heightfield, hash_unit};
 
 /// One rock: a vertical cylinder standing on the terrain.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -6,7 +6,7 @@
 //! vertex reached).
 
 use super::Heightfield;
-use crate::pose::{wrap_pi, Pose2};
+use crate::pose::{Pose2, wrap_pi};
 use nalgebra::{Point3, Rotation3};
 use serde::{Deserialize, Serialize};
 
@@ -141,10 +141,7 @@ pub fn integrate(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
         (pose.x_m + ds * pose.yaw_rad.cos(), pose.y_m + ds * pose.yaw_rad.sin())
     } else {
         let r = ds / dth;
-        (
-            pose.x_m + r * ((pose.yaw_rad + dth).sin() - pose.yaw_rad.sin()),
-            pose.y_m - r * ((pose.yaw_rad + dth).cos() - pose.yaw_rad.cos()),
-        )
+        (pose.x_m + r * ((pose.yaw_rad + dth).sin() - pose.yaw_rad.sin()), pose.y_m - r * ((pose.yaw_rad + dth).cos() - pose.yaw_rad.cos()))
     };
     Pose2 { x_m: x, y_m: y, yaw_rad: wrap_pi(pose.yaw_rad + dth) }
 }

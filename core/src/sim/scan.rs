@@ -4,7 +4,7 @@
 //! stand-in for a registered LiDAR sweep, used to build assets and maps.
 //! O(points in range × range / step).
 
-use super::{hash_unit, Heightfield};
+use super::{Heightfield, hash_unit};
 use nalgebra::Point3;
 
 /// Points on the terrain visible from `sensor_m` within `max_range_m` (horizontal), sampled every

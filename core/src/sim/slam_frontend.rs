@@ -59,10 +59,10 @@ use serde::{Deserialize, Serialize};
 
 use super::camera::CameraObservation;
 use crate::cloud::PointCloud;
-use crate::pose::{wrap_pi, Pose2};
+use crate::pose::{Pose2, wrap_pi};
 use crate::slam::lie::hat;
 use crate::slam::optimizer::OptimizerParams;
-use crate::slam::{Gravity, GraphSlam, GraphSlamParams, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
+use crate::slam::{GraphSlam, GraphSlamParams, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
 use crate::traversability::TraversabilityMap;
 
 /// Diagonal floor of an odometry factor's covariance (m², rad²).
@@ -128,7 +128,8 @@ impl SlamParams {
     /// Checks ranges; returns a message naming the first bad field.
     pub fn validate(&self) -> Result<(), String> {
         let pos = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("slam.{name} must be > 0 (got {v})")) };
-        let nonneg = |name: &str, v: f64| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("slam.{name} must be ≥ 0 (got {v})")) };
+        let nonneg =
+            |name: &str, v: f64| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("slam.{name} must be ≥ 0 (got {v})")) };
         pos("keyframe_every_m", self.keyframe_every_m)?;
         pos("keyframe_every_rad", self.keyframe_every_rad)?;
         nonneg("z_sigma_per_sqrt_m", self.z_sigma_per_sqrt_m)?;
@@ -224,7 +225,12 @@ pub fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_fr
 /// errors since the keyframe: planar `(x, y, yaw)` covariance, height variance, per-axis tilt
 /// variance; `world_from_current` is the odometry rotation now. `Σ = B Σ_w Bᵀ`,
 /// `B = diag(Rᵀ, Rᵀ)` (module doc), plus the diagonal floor.
-pub fn relative_covariance(planar_world: &Matrix3<f64>, var_z_m2: f64, var_tilt_rad2: f64, world_from_current: &Matrix3<f64>) -> Matrix6<f64> {
+pub fn relative_covariance(
+    planar_world: &Matrix3<f64>,
+    var_z_m2: f64,
+    var_tilt_rad2: f64,
+    world_from_current: &Matrix3<f64>,
+) -> Matrix6<f64> {
     let mut w = Matrix6::zeros();
     let map = [0usize, 1, 5];
     for (i, &a) in map.iter().enumerate() {
@@ -256,7 +262,12 @@ pub fn compound_covariance(keyframe: &Matrix6<f64>, keyframe_from_current: &Se3,
 
 /// A landmark's world covariance from one observation: `R C Rᵀ + G Σ Gᵀ`, `G = R [I, −[p]×]`
 /// (first-order, pose and observation independent).
-pub fn anchored_landmark_covariance(world_from_robot: &Se3, pose_covariance: &Matrix6<f64>, point_in_robot: &Vector3<f64>, observation: &Matrix3<f64>) -> Matrix3<f64> {
+pub fn anchored_landmark_covariance(
+    world_from_robot: &Se3,
+    pose_covariance: &Matrix6<f64>,
+    point_in_robot: &Vector3<f64>,
+    observation: &Matrix3<f64>,
+) -> Matrix3<f64> {
     let r = world_from_robot.rotation_matrix();
     let mut g = nalgebra::Matrix3x6::zeros();
     g.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
@@ -305,7 +316,13 @@ pub struct SlamFrontend {
 impl SlamFrontend {
     /// Starts at `world_from_start` (the first keyframe, fixed) with its (roll, pitch)
     /// `tilt_rad` and the camera's first observations.
-    pub fn new(params: SlamParams, world_from_start: Se3, start: Pose2, tilt_rad: [f64; 2], observations: &[CameraObservation]) -> Result<Self, SlamError> {
+    pub fn new(
+        params: SlamParams,
+        world_from_start: Se3,
+        start: Pose2,
+        tilt_rad: [f64; 2],
+        observations: &[CameraObservation],
+    ) -> Result<Self, SlamError> {
         let mut scratch = Vec::new();
         select_observations(observations, |_| false, params.max_observations_per_keyframe, &mut scratch);
         let slam = GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?;
@@ -414,7 +431,11 @@ impl SlamFrontend {
     /// Adds a keyframe at the current odometry pose with the camera's observations and the IMU's
     /// measured up direction in the body frame (used when `gravity_sigma_rad > 0`), updates the
     /// graph and the covariances, and decides on re-registration.
-    pub fn add_keyframe(&mut self, observations: &[CameraObservation], up_in_body: Option<Vector3<f64>>) -> Result<KeyframeOutcome, SlamError> {
+    pub fn add_keyframe(
+        &mut self,
+        observations: &[CameraObservation],
+        up_in_body: Option<Vector3<f64>>,
+    ) -> Result<KeyframeOutcome, SlamError> {
         let rel = self.keyframe_from_current();
         let gravity = up_in_body
             .filter(|_| self.params.gravity_sigma_rad > 0.0)
@@ -469,9 +490,9 @@ impl SlamFrontend {
     /// Anchored covariances for landmarks first seen in `observations` (from the latest keyframe).
     fn anchor_new_landmarks(&mut self, observations: &[LandmarkObservation]) {
         for o in observations {
-            self.landmark_cov.entry(o.landmark_id).or_insert_with(|| {
-                anchored_landmark_covariance(&self.keyframe_pose, &self.keyframe_cov, &o.point_in_robot, &o.covariance)
-            });
+            self.landmark_cov
+                .entry(o.landmark_id)
+                .or_insert_with(|| anchored_landmark_covariance(&self.keyframe_pose, &self.keyframe_cov, &o.point_in_robot, &o.covariance));
         }
     }
 
@@ -636,7 +657,8 @@ mod tests {
     #[test]
     fn covariance_grows_while_driving_and_drops_at_the_loop_closure() {
         let radius = 2.0;
-        let landmarks: Vec<Vector3<f64>> = (0..12).map(|i| Vector3::new(1.0 + 0.3 * i as f64, if i % 2 == 0 { -1.2 } else { 1.2 }, 0.2)).collect();
+        let landmarks: Vec<Vector3<f64>> =
+            (0..12).map(|i| Vector3::new(1.0 + 0.3 * i as f64, if i % 2 == 0 { -1.2 } else { 1.2 }, 0.2)).collect();
         // Robot at angle a on the circle centred (0, radius), heading tangent (start at origin, yaw 0).
         let pose_at = |a: f64| Pose2 { x_m: radius * a.sin(), y_m: radius - radius * a.cos(), yaw_rad: wrap_pi(a) };
         let se3 = |p: Pose2| Se3::new(UnitQuaternion::from_euler_angles(0.0, 0.0, p.yaw_rad), Vector3::new(p.x_m, p.y_m, 0.0));
@@ -647,7 +669,11 @@ mod tests {
                 .enumerate()
                 .filter_map(|(i, m)| {
                     let v = t.inverse_transform_point(m);
-                    (v.x > 0.3 && v.x < 3.0 && v.y.abs() < v.x).then(|| CameraObservation { landmark_id: i as u64, point_in_robot: v, covariance: Matrix3::identity() * 1e-4 })
+                    (v.x > 0.3 && v.x < 3.0 && v.y.abs() < v.x).then(|| CameraObservation {
+                        landmark_id: i as u64,
+                        point_in_robot: v,
+                        covariance: Matrix3::identity() * 1e-4,
+                    })
                 })
                 .collect()
         };

@@ -39,7 +39,9 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
 fn unknown_keys_and_bad_values_are_rejected() {
     let e = WorldSpec::from_toml(&TINY.replace("time_limit_s", "time_limt_s"), "w.toml").unwrap_err().to_string();
     assert!(e.contains("w.toml") && e.contains("time_limt_s"), "{e}");
-    let e = WorldSpec::from_toml(&TINY.replace("hill_wavelength_m = 4.0", "hill_wavelength_m = 4.0\nhils = 1"), "w.toml").unwrap_err().to_string();
+    let e = WorldSpec::from_toml(&TINY.replace("hill_wavelength_m = 4.0", "hill_wavelength_m = 4.0\nhils = 1"), "w.toml")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("hils"), "{e}");
     let e = WorldSpec::from_toml(&TINY.replace("size_m = 5.0", "size_m = -5.0"), "w.toml").unwrap_err().to_string();
     assert!(e.contains("size_m"), "{e}");

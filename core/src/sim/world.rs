@@ -15,9 +15,9 @@
 
 #![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
 
-use super::{fractal_noise, scatter_landmarks, scatter_rocks, DemScaling, Heightfield, HeightfieldError, LandmarkDensity, Rock};
+use super::{DemScaling, Heightfield, HeightfieldError, LandmarkDensity, Rock, fractal_noise, scatter_landmarks, scatter_rocks};
 use crate::frontier::Boundary;
-use crate::grid::{Cell, GridGeometry, OccupancyGrid, FREE, LETHAL};
+use crate::grid::{Cell, FREE, GridGeometry, LETHAL, OccupancyGrid};
 use crate::io::MapError;
 use crate::params::TraversabilityParams;
 use crate::pose::Pose2;
@@ -275,7 +275,9 @@ impl WorldSpec {
             }
         }
         if let Some(r) = &self.rocks {
-            if !pos(r.spacing_m) || !(0.0..=1.0).contains(&r.density) || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1])
+            if !pos(r.spacing_m)
+                || !(0.0..=1.0).contains(&r.density)
+                || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1])
                 || !(r.height_m[0] >= 0.0 && r.height_m[0] <= r.height_m[1])
             {
                 return bad("rocks: spacing_m > 0, density in [0, 1], 0 < min ≤ max for radius_m and height_m".into());
@@ -329,7 +331,16 @@ impl World {
         spec.validate()?;
         let mut fetch = |name: &str| load(name).map_err(|message| WorldError::Load { name: name.into(), message });
         let mut field = match &spec.terrain {
-            TerrainSpec::Procedural { seed, size_m, hill_height_m, hill_wavelength_m, ridge_height_m, ridge_wavelength_m, tilt_x_deg, tilt_y_deg } => {
+            TerrainSpec::Procedural {
+                seed,
+                size_m,
+                hill_height_m,
+                hill_wavelength_m,
+                ridge_height_m,
+                ridge_wavelength_m,
+                tilt_x_deg,
+                tilt_y_deg,
+            } => {
                 let n = (size_m / spec.cell_m).round().max(2.0) as usize;
                 let g = GridGeometry::new(0.0, 0.0, size_m / n as f64, n, n);
                 let (tx, ty) = (tilt_x_deg.to_radians().tan(), tilt_y_deg.to_radians().tan());
@@ -397,7 +408,18 @@ impl World {
         let start = Pose2 { x_m: spec.start[0], y_m: spec.start[1], yaw_rad: spec.start[2] };
         let explorable = explorable_cells(&gt_occupancy, &boundary, start);
         let explorable_count = explorable.iter().filter(|&&e| e).count();
-        Ok(Self { spec: spec.clone(), field, rocks, landmarks, start, boundary, boundary_box_m, gt_occupancy, explorable, explorable_count })
+        Ok(Self {
+            spec: spec.clone(),
+            field,
+            rocks,
+            landmarks,
+            start,
+            boundary,
+            boundary_box_m,
+            gt_occupancy,
+            explorable,
+            explorable_count,
+        })
     }
 
     /// Whether the ground-truth cell under (x, y) is untraversable (outside the map counts as

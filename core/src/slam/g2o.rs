@@ -18,7 +18,7 @@ use thiserror::Error;
 use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, NoiseError, Se2Residual};
 use super::lie::{Se2, Se3};
 use super::problem::{Gauge, GaugeError, Problem};
-use super::values::{VarId, Values, Variable};
+use super::values::{Values, VarId, Variable};
 
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum G2oError {
@@ -143,7 +143,6 @@ impl<'a> Fields<'a> {
         GaussianNoise::from_information(&m).map_err(|source| G2oError::Information { line: self.line, source })?;
         Ok(m)
     }
-
 }
 
 fn set_dim(is_3d: &mut Option<bool>, three: bool, line: usize) -> Result<(), G2oError> {
@@ -365,27 +364,15 @@ mod tests {
 
     #[test]
     fn errors_name_the_line() {
-        assert_eq!(
-            read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 x 0\n"),
-            Err(G2oError::BadNumber { line: 2, field: 3, text: "x".into() })
-        );
+        assert_eq!(read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 x 0\n"), Err(G2oError::BadNumber { line: 2, field: 3, text: "x".into() }));
         assert_eq!(
             read_g2o(b"\nEDGE_SE2 0 1 0 0 0 1 0 0 1 0\n"),
             Err(G2oError::FieldCount { line: 2, tag: "EDGE_SE2", expected: 11, found: 10 })
         );
         assert_eq!(read_g2o(b"VERTEX_XY 1 2 3\n"), Err(G2oError::UnknownTag { line: 1, tag: "VERTEX_XY".into() }));
-        assert!(matches!(
-            read_g2o(b"EDGE_SE2 0 1 0 0 0 1 0 0 -1 0 1\n"),
-            Err(G2oError::Information { line: 1, .. })
-        ));
-        assert_eq!(
-            read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1\n"),
-            Err(G2oError::MixedDimensions { line: 2 })
-        );
-        assert_eq!(
-            read_g2o(b"VERTEX_SE2 3 0 0 0\nVERTEX_SE2 3 1 0 0\n"),
-            Err(G2oError::DuplicateVertex { line: 2, id: 3 })
-        );
+        assert!(matches!(read_g2o(b"EDGE_SE2 0 1 0 0 0 1 0 0 -1 0 1\n"), Err(G2oError::Information { line: 1, .. })));
+        assert_eq!(read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1\n"), Err(G2oError::MixedDimensions { line: 2 }));
+        assert_eq!(read_g2o(b"VERTEX_SE2 3 0 0 0\nVERTEX_SE2 3 1 0 0\n"), Err(G2oError::DuplicateVertex { line: 2, id: 3 }));
         assert_eq!(read_g2o(b"VERTEX_SE3:QUAT 1 0 0 0 0 0 0 0\n"), Err(G2oError::ZeroQuaternion { line: 1 }));
         assert!(matches!(read_g2o(b"VERTEX_SE2 0 nan 0 0\n"), Err(G2oError::BadNumber { line: 1, field: 2, .. })));
         assert!(read_g2o(&[b'V', 0xff, b'\n']).is_err());

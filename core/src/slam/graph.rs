@@ -5,7 +5,7 @@
 use thiserror::Error;
 
 use super::factors::{Factor, FactorError, MAX_FACTOR_KEYS};
-use super::values::{VarId, Values};
+use super::values::{Values, VarId};
 
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum GraphError {

@@ -25,7 +25,7 @@ use super::graph::{FactorGraph, GraphError};
 use super::lie::Se3;
 use super::marginals::{MarginalError, Marginals};
 use super::optimizer::{LevenbergMarquardt, OptError, Optimizer, OptimizerParams, Summary};
-use super::values::{VarId, Values, Variable};
+use super::values::{Values, VarId, Variable};
 
 /// Parameters of [`GraphSlam`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -144,11 +144,7 @@ pub enum SlamError {
 pub trait SlamBackend {
     /// Adds a keyframe reached by `odometry` from the previous one, with what it observes, and
     /// updates the estimate (window, or full on a loop closure).
-    fn add_keyframe(
-        &mut self,
-        odometry: &Odometry,
-        observations: &[LandmarkObservation],
-    ) -> Result<KeyframeUpdate, SlamError>;
+    fn add_keyframe(&mut self, odometry: &Odometry, observations: &[LandmarkObservation]) -> Result<KeyframeUpdate, SlamError>;
     /// Optimises the whole graph (first keyframe fixed).
     fn optimize_full(&mut self) -> Result<Summary, SlamError>;
     /// `world_from_keyframe` of every keyframe, oldest first.
@@ -182,11 +178,7 @@ pub struct GraphSlam {
 impl GraphSlam {
     /// Starts a map at the first keyframe `world_from_first` (fixed: the gauge), with what it
     /// observes.
-    pub fn new(
-        params: GraphSlamParams,
-        world_from_first: Se3,
-        observations: &[LandmarkObservation],
-    ) -> Result<Self, SlamError> {
+    pub fn new(params: GraphSlamParams, world_from_first: Se3, observations: &[LandmarkObservation]) -> Result<Self, SlamError> {
         if !world_from_first.is_finite() {
             return Err(SlamError::NonFinite);
         }
@@ -340,11 +332,7 @@ impl GraphSlam {
 }
 
 impl SlamBackend for GraphSlam {
-    fn add_keyframe(
-        &mut self,
-        odometry: &Odometry,
-        observations: &[LandmarkObservation],
-    ) -> Result<KeyframeUpdate, SlamError> {
+    fn add_keyframe(&mut self, odometry: &Odometry, observations: &[LandmarkObservation]) -> Result<KeyframeUpdate, SlamError> {
         if !odometry.previous_from_current.is_finite() {
             return Err(SlamError::NonFinite);
         }
@@ -598,7 +586,8 @@ mod tests {
         // with landmarks in between, so locate it by counting free dims before it.
         let values = slam.full_values();
         let current = *slam.keyframes.last().unwrap();
-        let offset: usize = values.iter().take_while(|(id, _)| *id != current).filter(|(id, _)| !values.is_fixed(*id)).map(|(_, v)| v.dim()).sum();
+        let offset: usize =
+            values.iter().take_while(|(id, _)| *id != current).filter(|(id, _)| !values.is_fixed(*id)).map(|(_, v)| v.dim()).sum();
         let block = inv.view((offset, offset), (6, 6));
         let rel = (cov - block).amax() / block.amax();
         assert!(rel < 1e-9, "relative difference {rel:e}");

@@ -75,11 +75,7 @@ pub fn so3_left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 pub fn so3_left_jacobian_inv(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let t2 = theta * theta;
-    let c = if theta < SMALL_ANGLE_RAD {
-        1.0 / 12.0 + t2 / 720.0
-    } else {
-        1.0 / t2 - (1.0 + theta.cos()) / (2.0 * theta * theta.sin())
-    };
+    let c = if theta < SMALL_ANGLE_RAD { 1.0 / 12.0 + t2 / 720.0 } else { 1.0 / t2 - (1.0 + theta.cos()) / (2.0 * theta * theta.sin()) };
     let h = hat(phi);
     Matrix3::identity() - h * 0.5 + h * h * c
 }
@@ -93,11 +89,7 @@ fn se3_q(rho: &Vector3<f64>, phi: &Vector3<f64>) -> Matrix3<f64> {
     } else {
         let (s, c) = theta.sin_cos();
         let t3 = t2 * theta;
-        (
-            (theta - s) / t3,
-            (t2 + 2.0 * c - 2.0) / (2.0 * t2 * t2),
-            (2.0 * theta - 3.0 * s + theta * c) / (2.0 * t2 * t3),
-        )
+        ((theta - s) / t3, (t2 + 2.0 * c - 2.0) / (2.0 * t2 * t2), (2.0 * theta - 3.0 * s + theta * c) / (2.0 * t2 * t3))
     };
     let p = hat(phi);
     let r = hat(rho);
@@ -194,10 +186,7 @@ impl Se3 {
 impl Mul for Se3 {
     type Output = Se3;
     fn mul(self, rhs: Se3) -> Se3 {
-        Se3 {
-            rotation: self.rotation * rhs.rotation,
-            translation: self.rotation * rhs.translation + self.translation,
-        }
+        Se3 { rotation: self.rotation * rhs.rotation, translation: self.rotation * rhs.translation + self.translation }
     }
 }
 
@@ -437,11 +426,8 @@ mod tests {
     /// Finite-difference check of `Log(Exp(ξ) Exp(δ)) ≈ ξ + J_r⁻¹(ξ) δ`, also near zero angle.
     #[test]
     fn right_jacobian_inverse_matches_finite_differences() {
-        for xi in [
-            vec6([0.3, -1.0, 2.0, 0.4, -0.2, 1.1]),
-            vec6([1.0, 2.0, -0.5, 1e-6, -2e-6, 5e-7]),
-            vec6([0.2, 0.1, 0.3, 0.0, 0.0, 2.9]),
-        ] {
+        for xi in [vec6([0.3, -1.0, 2.0, 0.4, -0.2, 1.1]), vec6([1.0, 2.0, -0.5, 1e-6, -2e-6, 5e-7]), vec6([0.2, 0.1, 0.3, 0.0, 0.0, 2.9])]
+        {
             let jinv = se3_right_jacobian_inv(&xi);
             let x = Se3::exp(&xi);
             let h = 1e-6;
@@ -484,17 +470,12 @@ mod tests {
     }
 
     fn arb_vec6(max_angle: f64) -> impl Strategy<Value = Vector6<f64>> {
-        (
-            prop::array::uniform3(-10.0..10.0f64),
-            prop::array::uniform3(-1.0..1.0f64),
-            0.0..max_angle,
-        )
-            .prop_map(|(t, axis, angle)| {
-                let a = Vector3::from_row_slice(&axis);
-                let n = a.norm();
-                let phi = if n < 1e-9 { Vector3::zeros() } else { a * (angle / n) };
-                Vector6::new(t[0], t[1], t[2], phi.x, phi.y, phi.z)
-            })
+        (prop::array::uniform3(-10.0..10.0f64), prop::array::uniform3(-1.0..1.0f64), 0.0..max_angle).prop_map(|(t, axis, angle)| {
+            let a = Vector3::from_row_slice(&axis);
+            let n = a.norm();
+            let phi = if n < 1e-9 { Vector3::zeros() } else { a * (angle / n) };
+            Vector6::new(t[0], t[1], t[2], phi.x, phi.y, phi.z)
+        })
     }
 
     proptest! {

@@ -15,7 +15,7 @@ use thiserror::Error;
 
 use super::factors::{FactorError, Jacobian, MAX_FACTOR_KEYS};
 use super::graph::FactorGraph;
-use super::values::{VarId, Values};
+use super::values::{Values, VarId};
 
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SolveError {
@@ -147,8 +147,7 @@ impl LinearSystem {
         }
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let llt_symbolic =
-            SymbolicLlt::try_new(symbolic.as_ref(), Side::Upper).map_err(|e| SolveError::Faer(format!("{e:?}")))?;
+        let llt_symbolic = SymbolicLlt::try_new(symbolic.as_ref(), Side::Upper).map_err(|e| SolveError::Faer(format!("{e:?}")))?;
         Ok(Self {
             generation: graph.generation(),
             fixed,

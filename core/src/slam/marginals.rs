@@ -6,15 +6,15 @@
 //! in the variable's tangent (poses: body frame, ξ = (δt, δφ)); fixed variables have zero
 //! covariance (they are the gauge anchor).
 
+use faer::MatMut;
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::Llt;
-use faer::MatMut;
 use nalgebra::DMatrix;
 
 use super::factors::FactorError;
 use super::graph::FactorGraph;
 use super::linear_system::{LinearSystem, SolveError};
-use super::values::{VarId, Values};
+use super::values::{Values, VarId};
 
 /// Right-hand sides solved at once (bounds memory at n × 64 doubles).
 const RHS_CHUNK: usize = 64;
@@ -142,9 +142,8 @@ mod tests {
         let mut graph = FactorGraph::new();
         let info = nalgebra::Matrix3::new(50.0, 5.0, 1.0, 5.0, 30.0, 2.0, 1.0, 2.0, 200.0);
         let noise = GaussianNoise::from_information(&info).unwrap();
-        let ids: Vec<VarId> = (0..6)
-            .map(|k| values.push(Variable::Se2(Se2::new(k as f64 * 0.9, 0.1 * k as f64, 0.2 * k as f64))))
-            .collect();
+        let ids: Vec<VarId> =
+            (0..6).map(|k| values.push(Variable::Se2(Se2::new(k as f64 * 0.9, 0.1 * k as f64, 0.2 * k as f64)))).collect();
         for k in 0..5 {
             graph.add(BetweenSe2::new(ids[k], ids[k + 1], Se2::new(1.0, 0.0, 0.3), noise)).unwrap();
         }
@@ -160,11 +159,8 @@ mod tests {
         let a = Matrix6::from_fn(|i, j| ((i * 5 + j) as f64).sin());
         let noise6 = GaussianNoise::from_information(&(a * a.transpose() + Matrix6::identity() * 5.0)).unwrap();
         let noise3 = GaussianNoise::isotropic(3, 0.2).unwrap();
-        let poses: Vec<VarId> = (0..4)
-            .map(|k| values.push(Variable::Se3(se3([k as f64, 0.2, 0.0], [0.0, 0.1, 0.3 * k as f64]))))
-            .collect();
-        let lms: Vec<VarId> =
-            (0..3).map(|k| values.push(Variable::Point3(Vector3::new(k as f64, 3.0, 1.0)))).collect();
+        let poses: Vec<VarId> = (0..4).map(|k| values.push(Variable::Se3(se3([k as f64, 0.2, 0.0], [0.0, 0.1, 0.3 * k as f64])))).collect();
+        let lms: Vec<VarId> = (0..3).map(|k| values.push(Variable::Point3(Vector3::new(k as f64, 3.0, 1.0)))).collect();
         graph.add(PriorSe3::new(poses[0], se3([0.0; 3], [0.0; 3]), noise6)).unwrap();
         for k in 0..3 {
             graph.add(BetweenSe3::new(poses[k], poses[k + 1], se3([1.0, 0.0, 0.1], [0.0, 0.0, 0.3]), noise6)).unwrap();

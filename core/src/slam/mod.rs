@@ -39,12 +39,12 @@
 //! | [`graph_slam`] | keyframe SLAM for the simulator: sliding window, full optimisation, covariances |
 
 pub mod factors;
+pub mod g2o;
 pub mod graph;
 pub mod graph_slam;
 pub mod lie;
 pub mod linear_system;
 pub mod marginals;
-pub mod g2o;
 pub mod optimizer;
 pub mod problem;
 #[cfg(test)]
@@ -54,9 +54,14 @@ pub mod victoria;
 
 pub use factors::{Factor, FactorError, GaussianNoise, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
-pub use graph_slam::{CovarianceTraces, Gravity, GraphSlam, GraphSlamParams, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
+pub use graph_slam::{
+    CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend,
+    SlamError,
+};
 pub use lie::{Se2, Se3};
 pub use marginals::{MarginalError, Marginals};
+pub use optimizer::{
+    GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination,
+};
 pub use problem::{Gauge, Problem};
-pub use optimizer::{GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination};
-pub use values::{VarId, Values, Variable};
+pub use values::{Values, VarId, Variable};

@@ -140,8 +140,7 @@ pub trait Optimizer {
     fn optimize(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<Summary, OptError> {
         self.reset();
         let params = self.params().clone();
-        let mut summary =
-            Summary { initial_chi2: f64::NAN, final_chi2: f64::NAN, iterations: 0, termination: None, steps: Vec::new() };
+        let mut summary = Summary { initial_chi2: f64::NAN, final_chi2: f64::NAN, iterations: 0, termination: None, steps: Vec::new() };
         while summary.iterations < params.max_iterations {
             let report = self.step(graph, values)?;
             if summary.iterations == 0 {
@@ -291,13 +290,10 @@ impl Optimizer for LevenbergMarquardt {
             system.retract_into(values, &self.delta, &mut self.trial);
             let chi2_new = system.cost(graph, &self.trial)?;
             // Predicted decrease of the linear model: δᵀ(λδ − g).
-            let predicted: f64 =
-                self.delta.iter().zip(system.gradient()).map(|(d, g)| d * (lambda * d - g)).sum();
+            let predicted: f64 = self.delta.iter().zip(system.gradient()).map(|(d, g)| d * (lambda * d - g)).sum();
             step_norm = self.delta.iter().map(|v| v * v).sum::<f64>().sqrt();
             let rho = (chi2 - chi2_new) / predicted;
-            let accept = chi2_new.is_finite()
-                && predicted > 0.0
-                && if gtsam { rho > 1e-3 } else { chi2_new < chi2 };
+            let accept = chi2_new.is_finite() && predicted > 0.0 && if gtsam { rho > 1e-3 } else { chi2_new < chi2 };
             if accept {
                 std::mem::swap(values, &mut self.trial);
                 if gtsam {

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::factors::{GaussianNoise, NoiseError, PriorSe2, PriorSe3};
 use super::graph::{FactorGraph, GraphError};
-use super::values::{VarId, Values, Variable};
+use super::values::{Values, VarId, Variable};
 
 /// How the global pose of the problem is anchored.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

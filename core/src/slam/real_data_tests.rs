@@ -3,13 +3,11 @@
 //! and runs in release: `cargo test -p fitslam-core --release slam::real_data -- --ignored
 //! --nocapture`. Agreement with GTSAM is checked by `scripts/compare_gtsam.py`.
 
-use super::g2o::read_g2o;
-use super::optimizer::{
-    GaussNewton, LambdaSchedule, LevenbergMarquardt, Optimizer, OptimizerParams, Summary, Termination,
-};
-use super::victoria::read_victoria;
 use super::factors::Se2Residual;
+use super::g2o::read_g2o;
+use super::optimizer::{GaussNewton, LambdaSchedule, LevenbergMarquardt, Optimizer, OptimizerParams, Summary, Termination};
 use super::problem::{Gauge, Problem};
+use super::victoria::read_victoria;
 
 fn data(name: &str) -> Vec<u8> {
     let path = format!("{}/../assets/data/slam/{name}", env!("CARGO_MANIFEST_DIR"));

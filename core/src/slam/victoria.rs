@@ -164,12 +164,12 @@ impl VictoriaPark {
         let get = |map: &BTreeMap<u64, VarId>, id: &u64| map.get(id).copied().unwrap_or(VarId(usize::MAX));
         for r in &self.records {
             let added = match r {
-                VictoriaRecord::Odometry { from, to, measurement, noise } => problem.graph.add(
-                    BetweenSe2::new(get(&pose_var, from), get(&pose_var, to), *measurement, *noise).with_residual(se2_residual),
-                ),
-                VictoriaRecord::Landmark { pose, landmark, bearing_rad, range_m, noise } => problem.graph.add(
-                    BearingRange2::new(get(&pose_var, pose), get(&lm_var, landmark), *bearing_rad, *range_m, *noise),
-                ),
+                VictoriaRecord::Odometry { from, to, measurement, noise } => problem
+                    .graph
+                    .add(BetweenSe2::new(get(&pose_var, from), get(&pose_var, to), *measurement, *noise).with_residual(se2_residual)),
+                VictoriaRecord::Landmark { pose, landmark, bearing_rad, range_m, noise } => {
+                    problem.graph.add(BearingRange2::new(get(&pose_var, pose), get(&lm_var, landmark), *bearing_rad, *range_m, *noise))
+                }
             };
             added.map_err(|g| VictoriaError::Gauge(GaugeError::Graph(g)))?;
         }
@@ -205,14 +205,8 @@ mod tests {
 
     #[test]
     fn errors_name_the_line() {
-        assert_eq!(
-            read_victoria(b"ODOMETRY 0 1 1 0 0 1 2 3 4 5 6\n"),
-            Err(VictoriaError::UnknownNoiseFormat { line: 1 })
-        );
-        assert_eq!(
-            read_victoria(b"\nLANDMARK 0 1 2 y 0.4 0 0.4\n"),
-            Err(VictoriaError::BadNumber { line: 2, field: 4, text: "y".into() })
-        );
+        assert_eq!(read_victoria(b"ODOMETRY 0 1 1 0 0 1 2 3 4 5 6\n"), Err(VictoriaError::UnknownNoiseFormat { line: 1 }));
+        assert_eq!(read_victoria(b"\nLANDMARK 0 1 2 y 0.4 0 0.4\n"), Err(VictoriaError::BadNumber { line: 2, field: 4, text: "y".into() }));
         assert!(matches!(read_victoria(b"BR 0 1 0 1 1 1\n"), Err(VictoriaError::UnknownTag { line: 1, .. })));
     }
 

@@ -31,7 +31,7 @@
 use super::map::TraversabilityMap;
 use super::moments::{CellMoments, MomentSum};
 use super::plane::fit_plane;
-use crate::grid::{Grid, GridGeometry, OccupancyGrid, FREE, LETHAL, UNKNOWN};
+use crate::grid::{FREE, Grid, GridGeometry, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::TraversabilityParams;
 
 /// The traversability layers of one map, all on one geometry. Float layers are NaN where the
@@ -109,7 +109,15 @@ pub fn to_occupancy(score: &Grid<f32>, tau: f64) -> OccupancyGrid {
     let data = score
         .data
         .iter()
-        .map(|&s| if s.is_nan() { UNKNOWN } else if f64::from(s) >= tau { FREE } else { LETHAL })
+        .map(|&s| {
+            if s.is_nan() {
+                UNKNOWN
+            } else if f64::from(s) >= tau {
+                FREE
+            } else {
+                LETHAL
+            }
+        })
         .collect();
     Grid { geometry: score.geometry, data }
 }

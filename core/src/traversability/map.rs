@@ -14,8 +14,8 @@
 
 use nalgebra::Point3;
 
-use super::moments::CellMoments;
 use super::TraversabilityError;
+use super::moments::CellMoments;
 use crate::cloud::PointCloud;
 use crate::grid::GridGeometry;
 use crate::params::Params;
@@ -58,11 +58,7 @@ impl TraversabilityMap {
         }
         let cells = geometry.width.checked_mul(geometry.height).filter(|&n| n <= MAX_CELLS && n <= u32::MAX as usize);
         let Some(cells) = cells else {
-            return Err(TraversabilityError::TooManyCells {
-                width: geometry.width,
-                height: geometry.height,
-                limit: MAX_CELLS,
-            });
+            return Err(TraversabilityError::TooManyCells { width: geometry.width, height: geometry.height, limit: MAX_CELLS });
         };
         Ok(Self {
             geometry,
@@ -84,8 +80,7 @@ impl TraversabilityMap {
         if !(res.is_finite() && res > 0.0) {
             return Err(TraversabilityError::BadGeometry);
         }
-        let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) =
-            (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        let (mut lo_x, mut lo_y, mut hi_x, mut hi_y) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
         for p in cloud.points.iter().filter(|p| p.coords.iter().all(|v| v.is_finite())) {
             lo_x = lo_x.min(p.x);
             lo_y = lo_y.min(p.y);
@@ -108,13 +103,7 @@ impl TraversabilityMap {
         if !(w.is_finite() && h.is_finite()) || w * h > MAX_CELLS as f64 {
             return Err(too_many());
         }
-        let geometry = GridGeometry::new(
-            lo_x - margin_cells * res,
-            lo_y - margin_cells * res,
-            res,
-            w as usize,
-            h as usize,
-        );
+        let geometry = GridGeometry::new(lo_x - margin_cells * res, lo_y - margin_cells * res, res, w as usize, h as usize);
         let mut map = Self::new(geometry)?;
         map.insert_points(cloud.points.iter().copied());
         Ok(map)
@@ -224,10 +213,7 @@ mod tests {
         assert_eq!((g.width, g.height), (21 + 10, 11 + 10));
         assert!((g.origin_x_m - (-1.5)).abs() < 1e-12 && (g.origin_y_m - 1.5).abs() < 1e-12);
         assert_eq!(m.point_count(), 2);
-        assert_eq!(
-            TraversabilityMap::from_cloud(&PointCloud::default(), &p).unwrap_err(),
-            TraversabilityError::EmptyCloud
-        );
+        assert_eq!(TraversabilityMap::from_cloud(&PointCloud::default(), &p).unwrap_err(), TraversabilityError::EmptyCloud);
         let far = PointCloud::from_points(vec![Point3::new(0.0, 0.0, 0.0), Point3::new(1e7, 1e7, 0.0)]);
         assert!(matches!(TraversabilityMap::from_cloud(&far, &p), Err(TraversabilityError::TooManyCells { .. })));
         p.grid.resolution_m = 0.0;

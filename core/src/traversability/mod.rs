@@ -38,11 +38,11 @@ mod render;
 #[cfg(test)]
 mod tests;
 
-pub use estimate::{disc_offsets, to_occupancy, TraversabilityLayers};
-pub use map::{InsertStats, TraversabilityMap, MAX_CELLS};
+pub use estimate::{TraversabilityLayers, disc_offsets, to_occupancy};
+pub use map::{InsertStats, MAX_CELLS, TraversabilityMap};
 pub use moments::{CellMoments, MomentSum};
-pub use plane::{fit_plane, PlaneFit};
-pub use render::{score_rgb, score_to_rgb, UNKNOWN_RGB};
+pub use plane::{PlaneFit, fit_plane};
+pub use render::{UNKNOWN_RGB, score_rgb, score_to_rgb};
 
 use thiserror::Error;
 

@@ -35,8 +35,7 @@ impl Default for CellMoments {
 
 impl CellMoments {
     /// Moments of no point.
-    pub const EMPTY: Self =
-        Self { count: 0, mean: [0.0; 3], scatter: [0.0; 6], z_min: f64::INFINITY, z_max: f64::NEG_INFINITY };
+    pub const EMPTY: Self = Self { count: 0, mean: [0.0; 3], scatter: [0.0; 6], z_min: f64::INFINITY, z_max: f64::NEG_INFINITY };
 
     /// Whether no point has been added.
     #[inline]

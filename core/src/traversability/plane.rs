@@ -54,9 +54,8 @@ pub fn fit_plane(m: &CellMoments) -> Option<PlaneFit> {
     if !c.iter().flatten().all(|v| v.is_finite()) {
         return None;
     }
-    let (normal, roughness_m) = smallest_eigenpair_newton(&c)
-        .or_else(|| smallest_eigenpair_closed_form(&c))
-        .unwrap_or_else(|| normal_iterative(&c));
+    let (normal, roughness_m) =
+        smallest_eigenpair_newton(&c).or_else(|| smallest_eigenpair_closed_form(&c)).unwrap_or_else(|| normal_iterative(&c));
     let normal = if normal[2] < 0.0 { normal.map(|v| -v) } else { normal };
     let horizontal = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
     let slope_rad = horizontal.atan2(normal[2]);
@@ -92,16 +91,11 @@ fn smallest_eigenpair_newton(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> {
         return None;
     }
     let k = 1.0 / s;
-    let a = [
-        [c[0][0] * k, c[0][1] * k, c[0][2] * k],
-        [c[1][0] * k, c[1][1] * k, c[1][2] * k],
-        [c[2][0] * k, c[2][1] * k, c[2][2] * k],
-    ];
+    let a = [[c[0][0] * k, c[0][1] * k, c[0][2] * k], [c[1][0] * k, c[1][1] * k, c[1][2] * k], [c[2][0] * k, c[2][1] * k, c[2][2] * k]];
     let c2 = a[0][0] + a[1][1] + a[2][2];
     let m12 = a[1][1] * a[2][2] - a[1][2] * a[1][2];
     let c1 = a[0][0] * a[1][1] - a[0][1] * a[0][1] + a[0][0] * a[2][2] - a[0][2] * a[0][2] + m12;
-    let c0 = a[0][0] * m12 - a[0][1] * (a[0][1] * a[2][2] - a[1][2] * a[0][2])
-        + a[0][2] * (a[0][1] * a[1][2] - a[1][1] * a[0][2]);
+    let c0 = a[0][0] * m12 - a[0][1] * (a[0][1] * a[2][2] - a[1][2] * a[0][2]) + a[0][2] * (a[0][1] * a[1][2] - a[1][1] * a[0][2]);
     let mut l = 0.0f64;
     let mut converged = false;
     for _ in 0..24 {
@@ -128,11 +122,7 @@ fn smallest_eigenpair_newton(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> {
     if s * l_max <= COINCIDENT_VAR_M2 || l_mid <= COLLINEAR_RATIO * l_max || l_mid - l_min <= 1e-3 * l_max {
         return None;
     }
-    let rows = [
-        [a[0][0] - l_min, a[0][1], a[0][2]],
-        [a[1][0], a[1][1] - l_min, a[1][2]],
-        [a[2][0], a[2][1], a[2][2] - l_min],
-    ];
+    let rows = [[a[0][0] - l_min, a[0][1], a[0][2]], [a[1][0], a[1][1] - l_min, a[1][2]], [a[2][0], a[2][1], a[2][2] - l_min]];
     let mut best = [0.0; 3];
     let mut best_n2 = 0.0;
     for (i, j) in [(0, 1), (0, 2), (1, 2)] {
@@ -180,11 +170,7 @@ fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> 
     if s * l_max <= COINCIDENT_VAR_M2 || l_mid <= COLLINEAR_RATIO * l_max {
         return None;
     }
-    let rows = [
-        [a[0][0] - l_min, a[0][1], a[0][2]],
-        [a[1][0], a[1][1] - l_min, a[1][2]],
-        [a[2][0], a[2][1], a[2][2] - l_min],
-    ];
+    let rows = [[a[0][0] - l_min, a[0][1], a[0][2]], [a[1][0], a[1][1] - l_min, a[1][2]], [a[2][0], a[2][1], a[2][2] - l_min]];
     let mut best = [0.0; 3];
     let mut best_n2 = 0.0;
     for (i, j) in [(0, 1), (0, 2), (1, 2)] {
@@ -354,7 +340,9 @@ mod tests {
         assert!(smallest_eigenpair_closed_form(&blob.covariance()).is_none()); // isotropic
         // A well-conditioned tilted patch is answered in closed form.
         let t = 0.3;
-        let patch = moments((0..25).map(|k| [(k % 5) as f64 * 0.1, (k / 5) as f64 * 0.1, t * (k % 5) as f64 * 0.1 + if k % 2 == 0 { 0.01 } else { -0.01 }]));
+        let patch = moments(
+            (0..25).map(|k| [(k % 5) as f64 * 0.1, (k / 5) as f64 * 0.1, t * (k % 5) as f64 * 0.1 + if k % 2 == 0 { 0.01 } else { -0.01 }]),
+        );
         assert!(smallest_eigenpair_closed_form(&patch.covariance()).is_some());
         assert!(smallest_eigenpair_newton(&patch.covariance()).is_some());
         assert!(smallest_eigenpair_newton(&line.covariance()).is_none());

@@ -5,7 +5,7 @@ use nalgebra::Point3;
 use proptest::prelude::*;
 
 use super::*;
-use crate::grid::{inflate_lethal, Cell, Grid, GridGeometry, FREE, LETHAL, UNKNOWN};
+use crate::grid::{Cell, FREE, Grid, GridGeometry, LETHAL, UNKNOWN, inflate_lethal};
 use crate::params::TraversabilityParams;
 
 const RES: f64 = 0.05;
@@ -42,7 +42,13 @@ fn interior() -> impl Iterator<Item = Cell> {
 
 /// Bitwise equality of every layer (NaN equals NaN).
 fn assert_same(a: &TraversabilityLayers, b: &TraversabilityLayers) {
-    for (x, y) in [(&a.slope_rad, &b.slope_rad), (&a.step_m, &b.step_m), (&a.roughness_m, &b.roughness_m), (&a.hazard, &b.hazard), (&a.score, &b.score)] {
+    for (x, y) in [
+        (&a.slope_rad, &b.slope_rad),
+        (&a.step_m, &b.step_m),
+        (&a.roughness_m, &b.roughness_m),
+        (&a.hazard, &b.hazard),
+        (&a.score, &b.score),
+    ] {
         assert_eq!(x.geometry, y.geometry);
         assert!(x.data.iter().zip(&y.data).all(|(u, v)| u.to_bits() == v.to_bits()));
     }
@@ -347,7 +353,15 @@ fn reference_estimate(map: &TraversabilityMap, p: &TraversabilityParams, index: 
             step = (hi - lo).min(raw);
         }
     }
-    let ratio = |x: f64, limit: f64| if limit > 0.0 { x / limit } else if x > 0.0 { 1.0 } else { 0.0 };
+    let ratio = |x: f64, limit: f64| {
+        if limit > 0.0 {
+            x / limit
+        } else if x > 0.0 {
+            1.0
+        } else {
+            0.0
+        }
+    };
     let hazard = ratio(plane.slope_rad, p.max_slope_rad)
         .max(ratio(step, p.max_step_m))
         .max(ratio(plane.roughness_m, p.max_roughness_m))

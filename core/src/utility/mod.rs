@@ -18,15 +18,12 @@ pub mod u1;
 pub mod u2;
 pub mod voxels;
 
-pub use entropy::{binary_entropy_bits, visibility_gain_bits, GainTable};
+pub use entropy::{GainTable, binary_entropy_bits, visibility_gain_bits};
 pub use fim::{bearing_jacobian, information_matrix, trace_information, trace_information_general};
-pub use rays::{ray_count, RayFan};
-pub use theta_star::{theta_star, FovWindows, ThetaStar};
+pub use rays::{RayFan, ray_count};
+pub use theta_star::{FovWindows, ThetaStar, theta_star};
 pub use u1::u1_scores;
-pub use u2::{
-    camera_pose, normalise_path_information, path_information, u2_score, waypoints_along, Frustum, Waypoint,
-    WaypointReport,
-};
+pub use u2::{Frustum, Waypoint, WaypointReport, camera_pose, normalise_path_information, path_information, u2_score, waypoints_along};
 pub use voxels::LandmarkVoxels;
 
 use thiserror::Error;

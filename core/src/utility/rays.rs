@@ -24,8 +24,8 @@
 //! Complexity: building is O(R · L) for R rays of at most L cells (L ≤ 2·d_max/resolution);
 //! casting is O(R · L) with no allocation (the output buffer is reused).
 
-use super::entropy::GainTable;
 use super::UtilityError;
+use super::entropy::GainTable;
 use crate::grid::{Cell, CellClass, OccupancyGrid};
 
 /// Number of rays `⌈2π/Δθ⌉` of the fan (angles `kΔθ < 2π`).
@@ -155,7 +155,7 @@ fn trace_dda(theta: f64, range_cells: f64, out: &mut Vec<[i32; 2]>) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::{Grid, GridGeometry, FREE, LETHAL, UNKNOWN};
+    use crate::grid::{FREE, Grid, GridGeometry, LETHAL, UNKNOWN};
     use crate::utility::entropy::visibility_gain_bits;
     use std::collections::HashSet;
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};

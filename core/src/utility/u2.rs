@@ -109,10 +109,7 @@ pub fn camera_pose(x_m: f64, y_m: f64, z_m: f64, yaw_rad: f64) -> Isometry3<f64>
     // Columns: the optical axes in the body frame (x_opt = −y_body, y_opt = −z_body, z_opt = x_body).
     let body_from_optical = Rotation3::from_matrix_unchecked(Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0));
     let world_from_body = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad);
-    Isometry3::from_parts(
-        Translation3::new(x_m, y_m, z_m),
-        UnitQuaternion::from_rotation_matrix(&(world_from_body * body_from_optical)),
-    )
+    Isometry3::from_parts(Translation3::new(x_m, y_m, z_m), UnitQuaternion::from_rotation_matrix(&(world_from_body * body_from_optical)))
 }
 
 /// The camera frustum in the optical frame.
@@ -139,11 +136,7 @@ impl Frustum {
     /// Whether the optical-frame point (x, y, z) is inside.
     #[inline]
     pub fn contains(&self, x: f64, y: f64, z: f64) -> bool {
-        z >= self.min_depth_m
-            && z <= self.max_depth_m
-            && z > 0.0
-            && x.abs() <= z * self.tan_half_hfov
-            && y.abs() <= z * self.tan_half_vfov
+        z >= self.min_depth_m && z <= self.max_depth_m && z > 0.0 && x.abs() <= z * self.tan_half_hfov && y.abs() <= z * self.tan_half_vfov
     }
 }
 

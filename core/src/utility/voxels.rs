@@ -251,10 +251,12 @@ impl LandmarkVoxels {
 fn isotropic_variance(q: &Matrix3<f64>) -> Option<f64> {
     let mean = q.trace() / 3.0;
     let tol = 1e-12 * mean.abs().max(f64::MIN_POSITIVE);
-    let iso = (0..3).all(|r| (0..3).all(|c| {
-        let target = if r == c { mean } else { 0.0 };
-        (q[(r, c)] - target).abs() <= tol
-    }));
+    let iso = (0..3).all(|r| {
+        (0..3).all(|c| {
+            let target = if r == c { mean } else { 0.0 };
+            (q[(r, c)] - target).abs() <= tol
+        })
+    });
     iso.then_some(mean)
 }
 
@@ -326,7 +328,8 @@ mod tests {
 
     #[test]
     fn order_does_not_depend_on_input_order() {
-        let pts: Vec<Point3<f64>> = (0..200).map(|k| Point3::new((k * 37 % 101) as f64 * 0.13, (k * 53 % 97) as f64 * 0.11, (k % 7) as f64 * 0.3)).collect();
+        let pts: Vec<Point3<f64>> =
+            (0..200).map(|k| Point3::new((k * 37 % 101) as f64 * 0.13, (k * 53 % 97) as f64 * 0.11, (k % 7) as f64 * 0.3)).collect();
         let mut rev = pts.clone();
         rev.reverse();
         let a = LandmarkVoxels::new(&PointCloud::from_points(pts), 0.25, 0.05).unwrap();

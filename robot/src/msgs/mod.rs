@@ -16,8 +16,8 @@ pub mod visualization;
 
 pub use builtin::{Duration, Time};
 pub use geometry::{
-    Point, Point32, Polygon, PolygonStamped, Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion,
-    Transform, TransformStamped, Vector3,
+    Point, Point32, Polygon, PolygonStamped, Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion, Transform,
+    TransformStamped, Vector3,
 };
 pub use nav::{MapMetaData, OccupancyGrid};
 pub use nav2::{NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult};

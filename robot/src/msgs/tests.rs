@@ -4,8 +4,8 @@
 use super::*;
 use byteorder::LittleEndian;
 use ros2_client::dds::rustdds::cdr_encoding::{from_bytes, to_vec};
-use serde::de::DeserializeOwned;
 use serde::Serialize;
+use serde::de::DeserializeOwned;
 use std::fmt::Debug;
 
 fn roundtrip<T: Serialize + DeserializeOwned + PartialEq + Debug>(v: &T) -> Vec<u8> {
@@ -64,11 +64,19 @@ fn every_message_roundtrips() {
         data: vec![1, 2, 3, 4],
         is_dense: true,
     });
-    roundtrip(&TFMessage { transforms: vec![TransformStamped { header: h.clone(), child_frame_id: "x".into(), transform: Transform::default() }] });
+    roundtrip(&TFMessage {
+        transforms: vec![TransformStamped { header: h.clone(), child_frame_id: "x".into(), transform: Transform::default() }],
+    });
     roundtrip(&PolygonStamped { header: h.clone(), polygon: Polygon { points: vec![Point32 { x: 1.0, y: 2.0, z: 3.0 }] } });
     roundtrip(&StringMsg { data: "{\"phase\":\"done\"}".into() });
     roundtrip(&MarkerArray {
-        markers: vec![Marker { header: h.clone(), ns: "a".into(), points: vec![Point::default()], colors: vec![ColorRGBA::new(1.0, 0.0, 0.0, 1.0)], ..Marker::default() }],
+        markers: vec![Marker {
+            header: h.clone(),
+            ns: "a".into(),
+            points: vec![Point::default()],
+            colors: vec![ColorRGBA::new(1.0, 0.0, 0.0, 1.0)],
+            ..Marker::default()
+        }],
     });
     roundtrip(&NavigateToPoseGoal { pose: PoseStamped { header: h.clone(), pose: Pose::default() }, behavior_tree: String::new() });
     roundtrip(&NavigateToPoseResult { error_code: 9003, error_msg: "timeout".into() });
@@ -96,7 +104,10 @@ fn time_conversions() {
 fn navigate_to_pose_results_of_older_distros_decode_with_defaults() {
     use ros2_client::action::{GetResultResponse, GoalStatusEnum};
     // Jazzy: status (int8), then (error_code, error_msg).
-    let jazzy = GetResultResponse { status: GoalStatusEnum::Aborted, result: NavigateToPoseResult { error_code: 9003, error_msg: "timeout".into() } };
+    let jazzy = GetResultResponse {
+        status: GoalStatusEnum::Aborted,
+        result: NavigateToPoseResult { error_code: 9003, error_msg: "timeout".into() },
+    };
     let b = to_vec::<_, LittleEndian>(&jazzy).unwrap();
     let (back, _) = from_bytes::<GetResultResponse<NavigateToPoseResult>, LittleEndian>(&b).unwrap();
     assert_eq!((back.status, back.result), (GoalStatusEnum::Aborted, jazzy.result));

@@ -4,8 +4,8 @@ use super::*;
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
 use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
-use fitslam_core::fixtures::{corridor_two_frontiers, synthetic_world, SyntheticWorldSpec};
-use fitslam_core::grid::{Grid, FREE, LETHAL, UNKNOWN};
+use fitslam_core::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
+use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN};
 
 fn header(stamp_s: f64, frame: &str) -> Header {
     Header::new(Time::from_secs_f64(stamp_s), frame)
@@ -20,10 +20,7 @@ fn tf_msg(parent: &str, child: &str, p: Pose2, stamp_s: f64) -> TFMessage {
         transforms: vec![TransformStamped {
             header: header(stamp_s, parent),
             child_frame_id: child.into(),
-            transform: Transform {
-                translation: Vector3 { x: p.x_m, y: p.y_m, z: 0.0 },
-                rotation: Quaternion::from_yaw(p.yaw_rad),
-            },
+            transform: Transform { translation: Vector3 { x: p.x_m, y: p.y_m, z: 0.0 }, rotation: Quaternion::from_yaw(p.yaw_rad) },
         }],
     }
 }

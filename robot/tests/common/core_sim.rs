@@ -8,11 +8,11 @@
 #![allow(dead_code)]
 
 use super::sim::SimRobot;
-use fitslam_core::grid::{inflate_lethal, UNKNOWN};
+use fitslam_core::grid::{UNKNOWN, inflate_lethal};
 use fitslam_core::path::astar;
-use fitslam_core::sim::camera::{observe_landmarks, CameraNoise, CameraObservation, LandmarkIndex};
-use fitslam_core::sim::lidar::{scan, LidarParams, RayCaster};
-use fitslam_core::sim::robot::{body_on_terrain, DriveParams};
+use fitslam_core::sim::camera::{CameraNoise, CameraObservation, LandmarkIndex, observe_landmarks};
+use fitslam_core::sim::lidar::{LidarParams, RayCaster, scan};
+use fitslam_core::sim::robot::{DriveParams, body_on_terrain};
 use fitslam_core::sim::{World, WorldSpec};
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::{OccupancyGrid, Params, Pose2};

@@ -8,7 +8,7 @@
 
 #![allow(dead_code)]
 
-use fitslam_core::grid::{inflate_lethal, CellClass, Grid, FREE, LETHAL, UNKNOWN};
+use fitslam_core::grid::{CellClass, FREE, Grid, LETHAL, UNKNOWN, inflate_lethal};
 use fitslam_core::path::astar;
 use fitslam_core::{Cell, GridGeometry, OccupancyGrid, Pose2};
 use nalgebra::Point3;

@@ -7,9 +7,9 @@
 
 use nalgebra::{Matrix2, RowVector2, Vector2};
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, fetch};
 use crate::pose::wrap_pi;
-use crate::slam::values::{VarId, Values};
+use crate::slam::values::{Values, VarId};
 
 #[derive(Clone, Debug)]
 pub struct BearingRange2 {

@@ -17,9 +17,9 @@
 
 use nalgebra::Matrix2;
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, Se2Residual, MAX_FACTOR_KEYS};
-use crate::slam::lie::{se2_right_jacobian_inv, se3_right_jacobian_inv, Se2, Se3};
-use crate::slam::values::{VarId, Values};
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, Se2Residual, fetch};
+use crate::slam::lie::{Se2, Se3, se2_right_jacobian_inv, se3_right_jacobian_inv};
+use crate::slam::values::{Values, VarId};
 
 /// Relative SE(2) pose measurement between `x_i` and `x_j`.
 #[derive(Clone, Debug)]

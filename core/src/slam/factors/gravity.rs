@@ -7,9 +7,9 @@
 //! `∂e/∂δt = 0`. Yaw is unobservable (rotations about up leave `Rᵀ ẑ` unchanged), hence two
 //! residual rows; for a near-level robot they are ≈ (−pitch, roll) errors in radians. O(1).
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, fetch};
 use crate::slam::lie::hat;
-use crate::slam::values::{VarId, Values};
+use crate::slam::values::{Values, VarId};
 use nalgebra::Vector3;
 
 /// Absolute roll/pitch of one SE(3) pose from the measured gravity direction.

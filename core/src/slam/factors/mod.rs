@@ -26,7 +26,7 @@ pub use prior::{PriorSe2, PriorSe3};
 use nalgebra::{Matrix6, Vector6};
 use thiserror::Error;
 
-use super::values::{VarId, Values};
+use super::values::{Values, VarId};
 
 /// How an SE(2) pose difference `D = a⁻¹ b` becomes a residual.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -70,11 +70,7 @@ pub trait Factor: core::fmt::Debug + Send + Sync {
     fn error(&self, values: &Values) -> Result<Residual, FactorError>;
 
     /// Error and Jacobians (one per key, written into `jacobians[k]`).
-    fn linearize(
-        &self,
-        values: &Values,
-        jacobians: &mut [Jacobian; MAX_FACTOR_KEYS],
-    ) -> Result<Residual, FactorError>;
+    fn linearize(&self, values: &Values, jacobians: &mut [Jacobian; MAX_FACTOR_KEYS]) -> Result<Residual, FactorError>;
 
     fn residual_dim(&self) -> usize {
         self.noise().dim()
@@ -94,11 +90,9 @@ macro_rules! fetch {
             None => {
                 return Err(match $values.get($key) {
                     None => $crate::slam::factors::FactorError::MissingVariable($key),
-                    Some(other) => $crate::slam::factors::FactorError::WrongVariableType {
-                        key: $key,
-                        expected: $kind,
-                        found: other.kind(),
-                    },
+                    Some(other) => {
+                        $crate::slam::factors::FactorError::WrongVariableType { key: $key, expected: $kind, found: other.kind() }
+                    }
                 })
             }
         }
@@ -183,10 +177,7 @@ pub(crate) mod fixtures {
         let g2 = GaussianNoise::from_sigmas(&[0.002, 0.003]).unwrap_or_else(|e| panic!("{e}"));
         let up = Vector3::new(0.1 * s, -0.05, 1.0);
         out.push((Box::new(GravitySe3::new(b, up, g2).unwrap_or_else(|e| panic!("{e}"))), v3.clone()));
-        out.push((
-            Box::new(PointObservation3::new(b, m, Vector3::new(1.0, 2.0, s), noise3)),
-            v3,
-        ));
+        out.push((Box::new(PointObservation3::new(b, m, Vector3::new(1.0, 2.0, s), noise3)), v3));
         out
     }
 }
@@ -203,8 +194,7 @@ mod tests {
             let all = fixtures::all_factors(seed);
             assert_eq!(all.len(), 9, "one fixture per factor type and residual kind");
             for (factor, values) in &all {
-                let worst = check_factor_jacobians(factor.as_ref(), values, 1e-6)
-                    .unwrap_or_else(|e| panic!("{factor:?}: {e}"));
+                let worst = check_factor_jacobians(factor.as_ref(), values, 1e-6).unwrap_or_else(|e| panic!("{factor:?}: {e}"));
                 assert!(worst < 1e-6, "{factor:?}: Jacobian off by {worst:e} at seed {seed}");
             }
         }
@@ -216,10 +206,7 @@ mod tests {
         // The SE(3) prior evaluated on the SE(2) values: variable 0 is an SE2.
         let (prior3, _) = &all[5];
         let (_, values2) = &all[0];
-        assert_eq!(
-            prior3.error(values2),
-            Err(FactorError::WrongVariableType { key: VarId(0), expected: "SE3", found: "SE2" })
-        );
+        assert_eq!(prior3.error(values2), Err(FactorError::WrongVariableType { key: VarId(0), expected: "SE3", found: "SE2" }));
         assert_eq!(prior3.error(&Values::new()), Err(FactorError::MissingVariable(VarId(0))));
     }
 }

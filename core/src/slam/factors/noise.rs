@@ -179,14 +179,8 @@ mod tests {
 
     #[test]
     fn rejects_bad_matrices() {
-        assert_eq!(
-            GaussianNoise::from_information(&Matrix2::new(1.0, 2.0, 2.0, 1.0)),
-            Err(NoiseError::NotPositiveDefinite(1))
-        );
-        assert!(matches!(
-            GaussianNoise::from_information(&Matrix2::new(1.0, 0.5, 0.0, 1.0)),
-            Err(NoiseError::NotSymmetric(_))
-        ));
+        assert_eq!(GaussianNoise::from_information(&Matrix2::new(1.0, 2.0, 2.0, 1.0)), Err(NoiseError::NotPositiveDefinite(1)));
+        assert!(matches!(GaussianNoise::from_information(&Matrix2::new(1.0, 0.5, 0.0, 1.0)), Err(NoiseError::NotSymmetric(_))));
         assert_eq!(GaussianNoise::from_sigmas(&[1.0, f64::NAN]), Err(NoiseError::NonFinite));
         assert_eq!(GaussianNoise::isotropic(7, 1.0), Err(NoiseError::BadDimension(7)));
     }

@@ -5,9 +5,9 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, MAX_FACTOR_KEYS};
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, fetch};
 use crate::slam::lie::hat;
-use crate::slam::values::{VarId, Values};
+use crate::slam::values::{Values, VarId};
 
 #[derive(Clone, Debug)]
 pub struct PointObservation3 {
@@ -61,7 +61,7 @@ impl Factor for PointObservation3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::slam::lie::{so3_exp, Se3};
+    use crate::slam::lie::{Se3, so3_exp};
     use crate::slam::values::Variable;
 
     #[test]

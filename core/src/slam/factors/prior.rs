@@ -4,9 +4,9 @@
 //! or with [`Se2Residual::Vector`] `e = (x, y, θ)` of `z⁻¹ x` with Jacobian
 //! `[[R_zᵀ R_x, 0], [0, 1]]`. SE(3): `e = Log(z⁻¹ x)`, Jacobian `J_r⁻¹(e)`. All O(1).
 
-use super::{fetch, Factor, FactorError, GaussianNoise, Jacobian, Residual, Se2Residual, MAX_FACTOR_KEYS};
-use crate::slam::lie::{se2_right_jacobian_inv, se3_right_jacobian_inv, Se2, Se3};
-use crate::slam::values::{VarId, Values};
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, Se2Residual, fetch};
+use crate::slam::lie::{Se2, Se3, se2_right_jacobian_inv, se3_right_jacobian_inv};
+use crate::slam::values::{Values, VarId};
 
 /// Prior on an SE(2) pose.
 #[derive(Clone, Debug)]
@@ -126,8 +126,7 @@ mod tests {
         let mut values = Values::new();
         let k = values.push(Variable::Se2(Se2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2 + 0.1)));
         let noise = GaussianNoise::from_sigmas(&[1.0, 1.0, 0.1]).unwrap();
-        let f = PriorSe2::new(k, Se2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2), noise)
-            .with_residual(Se2Residual::Vector);
+        let f = PriorSe2::new(k, Se2::new(1.0, 0.0, std::f64::consts::FRAC_PI_2), noise).with_residual(Se2Residual::Vector);
         let e = f.error(&values).unwrap();
         assert!((e.x - 2.0).abs() < 1e-12 && e.y.abs() < 1e-12 && (e.z - 0.1).abs() < 1e-12);
         // χ² = 4 + (0.1/0.1)² = 5.
