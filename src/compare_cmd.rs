@@ -12,8 +12,7 @@
 //!   (against the first strategy listed when `fit` is not).
 
 use crate::explore_cmd::{
-    COV_TRACE_LABEL, ExploreArgs, LocalisationArg, RunOutput, StrategyArg, load_setup, localisation_of, progress_bar, run_and_write,
-    strategy_of,
+    COV_TRACE_LABEL, LocalisationArg, MissionArgs, RunOutput, StrategyArg, localisation_of, progress_bar, run_and_write, strategy_of,
 };
 use crate::load;
 use crate::plot::{Curve, Figure};
@@ -31,9 +30,8 @@ pub const GRID_POINTS: usize = 400;
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
-    /// World file (TOML, see assets/worlds/).
-    #[arg(long)]
-    pub world: PathBuf,
+    #[command(flatten)]
+    pub mission: MissionArgs,
     /// Comma-separated strategies: fit, greedy, random, u1.
     #[arg(long, default_value = "fit,greedy,random")]
     pub strategies: String,
@@ -46,21 +44,9 @@ pub struct CompareArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Planner parameters (TOML or YAML); default: the paper's.
-    #[arg(long)]
-    pub params: Option<PathBuf>,
-    /// Simulator parameters (TOML, `MissionParams`); default: built-in.
-    #[arg(long)]
-    pub sim_params: Option<PathBuf>,
-    /// Localisation; default: the same as `explore`'s.
-    #[arg(long, value_enum)]
-    pub localisation: Option<LocalisationArg>,
     /// Parallel runs (rayon threads); default: the available cores.
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// Overrides the world's time limit, seconds.
-    #[arg(long)]
-    pub time_limit_s: Option<f64>,
 }
 
 /// The figures of one run that the summary uses.
@@ -109,18 +95,6 @@ fn parse_strategies(text: &str) -> Result<Vec<StrategyArg>> {
     Ok(out)
 }
 
-/// `explore`'s default localisation, read from its command-line definition so both stay equal.
-fn explore_default_localisation() -> Result<LocalisationArg> {
-    use clap::Args as _;
-    let cmd = ExploreArgs::augment_args(clap::Command::new("explore"));
-    let default = cmd
-        .get_arguments()
-        .find(|a| a.get_id() == "localisation")
-        .and_then(|a| a.get_default_values().first().and_then(|v| v.to_str()).map(str::to_string))
-        .context("explore has no default localisation")?;
-    LocalisationArg::from_str(&default, true).map_err(anyhow::Error::msg)
-}
-
 pub fn run(args: &CompareArgs) -> Result<()> {
     let strategies = parse_strategies(&args.strategies)?;
     if args.seeds == 0 {
@@ -134,11 +108,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         Some(j) => j,
         None => std::thread::available_parallelism().map(usize::from).unwrap_or(1),
     };
-    let localisation = match args.localisation {
-        Some(l) => l,
-        None => explore_default_localisation()?,
-    };
-    let setup = load_setup(&args.world, args.params.as_deref(), args.sim_params.as_deref(), args.time_limit_s)?;
+    let localisation = args.mission.localisation;
+    let setup = args.mission.load()?;
     let runs: Vec<(StrategyArg, u64)> = strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start the thread pool")?;
     let bar = progress_bar(runs.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
@@ -408,10 +379,5 @@ mod tests {
         assert_eq!(num(12.34), "12.3");
         assert_eq!(num(1.234), "1.23");
         assert_eq!(num(0.001234), "1.23e-3");
-    }
-
-    #[test]
-    fn explore_default_is_readable() {
-        assert!(explore_default_localisation().is_ok());
     }
 }

@@ -38,20 +38,12 @@ pub enum LocalisationArg {
     Slam,
 }
 
+/// The options `explore` and `compare` share: the world, the parameters, the localisation.
 #[derive(Args, Debug)]
-pub struct ExploreArgs {
+pub struct MissionArgs {
     /// World file (TOML, see assets/worlds/).
     #[arg(long)]
     pub world: PathBuf,
-    /// Goal selection strategy.
-    #[arg(long, value_enum, default_value = "fit")]
-    pub strategy: StrategyArg,
-    /// Seed of the sensors' noise and of the random strategy.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
-    /// Output folder.
-    #[arg(long)]
-    pub out: PathBuf,
     /// Planner parameters (TOML or YAML); default: the paper's.
     #[arg(long)]
     pub params: Option<PathBuf>,
@@ -66,11 +58,33 @@ pub struct ExploreArgs {
     pub time_limit_s: Option<f64>,
 }
 
+impl MissionArgs {
+    /// Reads and builds the world and the parameters.
+    pub fn load(&self) -> Result<Setup> {
+        load_setup(&self.world, self.params.as_deref(), self.sim_params.as_deref(), self.time_limit_s)
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct ExploreArgs {
+    #[command(flatten)]
+    pub mission: MissionArgs,
+    /// Goal selection strategy.
+    #[arg(long, value_enum, default_value = "fit")]
+    pub strategy: StrategyArg,
+    /// Seed of the sensors' noise and of the random strategy.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
 pub fn run(args: &ExploreArgs) -> Result<()> {
-    let setup = load_setup(&args.world, args.params.as_deref(), args.sim_params.as_deref(), args.time_limit_s)?;
+    let setup = args.mission.load()?;
     let strategy = strategy_of(args.strategy);
     let progress = progress_bar(setup.time_limit_s().ceil() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} s simulated");
-    let run = run_and_write(&setup, strategy, args.seed, localisation_of(args.localisation), &args.out, &progress);
+    let run = run_and_write(&setup, strategy, args.seed, localisation_of(args.mission.localisation), &args.out, &progress);
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
     println!(

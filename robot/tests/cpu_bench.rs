@@ -11,16 +11,13 @@
 
 mod common;
 
-use common::{NodeProcess, private_domain, scratch_dir};
+use common::{NodeProcess, RobotSide, private_domain, scratch_dir};
 use fitslam_core::io::{load_cloud, load_map};
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-use fitslam_robot::msgs::{
-    Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, Quaternion, StringMsg,
-    TFMessage, Transform, TransformStamped, Vector3, nav2,
-};
-use fitslam_robot::ros::{advertise, latched, make_context, now_stamp, reliable, subscribe, topic_name};
-use ros2_client::action::{ActionServerQosPolicies, SendGoalResponse};
-use ros2_client::{ActionTypeName, NodeName, NodeOptions, ServiceMapping};
+use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Transform, TransformStamped, Vector3};
+use fitslam_robot::ros::{make_context, now_stamp};
+use ros2_client::action::SendGoalResponse;
+use ros2_client::{NodeName, NodeOptions};
 use std::time::{Duration, Instant};
 
 const ASSET: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/maps/jacksboro");
@@ -63,25 +60,7 @@ fn cpu_use_at_1hz_replanning_on_the_asset_map() {
 
     let ctx = make_context(domain, true).unwrap();
     let mut node = ctx.new_node(NodeName::new("/", "bench_robot").unwrap(), NodeOptions::new().enable_rosout(false)).unwrap();
-    let map_pub = advertise::<MapMsg>(&mut node, "/map", latched(1)).unwrap();
-    let cloud_pub = advertise::<PointCloud2>(&mut node, "/cloud_map", reliable(1)).unwrap();
-    let tf_pub = advertise::<TFMessage>(&mut node, "/tf", reliable(100)).unwrap();
-    let status_sub = subscribe::<StringMsg>(&mut node, "/fitslam/status", reliable(10)).unwrap();
-    let q = reliable(10);
-    let server = node
-        .create_action_server::<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>(
-            ServiceMapping::Enhanced,
-            &topic_name("/navigate_to_pose").unwrap(),
-            &ActionTypeName::new(nav2::ACTION_PACKAGE, nav2::ACTION_NAME),
-            ActionServerQosPolicies {
-                goal_service: q.clone(),
-                result_service: q.clone(),
-                cancel_service: q.clone(),
-                feedback_publisher: q.clone(),
-                status_publisher: latched(1),
-            },
-        )
-        .unwrap();
+    let RobotSide { map_pub, cloud_pub, tf_pub, status_sub, server } = RobotSide::new(&mut node);
     let proc = NodeProcess::start(&config, domain, &dir);
     let pid = proc.child.id();
     let _ = map_pub.publish(msg_of_occupancy(&grid, Header::new(now_stamp(), "map")));

@@ -9,18 +9,15 @@ mod common;
 
 use common::core_sim::CoreSim;
 use common::sim::{GridSim, SimRobot, two_rooms};
-use common::{NodeProcess, private_domain, scratch_dir};
+use common::{NodeProcess, RobotSide, private_domain, scratch_dir};
 use fitslam_core::grid::{CellClass, Grid, UNKNOWN, inflate_lethal};
 use fitslam_core::{GridGeometry, OccupancyGrid, Pose2};
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy, pose2_of_pose};
-use fitslam_robot::msgs::{
-    Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, Quaternion, StringMsg,
-    TFMessage, Transform, TransformStamped, Vector3, nav2,
-};
-use fitslam_robot::ros::{advertise, latched, make_context, now_stamp, reliable, subscribe, topic_name};
-use ros2_client::action::{ActionServerQosPolicies, GetResultResponse, GoalId, GoalStatusEnum, SendGoalResponse};
+use fitslam_robot::msgs::{Header, NavigateToPoseResult, Quaternion, TFMessage, Transform, TransformStamped, Vector3};
+use fitslam_robot::ros::{make_context, now_stamp};
+use ros2_client::action::{GetResultResponse, GoalId, GoalStatusEnum, SendGoalResponse};
 use ros2_client::action_msgs::{CancelGoalResponse, CancelGoalResponseEnum};
-use ros2_client::{ActionTypeName, NodeName, NodeOptions, RmwRequestId, ServiceMapping};
+use ros2_client::{NodeName, NodeOptions, RmwRequestId};
 use std::time::{Duration, Instant};
 
 const ROBOT_RADIUS_M: f64 = 0.25;
@@ -96,25 +93,7 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
     // The simulated robot's side.
     let ctx = make_context(domain, true).expect("loopback DDS participant");
     let mut node = ctx.new_node(NodeName::new("/", "sim_robot").unwrap(), NodeOptions::new().enable_rosout(false)).unwrap();
-    let map_pub = advertise::<MapMsg>(&mut node, "/map", latched(1)).unwrap();
-    let cloud_pub = advertise::<PointCloud2>(&mut node, "/cloud_map", reliable(1)).unwrap();
-    let tf_pub = advertise::<TFMessage>(&mut node, "/tf", reliable(100)).unwrap();
-    let status_sub = subscribe::<StringMsg>(&mut node, "/fitslam/status", reliable(10)).unwrap();
-    let q = reliable(10);
-    let server = node
-        .create_action_server::<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>(
-            ServiceMapping::Enhanced,
-            &topic_name("/navigate_to_pose").unwrap(),
-            &ActionTypeName::new(nav2::ACTION_PACKAGE, nav2::ACTION_NAME),
-            ActionServerQosPolicies {
-                goal_service: q.clone(),
-                result_service: q.clone(),
-                cancel_service: q.clone(),
-                feedback_publisher: q.clone(),
-                status_publisher: latched(1),
-            },
-        )
-        .unwrap();
+    let RobotSide { map_pub, cloud_pub, tf_pub, status_sub, server } = RobotSide::new(&mut node);
 
     // With rerun built in, the node also records the mission.
     let rrd = dir.join("mission.rrd");

@@ -129,18 +129,7 @@ impl MomentSum {
         if self.count == 0 {
             self.origin = m.mean;
         }
-        let n = m.count as f64;
-        let d = [m.mean[0] - self.origin[0], m.mean[1] - self.origin[1], m.mean[2] - self.origin[2]];
-        for (s, dk) in self.sum_d.iter_mut().zip(d) {
-            *s += n * dk;
-        }
-        for (s, o) in self.sum_s.iter_mut().zip(m.scatter) {
-            *s += o;
-        }
-        add_outer(&mut self.sum_s, d, n);
-        self.count = self.count.saturating_add(m.count);
-        self.z_min = self.z_min.min(m.z_min);
-        self.z_max = self.z_max.max(m.z_max);
+        self.add_branchless(m);
     }
 
     /// An empty sum whose shift origin is fixed to `origin` up front. With `origin` = the mean of

@@ -122,23 +122,7 @@ fn smallest_eigenpair_newton(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> {
     if s * l_max <= COINCIDENT_VAR_M2 || l_mid <= COLLINEAR_RATIO * l_max || l_mid - l_min <= 1e-3 * l_max {
         return None;
     }
-    let rows = [[a[0][0] - l_min, a[0][1], a[0][2]], [a[1][0], a[1][1] - l_min, a[1][2]], [a[2][0], a[2][1], a[2][2] - l_min]];
-    let mut best = [0.0; 3];
-    let mut best_n2 = 0.0;
-    for (i, j) in [(0, 1), (0, 2), (1, 2)] {
-        let v = cross(rows[i], rows[j]);
-        let n2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        if n2 > best_n2 {
-            best = v;
-            best_n2 = n2;
-        }
-    }
-    if best_n2.is_nan() || best_n2 <= 1e-12 {
-        return None;
-    }
-    let inv = 1.0 / best_n2.sqrt();
-    let n = best.map(|v| v * inv);
-    Some((n, quad(c, n).sqrt()))
+    eigenvector_of_smallest(c, &a, l_min)
 }
 
 /// The common, well-conditioned case in closed form (about 3× faster than the iterative
@@ -170,6 +154,15 @@ fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> 
     if s * l_max <= COINCIDENT_VAR_M2 || l_mid <= COLLINEAR_RATIO * l_max {
         return None;
     }
+    eigenvector_of_smallest(c, &a, l_min)
+}
+
+/// The unit eigenvector of the scaled covariance `a` for its smallest eigenvalue `l_min`, as the
+/// largest cross product of two rows of `a − l_min I`, and the roughness √(nᵀ C n) on the
+/// unscaled `c`. `None` when the cross product is too small to give an accurate direction:
+/// |cross| ≈ (λ_max − λ_min)(λ_mid − λ_min); below 1e-6 the direction error could exceed
+/// ~1e-10 rad, so the caller falls back to a more robust solver.
+fn eigenvector_of_smallest(c: &[[f64; 3]; 3], a: &[[f64; 3]; 3], l_min: f64) -> Option<([f64; 3], f64)> {
     let rows = [[a[0][0] - l_min, a[0][1], a[0][2]], [a[1][0], a[1][1] - l_min, a[1][2]], [a[2][0], a[2][1], a[2][2] - l_min]];
     let mut best = [0.0; 3];
     let mut best_n2 = 0.0;
@@ -181,8 +174,6 @@ fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> 
             best_n2 = n2;
         }
     }
-    // |cross| ≈ (λ_max − λ_min)(λ_mid − λ_min); below 1e-6 the direction error could exceed
-    // ~1e-10 rad, so let the iterative solver decide.
     if best_n2.is_nan() || best_n2 <= 1e-12 {
         return None;
     }

@@ -7,9 +7,8 @@
 
 #![allow(dead_code)]
 
-use super::sim::SimRobot;
+use super::sim::{SimRobot, drive_along, plan_on_truth};
 use fitslam_core::grid::{UNKNOWN, inflate_lethal};
-use fitslam_core::path::astar;
 use fitslam_core::sim::camera::{CameraNoise, CameraObservation, LandmarkIndex, observe_landmarks};
 use fitslam_core::sim::lidar::{LidarParams, RayCaster, scan};
 use fitslam_core::sim::robot::{DriveParams, body_on_terrain};
@@ -151,12 +150,7 @@ impl SimRobot for CoreSim {
     }
 
     fn go_to(&mut self, goal: Pose2) -> Result<(), String> {
-        let g = self.truth_inflated.geometry;
-        let start = g.cell_of(self.pose.x_m, self.pose.y_m).ok_or("robot outside the map")?;
-        let end = g.cell_of(goal.x_m, goal.y_m).ok_or("goal outside the map")?;
-        let path = astar(&self.truth_inflated, start, end, false).map_err(|e| format!("no path on the ground truth: {e}"))?;
-        self.path = path.points_m(&g);
-        self.path.push([goal.x_m, goal.y_m]);
+        self.path = plan_on_truth(&self.truth_inflated, self.pose, goal)?;
         self.goal_yaw = goal.yaw_rad;
         Ok(())
     }
@@ -169,23 +163,7 @@ impl SimRobot for CoreSim {
         if self.path.is_empty() {
             return false;
         }
-        let mut budget = self.speed_mps * dt_s;
-        while budget > 0.0 && !self.path.is_empty() {
-            let [tx, ty] = self.path[0];
-            let (dx, dy) = (tx - self.pose.x_m, ty - self.pose.y_m);
-            let d = dx.hypot(dy);
-            let step = d.min(budget);
-            if d > 1e-9 {
-                self.pose.x_m += dx / d * step;
-                self.pose.y_m += dy / d * step;
-                self.pose.yaw_rad = dy.atan2(dx);
-            }
-            budget -= step;
-            self.travelled_since_scan_m += step;
-            if d <= step + 1e-12 {
-                self.path.remove(0);
-            }
-        }
+        self.travelled_since_scan_m += drive_along(&mut self.pose, &mut self.path, self.speed_mps * dt_s);
         if self.travelled_since_scan_m >= 0.25 {
             self.travelled_since_scan_m = 0.0;
             self.sense();

@@ -5,6 +5,12 @@
 pub mod core_sim;
 pub mod sim;
 
+use fitslam_robot::msgs::{
+    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, StringMsg, TFMessage, nav2,
+};
+use fitslam_robot::ros::{advertise, latched, reliable, subscribe, topic_name};
+use ros2_client::action::{ActionServer, ActionServerQosPolicies};
+use ros2_client::{ActionTypeName, Publisher, ServiceMapping, Subscription};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
@@ -75,5 +81,43 @@ impl Drop for NodeProcess {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+}
+
+/// What a simulated robot offers the node over DDS: the map, landmark cloud and /tf publishers,
+/// the node's status subscription, and a Nav2 NavigateToPose action server (Jazzy layout).
+pub struct RobotSide {
+    pub map_pub: Publisher<MapMsg>,
+    pub cloud_pub: Publisher<PointCloud2>,
+    pub tf_pub: Publisher<TFMessage>,
+    pub status_sub: Subscription<StringMsg>,
+    pub server: ActionServer<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>,
+}
+
+impl RobotSide {
+    /// Creates the endpoints on `node` with the node's default topic names.
+    pub fn new(node: &mut ros2_client::Node) -> Self {
+        let q = reliable(10);
+        let server = node
+            .create_action_server::<NavigateToPoseGoal, NavigateToPoseResult, NavigateToPoseFeedback>(
+                ServiceMapping::Enhanced,
+                &topic_name("/navigate_to_pose").unwrap(),
+                &ActionTypeName::new(nav2::ACTION_PACKAGE, nav2::ACTION_NAME),
+                ActionServerQosPolicies {
+                    goal_service: q.clone(),
+                    result_service: q.clone(),
+                    cancel_service: q.clone(),
+                    feedback_publisher: q.clone(),
+                    status_publisher: latched(1),
+                },
+            )
+            .unwrap();
+        Self {
+            map_pub: advertise::<MapMsg>(node, "/map", latched(1)).unwrap(),
+            cloud_pub: advertise::<PointCloud2>(node, "/cloud_map", reliable(1)).unwrap(),
+            tf_pub: advertise::<TFMessage>(node, "/tf", reliable(100)).unwrap(),
+            status_sub: subscribe::<StringMsg>(node, "/fitslam/status", reliable(10)).unwrap(),
+            server,
+        }
     }
 }

@@ -33,6 +33,40 @@ pub trait SimRobot {
     fn explored_fraction(&self) -> f64;
 }
 
+/// A path from `from` to `goal` on the inflated ground truth (A*), in metres, ending exactly at
+/// the goal; `Err` says why there is none.
+pub fn plan_on_truth(truth_inflated: &OccupancyGrid, from: Pose2, goal: Pose2) -> Result<Vec<[f64; 2]>, String> {
+    let g = truth_inflated.geometry;
+    let start = g.cell_of(from.x_m, from.y_m).ok_or("robot outside the map")?;
+    let end = g.cell_of(goal.x_m, goal.y_m).ok_or("goal outside the map")?;
+    let path = astar(truth_inflated, start, end, false).map_err(|e| format!("no path on the ground truth: {e}"))?;
+    let mut points = path.points_m(&g);
+    points.push([goal.x_m, goal.y_m]);
+    Ok(points)
+}
+
+/// Moves `pose` up to `distance_m` along `path`, dropping the waypoints it reaches and facing
+/// the direction of travel; returns the distance travelled.
+pub fn drive_along(pose: &mut Pose2, path: &mut Vec<[f64; 2]>, distance_m: f64) -> f64 {
+    let mut budget = distance_m;
+    while budget > 0.0 && !path.is_empty() {
+        let [tx, ty] = path[0];
+        let (dx, dy) = (tx - pose.x_m, ty - pose.y_m);
+        let d = dx.hypot(dy);
+        if d <= budget {
+            (pose.x_m, pose.y_m) = (tx, ty);
+            budget -= d;
+            path.remove(0);
+        } else {
+            pose.x_m += dx / d * budget;
+            pose.y_m += dy / d * budget;
+            pose.yaw_rad = dy.atan2(dx);
+            budget = 0.0;
+        }
+    }
+    distance_m - budget
+}
+
 /// The grid world.
 pub struct GridSim {
     truth: OccupancyGrid,
@@ -165,12 +199,7 @@ impl SimRobot for GridSim {
     }
 
     fn go_to(&mut self, goal: Pose2) -> Result<(), String> {
-        let g = self.truth.geometry;
-        let start = g.cell_of(self.pose.x_m, self.pose.y_m).ok_or("robot outside the map")?;
-        let end = g.cell_of(goal.x_m, goal.y_m).ok_or("goal outside the map")?;
-        let path = astar(&self.truth_inflated, start, end, false).map_err(|e| format!("no path: {e}"))?;
-        self.path = path.points_m(&g);
-        self.path.push([goal.x_m, goal.y_m]);
+        self.path = plan_on_truth(&self.truth_inflated, self.pose, goal)?;
         self.goal_yaw = goal.yaw_rad;
         Ok(())
     }
@@ -183,23 +212,7 @@ impl SimRobot for GridSim {
         if self.path.is_empty() {
             return false;
         }
-        let mut budget = self.speed_mps * dt_s;
-        while budget > 0.0 && !self.path.is_empty() {
-            let [tx, ty] = self.path[0];
-            let (dx, dy) = (tx - self.pose.x_m, ty - self.pose.y_m);
-            let d = dx.hypot(dy);
-            if d <= budget {
-                self.pose.x_m = tx;
-                self.pose.y_m = ty;
-                budget -= d;
-                self.path.remove(0);
-            } else {
-                self.pose.x_m += dx / d * budget;
-                self.pose.y_m += dy / d * budget;
-                self.pose.yaw_rad = dy.atan2(dx);
-                budget = 0.0;
-            }
-        }
+        drive_along(&mut self.pose, &mut self.path, self.speed_mps * dt_s);
         self.since_scan_s += dt_s;
         if self.since_scan_s >= 0.1 || self.path.is_empty() {
             self.since_scan_s = 0.0;
