@@ -27,10 +27,10 @@
 #![allow(clippy::collapsible_if)] // nested ifs mirror the decision steps
 
 use super::World;
-use super::camera::{CameraNoise, CameraObservation, LandmarkIndex, observe_landmarks};
+use super::camera::{CameraNoise, CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
 use super::lidar::{LidarParams, RayCaster, gaussian, scan};
 use super::odometry::OdometryNoise;
-use super::robot::{DriveParams, PathFollower, Twist, body_on_terrain, integrate};
+use super::robot::{DriveParams, PathFollower, Twist, body_on_terrain, footprint_points, integrate};
 use super::slam_frontend::{SlamFrontend, SlamParams};
 use crate::PointCloud;
 use crate::frontier::Blacklist;
@@ -682,35 +682,14 @@ impl Mission {
         self.points.clear();
         let sensor = gp + gr * Vector3::new(0.0, 0.0, self.mission.lidar.mount_height_m);
         scan(&self.world.field, &self.caster, sensor, &gr, &self.mission.lidar, &mut self.rng, &mut self.points);
-        // Depth camera ground points.
+        // Depth camera ground points, with depth noise ∝ d².
         let cam = gp + gr * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
-        let [nc, nr] = self.mission.depth_rays;
-        let (hf, vf) = (self.params.camera.hfov_rad, self.params.camera.vfov_rad);
-        for r in 0..nr {
-            let el = -vf / 2.0 + vf * (r as f64 + 0.5) / nr as f64;
-            for c in 0..nc {
-                let az = -hf / 2.0 + hf * (c as f64 + 0.5) / nc as f64;
-                let dir = gr * Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-                if let Some(d) = self.caster.cast(&self.world.field, cam, dir, self.params.camera.max_depth_m) {
-                    if d >= self.params.camera.min_depth_m {
-                        let noisy = d + self.mission.camera_noise.depth_sigma_coeff * d * d * gaussian(&mut self.rng);
-                        self.points.push(cam + dir * noisy);
-                    }
-                }
-            }
-        }
+        let (points, rng, sigma) = (&mut self.points, &mut self.rng, self.mission.camera_noise.depth_sigma_coeff);
+        depth_ground_hits(&self.world.field, &self.caster, cam, &gr, &self.params.camera, self.mission.depth_rays, |dir, d| {
+            points.push(cam + dir * (d + sigma * d * d * gaussian(rng)));
+        });
         // The ground under the wheels (proprioceptive): the footprint, every 5 cm.
-        let half = self.mission.drive.body_half_m;
-        let n = (half / 0.05).round() as i32;
-        for i in -n..=n {
-            for j in -n..=n {
-                let local = Vector3::new(i as f64 * 0.05, j as f64 * 0.05, 0.0);
-                let w = gr * local + gp.coords;
-                if let Some(z) = self.world.field.height_at(w.x, w.y) {
-                    self.points.push(Point3::new(w.x, w.y, z));
-                }
-            }
-        }
+        footprint_points(&self.world.field, gp, &gr, self.mission.drive.body_half_m, 0.05, &mut self.points);
         // Register with the estimate: p_est = T_est · T_gt⁻¹ · p.
         let (gt_inv, gp_c) = (gr.inverse(), gp.coords);
         if let Some(fe) = self.slam.as_mut() {

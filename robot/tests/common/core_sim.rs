@@ -9,9 +9,9 @@
 
 use super::sim::{SimRobot, drive_along, plan_on_truth};
 use fitslam_core::grid::{UNKNOWN, inflate_lethal};
-use fitslam_core::sim::camera::{CameraNoise, CameraObservation, LandmarkIndex, observe_landmarks};
+use fitslam_core::sim::camera::{CameraNoise, CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
 use fitslam_core::sim::lidar::{LidarParams, RayCaster, scan};
-use fitslam_core::sim::robot::{DriveParams, body_on_terrain};
+use fitslam_core::sim::robot::{DriveParams, body_on_terrain, footprint_points};
 use fitslam_core::sim::{World, WorldSpec};
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::{OccupancyGrid, Params, Pose2};
@@ -91,30 +91,14 @@ impl CoreSim {
         let sensor = body + world_from_body * Vector3::new(0.0, 0.0, self.lidar.mount_height_m);
         self.points.clear();
         scan(&self.world.field, &self.caster, sensor, &world_from_body, &self.lidar, &mut self.rng, &mut self.points);
-        // The depth camera's ground points: a 24 × 12 grid of rays over its field of view.
+        // The depth camera's ground points (24 × 12 rays), and the ground under the wheels every
+        // 5 cm (the LiDAR is blind within ~1 m; a real stack marks the footprint as traversed).
         let camera = body + world_from_body * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
-        let c = &self.params.camera;
-        for r in 0..12 {
-            let el = c.vfov_rad * ((f64::from(r) + 0.5) / 12.0 - 0.5);
-            for k in 0..24 {
-                let az = c.hfov_rad * ((f64::from(k) + 0.5) / 24.0 - 0.5);
-                let dir = world_from_body * Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-                if let Some(d) = self.caster.cast(&self.world.field, camera, dir, c.max_depth_m).filter(|&d| d >= c.min_depth_m) {
-                    self.points.push(camera + dir * d);
-                }
-            }
-        }
-        // The ground under the wheels, every 5 cm (the LiDAR is blind within ~1 m; a real stack
-        // marks the footprint as traversed ground too).
-        let n = (self.body_half_m / 0.05).round() as i32;
-        for i in -n..=n {
-            for j in -n..=n {
-                let w = body + world_from_body * Vector3::new(f64::from(i) * 0.05, f64::from(j) * 0.05, 0.0);
-                if let Some(z) = self.world.field.height_at(w.x, w.y) {
-                    self.points.push(Point3::new(w.x, w.y, z));
-                }
-            }
-        }
+        let points = &mut self.points;
+        depth_ground_hits(&self.world.field, &self.caster, camera, &world_from_body, &self.params.camera, [24, 12], |dir, d| {
+            points.push(camera + dir * d)
+        });
+        footprint_points(&self.world.field, body, &world_from_body, self.body_half_m, 0.05, &mut self.points);
         self.tmap.insert_points(self.points.drain(..));
         self.tmap.update(&self.params.traversability, &mut self.layers);
         self.map = self.layers.to_occupancy(self.params.traversability.tau);
