@@ -282,7 +282,9 @@ pub struct Mission {
     last_tilt_gt: [f64; 2],
     body_points: Vec<Vector3<f64>>,
     tmap: TraversabilityMap,
-    pub layers: TraversabilityLayers,
+    /// Estimated lazily: cells are refreshed along the path after each scan and everywhere at
+    /// each decision ([`Self::layers`] brings them all up to date).
+    layers: TraversabilityLayers,
     /// Landmark map: id → (sum of world positions, count).
     landmark_sums: BTreeMap<u64, (Vector3<f64>, u32)>,
     pub blacklist: Blacklist,
@@ -296,8 +298,9 @@ pub struct Mission {
     last_scan: (Pose2, f64),
     last_camera_s: f64,
     next_metrics_s: f64,
-    explorable_idx: Vec<u32>,
-    unexplored_cache: Option<f64>,
+    /// Ground-truth explorable cells that are known in the robot's map (kept by
+    /// [`TraversabilityMap::refresh_known`], no estimate needed).
+    known_explorable: usize,
 
     pub distance_m: f64,
     pub rows: Vec<MetricsRow>,
@@ -344,7 +347,6 @@ impl Mission {
         let layers = tmap.compute(&params.traversability);
         let caster = RayCaster::new(&world.field);
         let landmark_index = LandmarkIndex::new(&world.landmarks, g.bounds_m(), 1.0);
-        let explorable_idx = world.explorable.iter().enumerate().filter(|(_, e)| **e).map(|(i, _)| i as u32).collect();
         let time_limit_s = mission.time_limit_s.unwrap_or(world.spec.time_limit_s);
         let start = world.start;
         let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
@@ -379,8 +381,7 @@ impl Mission {
             last_scan: (start, 0.0),
             last_camera_s: f64::NEG_INFINITY,
             next_metrics_s: 0.0,
-            explorable_idx,
-            unexplored_cache: None,
+            known_explorable: 0,
             distance_m: 0.0,
             rows: Vec::new(),
             trajectory_gt: Vec::new(),
@@ -430,8 +431,16 @@ impl Mission {
     }
 
     /// The robot's map: thresholded traversability (0 free, 100 lethal, −1 unknown).
-    pub fn occupancy(&self) -> OccupancyGrid {
-        self.layers.to_occupancy(self.params.traversability.tau)
+    pub fn occupancy(&mut self) -> OccupancyGrid {
+        let tau = self.params.traversability.tau;
+        self.layers().to_occupancy(tau)
+    }
+
+    /// The robot's traversability layers, brought up to date (O(cells changed since the last
+    /// decision)).
+    pub fn layers(&mut self) -> &TraversabilityLayers {
+        self.tmap.update(&self.params.traversability, &mut self.layers);
+        &self.layers
     }
 
     /// The landmark map (estimated positions, in id order; with SLAM: the graph's landmarks and
@@ -634,8 +643,6 @@ impl Mission {
         match outcome {
             Ok(o) if o.reregister => {
                 fe.reregister_map(&mut self.tmap);
-                self.tmap.update(&self.params.traversability, &mut self.layers);
-                self.unexplored_cache = None;
             }
             Ok(_) => {}
             Err(_) => self.slam_errors += 1,
@@ -704,8 +711,6 @@ impl Mission {
             let pts = self.points.iter().map(|p| if same { *p } else { ep + er * (gt_inv * (p.coords - gp_c)) });
             self.tmap.insert_points(pts);
         }
-        self.tmap.update(&self.params.traversability, &mut self.layers);
-        self.unexplored_cache = None;
         self.last_scan = (self.est, self.time_s);
         self.scans += 1;
     }
@@ -729,8 +734,8 @@ impl Mission {
     }
 
     /// Whether the remaining path crosses a lethal cell of the current map within the robot
-    /// radius.
-    fn path_blocked(&self) -> bool {
+    /// radius (refreshing just those cells' estimates).
+    fn path_blocked(&mut self) -> bool {
         let g = self.layers.geometry();
         let tau = self.params.traversability.tau as f32;
         let r = self.params.robot.radius_m;
@@ -750,6 +755,7 @@ impl Mission {
                     for dc in -rc..=rc {
                         let cell = crate::grid::Cell::new(c.col + dc, c.row + dr);
                         let Some(i) = g.index(cell) else { continue };
+                        self.tmap.refresh_cell(i, &self.params.traversability, &mut self.layers);
                         let s = self.layers.score.data[i];
                         if !s.is_nan() && s < tau {
                             let (cx, cy) = g.center_of(cell);
@@ -874,14 +880,18 @@ impl Mission {
     }
 
     fn unexplored_pct(&mut self) -> f64 {
-        if let Some(u) = self.unexplored_cache {
-            return u;
-        }
-        let score = &self.layers.score.data;
-        let unknown = self.explorable_idx.iter().filter(|&&i| score[i as usize].is_nan()).count();
-        let u = if self.explorable_idx.is_empty() { 0.0 } else { 100.0 * unknown as f64 / self.explorable_idx.len() as f64 };
-        self.unexplored_cache = Some(u);
-        u
+        let (explorable, known) = (&self.world.explorable, &mut self.known_explorable);
+        self.tmap.refresh_known(&self.params.traversability, |i, k| {
+            if explorable[i] {
+                if k {
+                    *known += 1;
+                } else {
+                    *known -= 1;
+                }
+            }
+        });
+        let n = self.world.explorable_count;
+        if n == 0 { 0.0 } else { 100.0 * (n - self.known_explorable) as f64 / n as f64 }
     }
 
     fn record_metrics(&mut self) {
@@ -927,7 +937,7 @@ impl Mission {
             end_reason: self.end,
             time_s: self.time_s,
             unexplored_pct: last.map(|r| r.unexplored_pct).unwrap_or(100.0),
-            explorable_cells: self.explorable_idx.len(),
+            explorable_cells: self.world.explorable_count,
             distance_m: self.distance_m,
             ate_rmse_m: if self.rows.is_empty() { 0.0 } else { (self.sq_err_sum / self.rows.len() as f64).sqrt() },
             final_cov_trace: last.map(|r| r.cov_trace).unwrap_or(0.0),

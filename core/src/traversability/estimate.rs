@@ -19,17 +19,17 @@
 //!   `min_spread_ratio · disc_radius_m` — since the tilt across such a strip (typically the edge
 //!   of the data) is undetermined: quantisation and noise alone give it any slope.
 //!
-//! Complexity: O(cells × disc cells) for [`TraversabilityMap::compute`] (one fusion per disc cell
-//! plus one 3×3 eigendecomposition per cell), no allocation per cell;
-//! [`TraversabilityMap::update`] recomputes only the cells whose disc touches a changed cell —
-//! their union, each once, in row-major order so that neighbouring discs share cache lines:
-//! O(changed × disc cells²) at worst, O(affected × disc cells + affected log affected) in fact.
-//! The fusion runs over every cell of the disc without a data-dependent branch (empty cells add
-//! exact zeros, [`MomentSum::add_branchless`]) and equals, bit for bit, the straightforward
-//! gather-then-fuse of the non-empty cells (proptest `optimised_estimate_equals_straightforward_reference`).
+//! Complexity: slope and roughness come from the cell's disc sum ([`super::disc_sums`], kept up to
+//! date at insertion), the step from one pass over the disc's cells: O(disc cells) per cell, no
+//! allocation, and O(cells × disc cells) for [`TraversabilityMap::compute`].
+//! [`TraversabilityMap::update`] recomputes only the cells whose disc changed, in row-major order;
+//! [`TraversabilityMap::refresh_cell`] one cell; [`TraversabilityMap::refresh_known`] keeps the
+//! known/unknown flags without estimating. Against the straightforward gather-then-fuse of notes
+//! §2 the disc sums agree to rounding (proptest `optimised_estimate_agrees_with_straightforward_reference`).
 
+use super::disc_sums::{DiscSum, DiscSums, centre_local};
 use super::map::TraversabilityMap;
-use super::moments::{CellMoments, MomentSum};
+use super::moments::CellMoments;
 use super::plane::fit_plane;
 use crate::grid::{FREE, Grid, GridGeometry, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::TraversabilityParams;
@@ -157,59 +157,41 @@ fn ratio(x: f64, limit: f64) -> f64 {
     }
 }
 
-/// The disc's offsets, precomputed once per compute / update.
-pub(super) struct Disc {
-    offsets: Vec<(i32, i32)>,
-    /// Row-major index offsets `dy · width + dx`, valid for cells at least `r_cells` inside.
-    flat: Vec<isize>,
-    r_cells: i32,
-}
-
-impl Disc {
-    pub(super) fn new(radius_m: f64, g: &GridGeometry) -> Self {
-        let offsets = disc_offsets(radius_m, g.resolution_m);
-        let flat = offsets.iter().map(|&(dx, dy)| dy as isize * g.width as isize + dx as isize).collect();
-        let r_cells = offsets.iter().map(|&(dx, dy)| dx.abs().max(dy.abs())).max().unwrap_or(0);
-        Self { offsets, flat, r_cells }
+/// The centred moments of a disc (relative to its cell's centre and reference height) when they
+/// make the cell known: at least `min_points` points (and one), finite, and spread horizontally
+/// (standard deviation along the narrowest horizontal direction ≥ `min_spread_ratio ·
+/// disc_radius_m`). Shared by the estimate and [`TraversabilityMap::refresh_known`], so a known
+/// flag is exactly "score not NaN"; O(1).
+pub(super) fn known_moments(sum: &DiscSum, p: &TraversabilityParams) -> Option<CellMoments> {
+    if sum.count == 0 || sum.count < u64::from(p.min_points) {
+        return None;
     }
+    let fused = sum.moments();
+    if !fused.mean.iter().chain(&fused.scatter).all(|v| v.is_finite()) {
+        return None;
+    }
+    // Horizontal spread: smallest eigenvalue of the 2×2 xy covariance.
+    let k = 1.0 / fused.count as f64;
+    let (a, b, c) = (fused.scatter[0] * k, fused.scatter[1] * k, fused.scatter[3] * k);
+    let lambda_xy = 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let min_spread = p.min_spread_ratio * p.disc_radius_m;
+    let spread = lambda_xy.max(0.0).sqrt();
+    if min_spread > 0.0 && (spread.is_nan() || spread < min_spread) {
+        return None;
+    }
+    Some(fused)
 }
 
-/// The estimate of cell `index`: its disc's cells (all of them for an interior cell, the ones
-/// inside the grid at the border), in offset order, go to [`estimate_disc`].
+/// The estimate of cell `index` from its disc sum (slope, roughness) and its disc's cells (step):
+/// O(disc cells), no allocation, no data-dependent branch in the loop over the cells.
 #[inline]
 pub(super) fn estimate_cell(
+    sums: &DiscSums,
     moments: &[CellMoments],
     g: &GridGeometry,
     index: usize,
-    disc: &Disc,
     p: &TraversabilityParams,
 ) -> CellEstimate {
-    let (w, h) = (g.width as i32, g.height as i32);
-    let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
-    let r = disc.r_cells;
-    if col >= r && row >= r && col + r < w && row + r < h {
-        let base = index as isize;
-        estimate_disc(disc.flat.iter().map(|&o| &moments[(base + o) as usize]), p)
-    } else {
-        estimate_disc(
-            disc.offsets.iter().filter_map(|&(dx, dy)| {
-                let (c, r) = (col + dx, row + dy);
-                (c >= 0 && r >= 0 && c < w && r < h).then(|| &moments[r as usize * g.width + c as usize])
-            }),
-            p,
-        )
-    }
-}
-
-/// Slope, step, roughness, hazard and score from the moments of a disc's cells (empty cells
-/// included; they contribute nothing). Three passes over the cells — the first non-empty one
-/// (the fusion's shift origin), the branch-free fusion ([`MomentSum::add_branchless`]), and the
-/// relative step — each O(disc cells) with no data-dependent branch in the last two.
-#[inline]
-fn estimate_disc<'a, I>(members: I, p: &TraversabilityParams) -> CellEstimate
-where
-    I: Iterator<Item = &'a CellMoments> + Clone,
-{
     let unknown = |disc_points: u64| CellEstimate {
         slope_rad: f64::NAN,
         step_m: f64::NAN,
@@ -218,44 +200,35 @@ where
         score: f64::NAN,
         disc_points,
     };
-    let Some(first) = members.clone().find(|m| m.count > 0) else {
-        return unknown(0);
+    let sum = &sums.sums[index];
+    let Some(fused) = known_moments(sum, p) else {
+        return unknown(sum.count);
     };
-    let mut sum = MomentSum::with_origin(first.mean);
-    for m in members.clone() {
-        sum.add_branchless(m);
-    }
-    if sum.count() == 0 || sum.count() < u64::from(p.min_points) {
-        return unknown(sum.count());
-    }
-    let fused = sum.finish();
-    // Horizontal spread: smallest eigenvalue of the 2×2 xy covariance.
-    let k = 1.0 / fused.count as f64;
-    let (a, b, c) = (fused.scatter[0] * k, fused.scatter[1] * k, fused.scatter[3] * k);
-    let lambda_xy = 0.5 * (a + c) - (0.25 * (a - c) * (a - c) + b * b).sqrt();
-    let min_spread = p.min_spread_ratio * p.disc_radius_m;
-    let spread = lambda_xy.max(0.0).sqrt();
-    if min_spread > 0.0 && (spread.is_nan() || spread < min_spread) {
-        return unknown(fused.count);
-    }
+    // Known moments are finite with count ≥ 1, so the fit exists.
     let Some(plane) = fit_plane(&fused) else {
         return unknown(fused.count);
     };
-    let raw_step_m = fused.z_max - fused.z_min;
-    let mut step_m = raw_step_m;
-    if p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some() {
-        // Empty cells have z_max = −∞, z_min = +∞ (and a finite mean): they change neither.
-        let (mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY);
-        for m in members {
-            let z = plane.height_at(m.mean[0], m.mean[1]).unwrap_or(0.0);
+    let (x_c, y_c) = centre_local(g, index);
+    let z_ref = sum.z_ref_m;
+    let relative = p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some();
+    // Empty cells have z_max = −∞, z_min = +∞ (and a finite mean): they change nothing.
+    let (mut raw_hi, mut raw_lo, mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+    sums.disc.for_each(g, index, |k| {
+        let m = &moments[k];
+        raw_hi = raw_hi.max(m.z_max);
+        raw_lo = raw_lo.min(m.z_min);
+        if relative {
+            let z = z_ref + plane.height_at(m.mean[0] - x_c, m.mean[1] - y_c).unwrap_or(0.0);
             hi = hi.max(m.z_max - z);
             lo = lo.min(m.z_min - z);
         }
-        // Never more than the raw height range: a steep plane's heights are ill-conditioned
-        // (its slope makes the cell lethal anyway).
-        if hi >= lo {
-            step_m = (hi - lo).min(raw_step_m);
-        }
+    });
+    let raw_step_m = raw_hi - raw_lo;
+    let mut step_m = raw_step_m;
+    // Never more than the raw height range: a steep plane's heights are ill-conditioned (its
+    // slope makes the cell lethal anyway).
+    if relative && hi >= lo {
+        step_m = (hi - lo).min(raw_step_m);
     }
     let hazard = ratio(plane.slope_rad, p.max_slope_rad)
         .max(ratio(step_m, p.max_step_m))
@@ -272,56 +245,104 @@ where
 }
 
 impl TraversabilityMap {
-    /// Computes every layer from scratch (notes §2). O(cells × disc cells).
+    /// Computes every layer from scratch (notes §2) from the map's disc sums (built from the cell
+    /// moments first when the map has none for this disc radius). O(cells × disc cells).
     pub fn compute(&self, params: &TraversabilityParams) -> TraversabilityLayers {
         let g = self.geometry;
+        let owned;
+        let sums = match &self.discs {
+            Some(d) if d.radius_m.to_bits() == params.disc_radius_m.to_bits() => d,
+            _ => {
+                owned = DiscSums::from_moments(params.disc_radius_m, &g, &self.moments);
+                &owned
+            }
+        };
         let mut layers = TraversabilityLayers::unknown(g, params);
-        let disc = Disc::new(params.disc_radius_m, &g);
         for i in 0..g.len() {
-            let e = estimate_cell(&self.moments, &g, i, &disc, params);
+            let e = estimate_cell(sums, &self.moments, &g, i, params);
             layers.write(i, self.moments[i].count, &e);
         }
         layers
     }
 
-    /// Brings `layers` up to date with the points inserted since the last update, recomputing
-    /// only the cells whose disc touches a changed cell; the result equals [`Self::compute`]
-    /// bit for bit. Recomputes everything when `layers` has another geometry, was computed with
-    /// other parameters, or the map was cleared. Returns the number of cells recomputed.
+    /// Brings `layers` up to date with the points inserted since their cells were last
+    /// estimated, recomputing only the cells whose disc changed, in row-major order (neighbouring
+    /// discs share cache lines); the result equals [`Self::compute`] bit for bit. Recomputes
+    /// everything when `layers` has another geometry, was computed with other parameters, or the
+    /// map was cleared. Returns the number of cells recomputed.
     pub fn update(&mut self, params: &TraversabilityParams, layers: &mut TraversabilityLayers) -> usize {
         let g = self.geometry;
-        if self.all_dirty || layers.geometry() != g || layers.computed_with != *params {
+        self.ensure_discs(params.disc_radius_m);
+        if self.stale_estimate.all || layers.geometry() != g || layers.computed_with != *params {
             *layers = self.compute(params);
-            self.take_dirty();
+            self.stale_estimate.clear();
             return g.len();
         }
-        let disc = Disc::new(params.disc_radius_m, &g);
-        let (w, h) = (g.width as i32, g.height as i32);
-        self.affected.clear();
-        for &d in &self.dirty {
-            let (col, row) = ((d as usize % g.width) as i32, (d as usize / g.width) as i32);
-            for &(dx, dy) in &disc.offsets {
-                let (c, r) = (col + dx, row + dy);
-                if c >= 0 && r >= 0 && c < w && r < h {
-                    let j = r as usize * g.width + c as usize;
-                    if !self.is_affected[j] {
-                        self.is_affected[j] = true;
-                        self.affected.push(j as u32);
-                    }
-                }
+        let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
+        let stale = &mut self.stale_estimate;
+        stale.list.sort_unstable();
+        let mut n = 0;
+        for &j in &stale.list {
+            let j = j as usize;
+            // A cell refreshed on its own since it was listed (Self::refresh_cell) is skipped,
+            // one listed twice is done once.
+            if std::mem::take(&mut stale.flag[j]) {
+                let e = estimate_cell(sums, &self.moments, &g, j, params);
+                layers.write(j, self.moments[j].count, &e);
+                n += 1;
             }
         }
-        // Row-major order: consecutive discs overlap, so their moments stay in cache.
-        self.affected.sort_unstable();
-        for &j in &self.affected {
-            let j = j as usize;
-            let e = estimate_cell(&self.moments, &g, j, &disc, params);
-            layers.write(j, self.moments[j].count, &e);
-            self.is_affected[j] = false;
-        }
-        let n = self.affected.len();
-        self.affected.clear();
-        self.take_dirty();
+        stale.clear();
         n
+    }
+
+    /// Re-estimates one cell if its disc changed since its last estimate — for lazy users that
+    /// need a few cells now (a path corridor) and the whole map later. Does a full
+    /// [`Self::update`] when `layers` does not match the map or its parameters. O(disc cells).
+    pub fn refresh_cell(&mut self, index: usize, params: &TraversabilityParams, layers: &mut TraversabilityLayers) {
+        let g = self.geometry;
+        self.ensure_discs(params.disc_radius_m);
+        if self.stale_estimate.all || layers.geometry() != g || layers.computed_with != *params {
+            self.update(params, layers);
+            return;
+        }
+        if index < g.len() && std::mem::take(&mut self.stale_estimate.flag[index]) {
+            let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
+            let e = estimate_cell(sums, &self.moments, &g, index, params);
+            layers.write(index, self.moments[index].count, &e);
+        }
+    }
+
+    /// Brings the per-cell "known" flags up to date without estimating anything: a cell is known
+    /// when its score would not be NaN ([`known_moments`]: enough points in its disc, spread out
+    /// horizontally). Calls `changed(index, known)` for every flag that flipped since the last
+    /// call (all cells the first time, or when the disc radius, `min_points` or
+    /// `min_spread_ratio` changed). O(cells whose disc changed), O(1) each.
+    pub fn refresh_known(&mut self, params: &TraversabilityParams, mut changed: impl FnMut(usize, bool)) {
+        self.ensure_discs(params.disc_radius_m);
+        let key = (params.disc_radius_m.to_bits(), params.min_points, params.min_spread_ratio.to_bits());
+        if self.known_with != Some(key) {
+            self.known_with = Some(key);
+            self.stale_known.mark_all();
+        }
+        let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
+        let mut check = |j: usize, known: &mut [bool]| {
+            let k = known_moments(&sums.sums[j], params).is_some();
+            if k != known[j] {
+                known[j] = k;
+                changed(j, k);
+            }
+        };
+        let stale = &mut self.stale_known;
+        if stale.all {
+            for j in 0..self.known.len() {
+                check(j, &mut self.known);
+            }
+        } else {
+            for &j in &stale.list {
+                check(j as usize, &mut self.known);
+            }
+        }
+        stale.clear();
     }
 }

@@ -5,8 +5,11 @@
 //! grow**: points outside the geometry (or non-finite) are ignored and counted in the returned
 //! [`InsertStats`]. Size the map up front ([`TraversabilityMap::from_cloud`] sizes it to a
 //! cloud's extent plus a margin). [`TraversabilityMap::clear`] empties it for re-registration
-//! after the SLAM graph is re-optimised. Changed cells are remembered (a dirty set) so that
-//! [`TraversabilityMap::update`] recomputes only the cells whose disc touches them.
+//! after the SLAM graph is re-optimised. Once a disc radius is known (the first update), every
+//! point also joins the [`DiscSums`] of the cells whose disc holds it, and those cells are marked
+//! stale, so that [`TraversabilityMap::update`] recomputes only them, one cell can be refreshed on
+//! its own ([`TraversabilityMap::refresh_cell`]) and the known cells can be counted without
+//! estimating anything ([`TraversabilityMap::refresh_known`]).
 //!
 //! Precision: moments are stored relative to a per-map local origin — (x, y) of the grid's
 //! lower-left corner and z of the first point ever inserted — so UTM-sized coordinates lose
@@ -15,6 +18,7 @@
 use nalgebra::Point3;
 
 use super::TraversabilityError;
+use super::disc_sums::DiscSums;
 use super::moments::CellMoments;
 use crate::cloud::PointCloud;
 use crate::grid::GridGeometry;
@@ -39,14 +43,51 @@ pub struct TraversabilityMap {
     /// Local origin z, metres; set by the first inserted point.
     pub(super) z_origin_m: Option<f64>,
     pub(super) moments: Vec<CellMoments>,
-    /// Cells changed since the last [`TraversabilityMap::update`] (each listed once).
-    pub(super) dirty: Vec<u32>,
-    pub(super) is_dirty: Vec<bool>,
-    /// Everything changed (after [`TraversabilityMap::clear`]).
-    pub(super) all_dirty: bool,
-    /// Scratch for [`TraversabilityMap::update`]: cells to recompute, and their membership mask.
-    pub(super) affected: Vec<u32>,
-    pub(super) is_affected: Vec<bool>,
+    /// Per-cell disc sums for one disc radius; `None` until the first estimate and after
+    /// [`TraversabilityMap::clear`] (then built from `moments`).
+    pub(super) discs: Option<DiscSums>,
+    /// Cells whose disc changed since their last estimate.
+    pub(super) stale_estimate: StaleCells,
+    /// Cells whose disc changed since their last known-check, and the known flags.
+    pub(super) stale_known: StaleCells,
+    pub(super) known: Vec<bool>,
+    /// (disc radius, min_points, min_spread_ratio) the known flags were computed with.
+    pub(super) known_with: Option<(u64, u32, u64)>,
+}
+
+/// A set of cells — a flag per cell and the list of flagged ones, in marking order — or all.
+#[derive(Clone, Debug)]
+pub(super) struct StaleCells {
+    pub(super) flag: Vec<bool>,
+    pub(super) list: Vec<u32>,
+    pub(super) all: bool,
+}
+
+impl StaleCells {
+    fn new(cells: usize) -> Self {
+        Self { flag: vec![false; cells], list: Vec::new(), all: true }
+    }
+
+    #[inline]
+    fn mark(&mut self, i: usize) {
+        if !self.all && !self.flag[i] {
+            self.flag[i] = true;
+            self.list.push(i as u32);
+        }
+    }
+
+    pub(super) fn mark_all(&mut self) {
+        self.clear();
+        self.all = true;
+    }
+
+    pub(super) fn clear(&mut self) {
+        for &i in &self.list {
+            self.flag[i as usize] = false;
+        }
+        self.list.clear();
+        self.all = false;
+    }
 }
 
 impl TraversabilityMap {
@@ -64,11 +105,11 @@ impl TraversabilityMap {
             geometry,
             z_origin_m: None,
             moments: vec![CellMoments::EMPTY; cells],
-            dirty: Vec::new(),
-            is_dirty: vec![false; cells],
-            all_dirty: true,
-            affected: Vec::new(),
-            is_affected: vec![false; cells],
+            discs: None,
+            stale_estimate: StaleCells::new(cells),
+            stale_known: StaleCells::new(cells),
+            known: vec![false; cells],
+            known_with: None,
         })
     }
 
@@ -130,8 +171,9 @@ impl TraversabilityMap {
         self.moments.iter().map(|m| m.count).sum()
     }
 
-    /// Bins world points (metres) into their cells. O(1) per point, no allocation beyond the
-    /// dirty list's amortised growth. Points outside the grid or non-finite are ignored.
+    /// Bins world points (metres) into their cells and, once the map has disc sums, into the
+    /// discs that hold them. O(disc cells) per point, no allocation beyond the stale lists'
+    /// amortised growth. Points outside the grid or non-finite are ignored.
     pub fn insert_points<I: IntoIterator<Item = Point3<f64>>>(&mut self, world_points: I) -> InsertStats {
         let mut stats = InsertStats::default();
         let g = self.geometry;
@@ -145,10 +187,14 @@ impl TraversabilityMap {
                 continue;
             };
             let z0 = *self.z_origin_m.get_or_insert(p.z);
-            self.moments[i].add([p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0]);
-            if !self.is_dirty[i] {
-                self.is_dirty[i] = true;
-                self.dirty.push(i as u32);
+            let q = [p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0];
+            self.moments[i].add(q);
+            if let Some(d) = self.discs.as_mut() {
+                let (se, sk) = (&mut self.stale_estimate, &mut self.stale_known);
+                d.add_point(&g, i, q, |c| {
+                    se.mark(c);
+                    sk.mark(c);
+                });
             }
             stats.inserted += 1;
         }
@@ -159,17 +205,20 @@ impl TraversabilityMap {
     /// the geometry and the local origin; the next [`Self::update`] recomputes everything.
     pub fn clear(&mut self) {
         self.moments.fill(CellMoments::EMPTY);
-        self.take_dirty();
-        self.all_dirty = true;
+        self.discs = None;
+        self.stale_estimate.mark_all();
+        self.stale_known.mark_all();
     }
 
-    /// Empties the dirty set.
-    pub(super) fn take_dirty(&mut self) {
-        for &i in &self.dirty {
-            self.is_dirty[i as usize] = false;
+    /// Builds the disc sums for `radius_m` from the cell moments unless the map has them; a
+    /// rebuild makes every cell stale. O(cells × disc cells) when building, else O(1).
+    pub(super) fn ensure_discs(&mut self, radius_m: f64) {
+        if self.discs.as_ref().is_some_and(|d| d.radius_m.to_bits() == radius_m.to_bits()) {
+            return;
         }
-        self.dirty.clear();
-        self.all_dirty = false;
+        self.discs = Some(DiscSums::from_moments(radius_m, &self.geometry, &self.moments));
+        self.stale_estimate.mark_all();
+        self.stale_known.mark_all();
     }
 }
 

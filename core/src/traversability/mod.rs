@@ -30,6 +30,7 @@
 //! | `estimate.rs` | disc fusion → slope / step / roughness / hazard / score; thresholding |
 //! | `render.rs` | score layer → RGB image |
 
+mod disc_sums;
 mod estimate;
 mod map;
 mod moments;
@@ -40,7 +41,7 @@ mod tests;
 
 pub use estimate::{TraversabilityLayers, disc_offsets, to_occupancy};
 pub use map::{InsertStats, MAX_CELLS, TraversabilityMap};
-pub use moments::{CellMoments, MomentSum};
+pub use moments::CellMoments;
 pub use plane::{PlaneFit, fit_plane};
 pub use render::{UNKNOWN_RGB, score_rgb, score_to_rgb};
 

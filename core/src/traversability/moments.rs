@@ -93,97 +93,6 @@ impl CellMoments {
     }
 }
 
-/// Fuses many [`CellMoments`] at once with sums shifted to a local origin — the first cell's
-/// mean — so no division per cell: Σn, Σ n·d, Σ (S + n·d dᵀ) with d = μ_c − origin, then
-/// μ = origin + Σn·d / Σn and S = Σ (S + n·d dᵀ) − Σn · d̄ d̄ᵀ (parallel-axis theorem). Equal to
-/// repeated [`CellMoments::merge`] in real arithmetic; the shift keeps |d̄| within the fused
-/// region so the final subtraction does not cancel. O(1) per cell.
-#[derive(Clone, Copy, Debug)]
-pub struct MomentSum {
-    origin: [f64; 3],
-    count: u64,
-    sum_d: [f64; 3],
-    sum_s: [f64; 6],
-    z_min: f64,
-    z_max: f64,
-}
-
-impl Default for MomentSum {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl MomentSum {
-    /// An empty sum.
-    pub const fn new() -> Self {
-        Self { origin: [0.0; 3], count: 0, sum_d: [0.0; 3], sum_s: [0.0; 6], z_min: f64::INFINITY, z_max: f64::NEG_INFINITY }
-    }
-
-    /// Adds the moments of one cell.
-    #[inline]
-    pub fn add(&mut self, m: &CellMoments) {
-        if m.count == 0 {
-            return;
-        }
-        if self.count == 0 {
-            self.origin = m.mean;
-        }
-        self.add_branchless(m);
-    }
-
-    /// An empty sum whose shift origin is fixed to `origin` up front. With `origin` = the mean of
-    /// the first non-empty cell that will be added, [`Self::add_branchless`] over the same cells
-    /// gives bit for bit the result of [`Self::add`].
-    pub const fn with_origin(origin: [f64; 3]) -> Self {
-        Self { origin, ..Self::new() }
-    }
-
-    /// Adds one cell without testing for emptiness: an empty cell (count 0, zero mean and
-    /// scatter, z range ±∞, as [`CellMoments::EMPTY`]) adds exact zeros and leaves the z range
-    /// unchanged, so the loop over a disc has no data-dependent branch. The origin must have been
-    /// set by [`Self::with_origin`].
-    #[inline]
-    pub fn add_branchless(&mut self, m: &CellMoments) {
-        let n = m.count as f64;
-        let d = [m.mean[0] - self.origin[0], m.mean[1] - self.origin[1], m.mean[2] - self.origin[2]];
-        for (s, dk) in self.sum_d.iter_mut().zip(d) {
-            *s += n * dk;
-        }
-        for (s, o) in self.sum_s.iter_mut().zip(m.scatter) {
-            *s += o;
-        }
-        add_outer(&mut self.sum_s, d, n);
-        self.count = self.count.saturating_add(m.count);
-        self.z_min = self.z_min.min(m.z_min);
-        self.z_max = self.z_max.max(m.z_max);
-    }
-
-    /// Number of points added so far.
-    #[inline]
-    pub fn count(&self) -> u64 {
-        self.count
-    }
-
-    /// The fused moments.
-    pub fn finish(&self) -> CellMoments {
-        if self.count == 0 {
-            return CellMoments::EMPTY;
-        }
-        let n = self.count as f64;
-        let m = self.sum_d.map(|v| v / n);
-        let mut scatter = self.sum_s;
-        add_outer(&mut scatter, m, -n);
-        CellMoments {
-            count: self.count,
-            mean: [self.origin[0] + m[0], self.origin[1] + m[1], self.origin[2] + m[2]],
-            scatter,
-            z_min: self.z_min,
-            z_max: self.z_max,
-        }
-    }
-}
-
 /// scatter += w · d dᵀ (upper triangle).
 #[inline]
 fn add_outer(s: &mut [f64; 6], d: [f64; 3], w: f64) {
@@ -290,10 +199,8 @@ mod tests {
                 per_cell[cells[i]].add(*p);
             }
             let mut fused = CellMoments::EMPTY;
-            let mut sum = MomentSum::new();
             for c in &per_cell {
                 fused.merge(c);
-                sum.add(c);
             }
             let (m, s) = two_pass(&pts);
             let reference = CellMoments {
@@ -305,7 +212,6 @@ mod tests {
             };
             let scale = 1e-9 * (1.0 + s.iter().fold(0.0f64, |a, v| a.max(v.abs())));
             assert_close(&fused, &reference, scale);
-            assert_close(&sum.finish(), &reference, scale);
             assert_close(&of(&pts), &reference, scale);
         }
     }
