@@ -320,6 +320,8 @@ pub struct Mission {
     scans: u64,
     pub end: Option<EndReason>,
     points: Vec<Point3<f64>>,
+    /// SLAM-registered points with their height variance.
+    registered: Vec<(Point3<f64>, f64)>,
     observations: Vec<CameraObservation>,
     /// The last decision (for the studio).
     pub last_decision: Option<crate::select::Decision>,
@@ -399,6 +401,7 @@ impl Mission {
             scans: 0,
             end: None,
             points: Vec::new(),
+            registered: Vec::new(),
             observations: Vec::new(),
             last_decision: None,
             world,
@@ -703,9 +706,9 @@ impl Mission {
             // Kept in the keyframe's cloud too, for re-registration.
             self.body_points.clear();
             self.body_points.extend(self.points.iter().map(|p| gt_inv * (p.coords - gp_c)));
-            self.points.clear();
-            fe.register_points(&self.body_points, &mut self.points);
-            self.tmap.insert_points(self.points.iter().copied());
+            self.registered.clear();
+            fe.register_points(&self.body_points, &mut self.registered);
+            self.tmap.insert_points_with_variance(self.registered.iter().copied());
         } else {
             let same = self.est == self.gt;
             let pts = self.points.iter().map(|p| if same { *p } else { ep + er * (gt_inv * (p.coords - gp_c)) });

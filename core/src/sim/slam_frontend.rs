@@ -153,6 +153,8 @@ pub struct KeyframeClouds {
     points: Vec<[f32; 3]>,
     /// Keyframe k's points are `starts[k]..starts[k + 1]` (the last one runs to the end).
     starts: Vec<usize>,
+    /// Keyframe k's roll/pitch variance, rad² (for the points' height noise at re-registration).
+    tilt_var_rad2: Vec<f64>,
     /// Voxels already holding a point of the latest keyframe (membership only, never iterated).
     occupied: HashSet<[i32; 3]>,
 }
@@ -160,12 +162,14 @@ pub struct KeyframeClouds {
 impl KeyframeClouds {
     /// No keyframe yet.
     pub fn new(voxel_m: f64) -> Self {
-        Self { voxel_m, points: Vec::new(), starts: Vec::new(), occupied: HashSet::new() }
+        Self { voxel_m, points: Vec::new(), starts: Vec::new(), tilt_var_rad2: Vec::new(), occupied: HashSet::new() }
     }
 
-    /// Starts the cloud of a new keyframe (later points belong to it).
-    pub fn start_keyframe(&mut self) {
+    /// Starts the cloud of a new keyframe (later points belong to it) whose roll/pitch variance
+    /// is `tilt_var_rad2`.
+    pub fn start_keyframe(&mut self, tilt_var_rad2: f64) {
         self.starts.push(self.points.len());
+        self.tilt_var_rad2.push(tilt_var_rad2);
         self.occupied.clear();
     }
 
@@ -205,20 +209,36 @@ impl KeyframeClouds {
 }
 
 /// Rebuilds `map` from every keyframe cloud registered with `world_from_keyframe` (keyframes
-/// beyond the shorter of the two are skipped); the next `update` recomputes every cell. Returns
-/// the number of points inserted. O(points).
+/// beyond the shorter of the two are skipped), each point with its height noise
+/// ([`height_variance`]); the next `update` recomputes every cell. Returns the number of points
+/// inserted. O(points).
 pub fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_from_keyframe: &[Se3]) -> usize {
     map.clear();
     let mut n = 0;
     for (k, pose) in world_from_keyframe.iter().enumerate().take(clouds.keyframes()) {
         let r = pose.rotation_matrix();
         let t = pose.translation;
-        let pts = clouds.points_of(k);
-        n += map
-            .insert_points(pts.iter().map(|p| Point3::from(r * Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) + t)))
-            .inserted;
+        let tilt_var = clouds.tilt_var_rad2[k];
+        let pts = clouds.points_of(k).iter().map(|p| {
+            let q = Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+            (Point3::from(r * q + t), height_variance(tilt_var, &q))
+        });
+        n += map.insert_points_with_variance(pts).inserted;
     }
     n
+}
+
+/// Variance of a registered point's height from the pose's tilt uncertainty, m²: a small roll /
+/// pitch error δφ moves the point `b` (body frame) by δφ × b, whose vertical part has variance
+/// σ_t²·(b_x² + b_y²) for isotropic roll/pitch variance σ_t². (The pose's own height error is
+/// common to the whole scan and left out: it shifts a scan, it does not make it rough.)
+pub fn height_variance(tilt_var_rad2: f64, point_in_body: &Vector3<f64>) -> f64 {
+    tilt_var_rad2 * (point_in_body.x * point_in_body.x + point_in_body.y * point_in_body.y)
+}
+
+/// Mean roll/pitch variance of a 6×6 body-frame covariance (ξ = (δt, δφ)), rad².
+fn tilt_variance(cov: &Matrix6<f64>) -> f64 {
+    (0.5 * (cov[(3, 3)] + cov[(4, 4)])).max(0.0)
 }
 
 /// The odometry factor's covariance in its right-perturbation tangent from the world-axis
@@ -327,7 +347,7 @@ impl SlamFrontend {
         select_observations(observations, |_| false, params.max_observations_per_keyframe, &mut scratch);
         let slam = GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?;
         let mut clouds = KeyframeClouds::new(params.cloud_voxel_m);
-        clouds.start_keyframe();
+        clouds.start_keyframe(0.0);
         let mut me = Self {
             slam,
             odo: start,
@@ -467,7 +487,7 @@ impl SlamFrontend {
         }
         self.anchor_new_landmarks(&scratch);
         self.scratch = scratch;
-        self.clouds.start_keyframe();
+        self.clouds.start_keyframe(tilt_variance(&self.keyframe_cov));
         self.registered.push(self.keyframe_pose);
         let mut out = KeyframeOutcome { loop_closure: update.full, reregister: false };
         if update.full {
@@ -497,13 +517,15 @@ impl SlamFrontend {
     }
 
     /// Stores body-frame points `points_in_body` (taken now) in the latest keyframe's cloud and
-    /// appends them, registered with the current estimate, to `world_out`.
-    pub fn register_points(&mut self, points_in_body: &[Vector3<f64>], world_out: &mut Vec<Point3<f64>>) {
+    /// appends them, registered with the current estimate, to `world_out`, with their height
+    /// variance from the estimate's tilt uncertainty ([`height_variance`]).
+    pub fn register_points(&mut self, points_in_body: &[Vector3<f64>], world_out: &mut Vec<(Point3<f64>, f64)>) {
         let rel = self.keyframe_from_current();
         let est = self.keyframe_pose * rel;
+        let tilt_var = tilt_variance(&self.covariance());
         for p in points_in_body {
             self.clouds.push(&rel.transform_point(p));
-            world_out.push(Point3::from(est.transform_point(p)));
+            world_out.push((Point3::from(est.transform_point(p)), height_variance(tilt_var, p)));
         }
     }
 
@@ -577,12 +599,12 @@ mod tests {
     fn keyframe_clouds_keep_one_point_per_voxel_per_keyframe() {
         let mut c = KeyframeClouds::new(0.05);
         assert!(!c.push(&Vector3::new(0.01, 0.01, 0.0)), "no keyframe yet");
-        c.start_keyframe();
+        c.start_keyframe(0.0);
         assert!(c.push(&Vector3::new(0.01, 0.01, 0.0)));
         assert!(!c.push(&Vector3::new(0.04, 0.02, 0.03)), "same 5 cm voxel");
         assert!(c.push(&Vector3::new(0.06, 0.01, 0.0)));
         assert!(!c.push(&Vector3::new(f64::NAN, 0.0, 0.0)));
-        c.start_keyframe();
+        c.start_keyframe(0.0);
         assert!(c.push(&Vector3::new(0.01, 0.01, 0.0)), "a new keyframe has its own voxels");
         assert_eq!((c.keyframes(), c.len()), (2, 3));
         assert_eq!(c.points_of(0).len(), 2);
@@ -601,8 +623,8 @@ mod tests {
         let mut map = TraversabilityMap::new(g).unwrap();
         let mut clouds = KeyframeClouds::new(0.05);
         // Two keyframes, each a 0.2 m × 0.2 m flat patch centred on it (body frame).
-        for _ in 0..2 {
-            clouds.start_keyframe();
+        for k in 0..2 {
+            clouds.start_keyframe(if k == 0 { 0.0 } else { 1e-6 });
             for i in 0..4 {
                 for j in 0..4 {
                     clouds.push(&Vector3::new(-0.075 + 0.05 * i as f64, -0.075 + 0.05 * j as f64, 0.0));
@@ -621,8 +643,23 @@ mod tests {
         assert!(after.contains(&cell(1.0, 1.0)) && after.contains(&cell(3.0, 2.0)));
         assert!(!after.contains(&cell(3.0, 1.0)), "the old registration is gone");
         assert_eq!(map.point_count(), 32);
+        // Heights carry the keyframe's tilt noise: 1e-6 rad² × (x² + y²) summed over the second
+        // patch's 16 points, x, y ∈ {±0.025, ±0.075}: Σ(x² + y²) = 2 · 4 · 2 · (0.025² + 0.075²) = 0.1.
+        let var_sum: f64 = map.moments().iter().map(|m| m.var_sum_m2).sum();
+        assert!((var_sum - 1e-6 * 0.1).abs() < 1e-12, "{var_sum}"); // points stored as f32
         // Fewer poses than clouds: the unposed keyframe is skipped.
         assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0, 0.0)]), 16);
+    }
+
+    #[test]
+    fn height_variance_grows_with_the_horizontal_range() {
+        // σ_t = 1 mrad, a point 3 m ahead and 4 m left, 1 m up: σ_z² = 1e-6 · 25 = 2.5e-5 m² (5 mm).
+        assert_eq!(height_variance(1e-6, &Vector3::new(3.0, 4.0, 1.0)), 1e-6 * 25.0);
+        let mut cov = Matrix6::zeros();
+        cov[(3, 3)] = 4e-6;
+        cov[(4, 4)] = 2e-6;
+        cov[(5, 5)] = 1.0; // yaw does not move heights
+        assert_eq!(tilt_variance(&cov), 3e-6);
     }
 
     #[test]

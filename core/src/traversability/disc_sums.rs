@@ -26,14 +26,17 @@ pub(super) struct DiscSum {
     sum: [f64; 3],
     /// Σ d dᵀ, upper triangle xx, xy, xz, yy, yz, zz.
     sum_sq: [f64; 6],
+    /// Σ of the points' vertical noise variances, m².
+    pub(super) var_sum_m2: f64,
 }
 
 impl DiscSum {
     /// Adds `count` points whose mean is `mean` and centred scatter `scatter`, all relative to the
     /// disc's reference (parallel-axis shift: Σd += n μ, Σddᵀ += S + n μμᵀ).
     #[inline]
-    fn add_moments(&mut self, count: u64, mean: [f64; 3], scatter: &[f64; 6]) {
+    fn add_moments(&mut self, count: u64, mean: [f64; 3], scatter: &[f64; 6], var_sum_m2: f64) {
         let n = count as f64;
+        self.var_sum_m2 += var_sum_m2;
         for k in 0..3 {
             self.sum[k] += n * mean[k];
         }
@@ -47,9 +50,10 @@ impl DiscSum {
         self.count += count;
     }
 
-    /// Adds one point, `d` relative to the disc's reference.
+    /// Adds one point, `d` relative to the disc's reference, with vertical noise variance `var_m2`.
     #[inline]
-    fn add_point(&mut self, d: [f64; 3]) {
+    fn add_point(&mut self, d: [f64; 3], var_m2: f64) {
+        self.var_sum_m2 += var_m2;
         for k in 0..3 {
             self.sum[k] += d[k];
         }
@@ -147,16 +151,16 @@ impl DiscSums {
                 if sum.count == 0 {
                     sum.z_ref_m = m.mean[2];
                 }
-                sum.add_moments(m.count, [m.mean[0] - x_c, m.mean[1] - y_c, m.mean[2] - sum.z_ref_m], &m.scatter);
+                sum.add_moments(m.count, [m.mean[0] - x_c, m.mean[1] - y_c, m.mean[2] - sum.z_ref_m], &m.scatter, m.var_sum_m2);
             });
         }
         Self { radius_m, disc, sums }
     }
 
-    /// Adds a point (map-local coordinates) of cell `index` to the discs containing that cell and
-    /// calls `changed` with each of their indices.
+    /// Adds a point (map-local coordinates, vertical noise variance `var_m2`) of cell `index` to
+    /// the discs containing that cell and calls `changed` with each of their indices.
     #[inline]
-    pub(super) fn add_point(&mut self, g: &GridGeometry, index: usize, p: [f64; 3], mut changed: impl FnMut(usize)) {
+    pub(super) fn add_point(&mut self, g: &GridGeometry, index: usize, p: [f64; 3], var_m2: f64, mut changed: impl FnMut(usize)) {
         let sums = &mut self.sums;
         self.disc.for_each(g, index, |c| {
             let (x_c, y_c) = centre_local(g, c);
@@ -164,7 +168,7 @@ impl DiscSums {
             if s.count == 0 {
                 s.z_ref_m = p[2];
             }
-            s.add_point([p[0] - x_c, p[1] - y_c, p[2] - s.z_ref_m]);
+            s.add_point([p[0] - x_c, p[1] - y_c, p[2] - s.z_ref_m], var_m2);
             changed(c);
         });
     }
@@ -188,8 +192,8 @@ mod tests {
         let g = GridGeometry::new(0.0, 0.0, 1.0, 3, 1);
         let mut d = DiscSums { radius_m: 1.0, disc: Disc::new(1.0, &g), sums: vec![DiscSum::default(); 3] };
         let mut changed = Vec::new();
-        d.add_point(&g, 0, [0.5, 0.5, 2.0], |c| changed.push(c));
-        d.add_point(&g, 1, [1.5, 0.5, 4.0], |c| changed.push(c));
+        d.add_point(&g, 0, [0.5, 0.5, 2.0], 1e-4, |c| changed.push(c));
+        d.add_point(&g, 1, [1.5, 0.5, 4.0], 0.0, |c| changed.push(c));
         changed.sort();
         assert_eq!(changed, vec![0, 0, 1, 1, 2]);
         // Cell 1 (centre 1.5, 0.5) holds both: d = (−1, 0, 0) and (0, 0, 2) (z_ref = 2).
@@ -199,14 +203,15 @@ mod tests {
         assert_eq!(m.scatter, [0.5, 0.0, 1.0, 0.0, 0.0, 2.0]);
         // Cell 2 holds only the second point, its own reference.
         assert_eq!((d.sums[2].count, d.sums[2].z_ref_m, d.sums[2].moments().mean), (1, 4.0, [-1.0, 0.0, 0.0]));
+        assert_eq!((d.sums[0].var_sum_m2, d.sums[1].var_sum_m2, d.sums[2].var_sum_m2), (1e-4, 1e-4, 0.0));
         // Rebuilt from per-cell moments: the same sums.
         let mut moments = vec![CellMoments::EMPTY; 3];
-        moments[0].add([0.5, 0.5, 2.0]);
+        moments[0].add_with_variance([0.5, 0.5, 2.0], 1e-4);
         moments[1].add([1.5, 0.5, 4.0]);
         let r = DiscSums::from_moments(1.0, &g, &moments);
         for c in 0..3 {
             let (a, b) = (r.sums[c].moments(), d.sums[c].moments());
-            assert_eq!(a.count, b.count);
+            assert_eq!((a.count, r.sums[c].var_sum_m2), (b.count, d.sums[c].var_sum_m2));
             // Reference heights may differ (first cell vs first point): compare absolute means.
             let za = a.mean[2] + r.sums[c].z_ref_m;
             let zb = b.mean[2] + d.sums[c].z_ref_m;

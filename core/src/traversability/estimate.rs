@@ -14,6 +14,10 @@
 //!   resolution·tan θ·√2 (1.9 cm at 15° and 5 cm cells).
 //! - hazard = clamp(max(slope/max_slope, step/max_step, roughness/max_roughness), 0, 1);
 //!   score = 1 − hazard; unknown (NaN) where the disc holds fewer than `min_points` points.
+//! - Registration noise (not in the notes): with σ̄² the mean vertical noise variance of the
+//!   disc's points (0 unless inserted with one) and k = `noise_discount_sigmas`, the hazard uses
+//!   √max(0, roughness² − k²σ̄²) and max(0, step − k√2·σ̄): offsets between scans registered
+//!   with slightly different poses are not terrain. The layers keep the measured values.
 //! - Also unknown (not in the notes): discs whose points do not span the disc horizontally —
 //!   standard deviation along their narrowest horizontal direction below
 //!   `min_spread_ratio · disc_radius_m` — since the tilt across such a strip (typically the edge
@@ -230,10 +234,16 @@ pub(super) fn estimate_cell(
     if relative && hi >= lo {
         step_m = (hi - lo).min(raw_step_m);
     }
-    let hazard = ratio(plane.slope_rad, p.max_slope_rad)
-        .max(ratio(step_m, p.max_step_m))
-        .max(ratio(plane.roughness_m, p.max_roughness_m))
-        .clamp(0.0, 1.0);
+    // What the points' registration noise explains does not count (TraversabilityParams::
+    // noise_discount_sigmas); exact no-op when they carry no variance.
+    let (mut step_h, mut roughness_h) = (step_m, plane.roughness_m);
+    if sum.var_sum_m2 > 0.0 && p.noise_discount_sigmas > 0.0 {
+        let k2_var = p.noise_discount_sigmas * p.noise_discount_sigmas * sum.var_sum_m2 / fused.count as f64;
+        roughness_h = (roughness_h * roughness_h - k2_var).max(0.0).sqrt();
+        step_h = (step_h - (2.0 * k2_var).sqrt()).max(0.0);
+    }
+    let hazard =
+        ratio(plane.slope_rad, p.max_slope_rad).max(ratio(step_h, p.max_step_m)).max(ratio(roughness_h, p.max_roughness_m)).clamp(0.0, 1.0);
     CellEstimate {
         slope_rad: plane.slope_rad,
         step_m,

@@ -175,9 +175,19 @@ impl TraversabilityMap {
     /// discs that hold them. O(disc cells) per point, no allocation beyond the stale lists'
     /// amortised growth. Points outside the grid or non-finite are ignored.
     pub fn insert_points<I: IntoIterator<Item = Point3<f64>>>(&mut self, world_points: I) -> InsertStats {
+        self.insert_points_with_variance(world_points.into_iter().map(|p| (p, 0.0)))
+    }
+
+    /// As [`Self::insert_points`], each point with the variance of its height's registration
+    /// noise, m² (e.g. a SLAM pose's tilt uncertainty times the squared range): the hazard
+    /// discounts the roughness and step that noise explains
+    /// ([`crate::params::TraversabilityParams::noise_discount_sigmas`]). A negative or
+    /// non-finite variance counts as 0.
+    pub fn insert_points_with_variance<I: IntoIterator<Item = (Point3<f64>, f64)>>(&mut self, world_points: I) -> InsertStats {
         let mut stats = InsertStats::default();
         let g = self.geometry;
-        for p in world_points {
+        for (p, var_m2) in world_points {
+            let var_m2 = if var_m2.is_finite() { var_m2.max(0.0) } else { 0.0 };
             if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
                 stats.ignored += 1;
                 continue;
@@ -188,10 +198,10 @@ impl TraversabilityMap {
             };
             let z0 = *self.z_origin_m.get_or_insert(p.z);
             let q = [p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0];
-            self.moments[i].add(q);
+            self.moments[i].add_with_variance(q, var_m2);
             if let Some(d) = self.discs.as_mut() {
                 let (se, sk) = (&mut self.stale_estimate, &mut self.stale_known);
-                d.add_point(&g, i, q, |c| {
+                d.add_point(&g, i, q, var_m2, |c| {
                     se.mark(c);
                     sk.mark(c);
                 });

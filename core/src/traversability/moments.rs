@@ -25,6 +25,8 @@ pub struct CellMoments {
     pub z_min: f64,
     /// Highest z, metres; −∞ when empty.
     pub z_max: f64,
+    /// Sum of the points' vertical noise variances, m² (0 for points inserted without one).
+    pub var_sum_m2: f64,
 }
 
 impl Default for CellMoments {
@@ -35,7 +37,8 @@ impl Default for CellMoments {
 
 impl CellMoments {
     /// Moments of no point.
-    pub const EMPTY: Self = Self { count: 0, mean: [0.0; 3], scatter: [0.0; 6], z_min: f64::INFINITY, z_max: f64::NEG_INFINITY };
+    pub const EMPTY: Self =
+        Self { count: 0, mean: [0.0; 3], scatter: [0.0; 6], z_min: f64::INFINITY, z_max: f64::NEG_INFINITY, var_sum_m2: 0.0 };
 
     /// Whether no point has been added.
     #[inline]
@@ -46,6 +49,13 @@ impl CellMoments {
     /// Adds one point (Welford). The caller guarantees finite coordinates.
     #[inline]
     pub fn add(&mut self, p: [f64; 3]) {
+        self.add_with_variance(p, 0.0);
+    }
+
+    /// Adds one point whose height has noise variance `var_m2` (see [`Self::var_sum_m2`]).
+    #[inline]
+    pub fn add_with_variance(&mut self, p: [f64; 3], var_m2: f64) {
+        self.var_sum_m2 += var_m2;
         let n = self.count + 1;
         let d = [p[0] - self.mean[0], p[1] - self.mean[1], p[2] - self.mean[2]];
         let inv_n = 1.0 / n as f64;
@@ -80,6 +90,7 @@ impl CellMoments {
         self.count = self.count.saturating_add(other.count);
         self.z_min = self.z_min.min(other.z_min);
         self.z_max = self.z_max.max(other.z_max);
+        self.var_sum_m2 += other.var_sum_m2;
     }
 
     /// Population covariance S/n (m²) as a symmetric 3×3 matrix; zero when empty.
@@ -209,6 +220,7 @@ mod tests {
                 scatter: s,
                 z_min: pts.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min),
                 z_max: pts.iter().map(|p| p[2]).fold(f64::NEG_INFINITY, f64::max),
+                var_sum_m2: 0.0,
             };
             let scale = 1e-9 * (1.0 + s.iter().fold(0.0f64, |a, v| a.max(v.abs())));
             assert_close(&fused, &reference, scale);

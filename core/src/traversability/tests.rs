@@ -153,6 +153,38 @@ fn plus_minus_sigma_points_give_roughness_sigma() {
 }
 
 #[test]
+fn registration_noise_is_discounted_from_roughness_and_step() {
+    // Two layers ±3 cm apart (roughness σ = 3 cm, relative step 6 cm): lethal as measured
+    // (σ / max_roughness = 0.6 > 1 − τ). Inserted with vertical noise variance v = (1 cm)², the
+    // hazard uses √(σ² − k²v) = √(9 − 4) cm = 2.236 cm and 6 − 2√2 cm = 3.17 cm (k = 2):
+    // hazard = max(0.02236 / 0.05, 0.03172 / 0.15) = 0.447, free. The layers keep 3 cm and 6 cm.
+    let sigma = 0.03;
+    let mut pts = surface(|_, _| sigma);
+    pts.extend(surface(|_, _| -sigma));
+    let p = TraversabilityParams::default();
+    let measured = layers_of(&pts, &p);
+    let mut map = TraversabilityMap::new(geometry()).unwrap();
+    map.insert_points_with_variance(pts.iter().map(|&q| (q, 1e-4)));
+    let mut noisy = map.compute(&p);
+    let mut no_discount = p.clone();
+    no_discount.noise_discount_sigmas = 0.0;
+    let undiscounted = map.compute(&no_discount);
+    let hazard = (0.0005f64.sqrt() / p.max_roughness_m).max((0.06 - 2.0 * 0.0002f64.sqrt()) / p.max_step_m);
+    assert!((hazard - 0.4472).abs() < 1e-4);
+    for c in interior() {
+        assert!((at(&measured.hazard, c) - 0.6).abs() < 1e-6);
+        assert_eq!(at(&undiscounted.hazard, c), at(&measured.hazard, c));
+        assert!((at(&noisy.hazard, c) - hazard).abs() < 1e-6, "{}", at(&noisy.hazard, c));
+        assert!((at(&noisy.roughness_m, c) - sigma).abs() < 1e-7 && (at(&noisy.step_m, c) - 2.0 * sigma).abs() < 1e-6);
+        assert_eq!(*noisy.to_occupancy(p.tau).get(c).unwrap(), FREE);
+        assert_eq!(*measured.to_occupancy(p.tau).get(c).unwrap(), LETHAL);
+    }
+    // The disc sums keep the variance through a rebuild (another disc radius and back).
+    map.update(&TraversabilityParams { disc_radius_m: 0.1, ..p.clone() }, &mut noisy);
+    map.update(&p, &mut noisy);
+    assert!(interior().all(|c| (at(&noisy.hazard, c) - hazard).abs() < 1e-6));
+}
+#[test]
 fn sparse_or_strip_shaped_discs_are_unknown() {
     let g = GridGeometry::new(0.0, 0.0, RES, 20, 20);
     let p = TraversabilityParams::default();
@@ -268,6 +300,7 @@ fn bad_parameters_do_not_panic() {
         tau: 2.0,
         step_relative_to_plane: true,
         min_spread_ratio: f64::NAN,
+        noise_discount_sigmas: f64::NAN,
     };
     let layers = layers_of(&pts, &p);
     // Zero limits: any positive slope is fully hazardous.
