@@ -260,11 +260,11 @@ impl StudioApp {
     /// map, estimated pose, blacklist, the world's boundary, the lane's strategy) into the
     /// Planner mode and switches to it; the planner re-ranks from that state.
     pub fn open_lane_in_planner(&mut self, i: usize) {
-        let Some(lane) = self.mission.runner.as_ref().and_then(|r| r.lanes.get(i)) else { return };
-        let m = &lane.mission;
+        let Some(lane) = self.mission.runner.as_mut().and_then(|r| r.lanes.get_mut(i)) else { return };
+        let m = &mut lane.mission;
         let name = format!("{} / {} at t = {:.1} s", m.world.spec.name, crate::sim_runner::strategy_label(lane.strategy), m.time_s);
         let map =
-            crate::scene::MapLayers { score: m.layers.score.clone(), source: name.clone(), kind: crate::scene::MapKind::Traversability };
+            crate::scene::MapLayers { score: m.layers().score.clone(), source: name.clone(), kind: crate::scene::MapKind::Traversability };
         let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
         let mut scene = Scene::new(map, landmarks, Some(m.est), self.params.frontier.blacklist_radius_m);
         scene.robot = m.est;

@@ -380,9 +380,9 @@ fn plots(ui: &mut egui::Ui, m: &mut MissionView) {
 
 /// Refreshes lane `i`'s map texture if it is stale; returns its id.
 fn lane_texture(ui: &egui::Ui, m: &mut MissionView, i: usize) -> Option<egui::TextureId> {
-    let r = m.runner.as_ref()?;
-    let lane = r.lanes.get(i)?;
-    let mission = &lane.mission;
+    let r = m.runner.as_mut()?;
+    let lane = r.lanes.get_mut(i)?;
+    let mission = &mut lane.mission;
     let tau = mission.params.traversability.tau;
     let t_ms = (mission.time_s * 1e3).round() as u64;
     if m.textures.len() <= i {
@@ -405,7 +405,7 @@ fn lane_texture(ui: &egui::Ui, m: &mut MissionView, i: usize) -> Option<egui::Te
     if stale {
         let image = match m.layer {
             MissionLayer::Thresholded => canvas::layer_image(&mission.occupancy(), |v| canvas::occupancy_pixel(*v)),
-            MissionLayer::Score => canvas::layer_image(&mission.layers.score, |s| {
+            MissionLayer::Score => canvas::layer_image(&mission.layers().score, |s| {
                 let [r, g, b] = score_rgb(*s);
                 Color32::from_rgb(r, g, b)
             }),
