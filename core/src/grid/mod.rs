@@ -6,7 +6,7 @@ mod occupancy;
 
 pub use geometry::{Cell, GridGeometry};
 pub use inflate::inflate_lethal;
-pub use occupancy::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid, UNKNOWN};
+pub use occupancy::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid, UNKNOWN, fill_disc};
 
 use serde::{Deserialize, Serialize};
 

@@ -36,3 +36,52 @@ impl CellClass {
         }
     }
 }
+
+/// Sets every cell whose centre lies within `radius_m` of (`x_m`, `y_m`) to `value`; returns how
+/// many changed. Used to clear a robot's footprint — the ground it stands on is traversable, as
+/// costmaps' footprint clearing assumes. O(radius² / resolution²).
+pub fn fill_disc(grid: &mut OccupancyGrid, x_m: f64, y_m: f64, radius_m: f64, value: i8) -> usize {
+    let g = grid.geometry;
+    if !(radius_m >= 0.0 && x_m.is_finite() && y_m.is_finite()) || g.is_empty() {
+        return 0;
+    }
+    // The cell range covering the disc, clipped to the grid (in f64: no overflow far away).
+    let span = |lo_m: f64, origin_m: f64, n: usize| ((lo_m - origin_m) / g.resolution_m).floor().clamp(0.0, n as f64) as usize;
+    let (c0, c1) = (span(x_m - radius_m, g.origin_x_m, g.width), span(x_m + radius_m, g.origin_x_m, g.width - 1));
+    let (r0, r1) = (span(y_m - radius_m, g.origin_y_m, g.height), span(y_m + radius_m, g.origin_y_m, g.height - 1));
+    let mut changed = 0;
+    for row in r0..=r1.min(g.height - 1) {
+        for col in c0..=c1 {
+            let c = super::Cell::new(col as i32, row as i32);
+            let (cx, cy) = g.center_of(c);
+            let i = row * g.width + col;
+            if (cx - x_m).hypot(cy - y_m) <= radius_m && grid.data[i] != value {
+                grid.data[i] = value;
+                changed += 1;
+            }
+        }
+    }
+    changed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridGeometry;
+
+    #[test]
+    fn fill_disc_sets_the_cells_whose_centre_is_within_the_radius() {
+        // 1 m cells, centres at (c + ½, r + ½). A disc of radius 1 m around (2, 2) holds the four
+        // centres (1.5|2.5, 1.5|2.5), each √0.5 ≈ 0.71 m away; (0.5, 2.5) is 1.58 m away.
+        let mut grid = Grid::filled(GridGeometry::new(0.0, 0.0, 1.0, 4, 4), LETHAL);
+        assert_eq!(fill_disc(&mut grid, 2.0, 2.0, 1.0, FREE), 4);
+        let free: Vec<usize> = grid.data.iter().enumerate().filter(|(_, v)| **v == FREE).map(|(i, _)| i).collect();
+        assert_eq!(free, vec![5, 6, 9, 10]);
+        assert_eq!(fill_disc(&mut grid, 2.0, 2.0, 1.0, FREE), 0, "already free");
+        // Partly outside the map, or a non-finite centre: no panic.
+        assert_eq!(fill_disc(&mut grid, -0.2, -0.2, 1.0, UNKNOWN), 1); // (0.5, 0.5) is 0.99 m away
+        assert_eq!(fill_disc(&mut grid, 1e12, 0.0, 1e13, FREE), 12); // every other cell
+        assert_eq!(fill_disc(&mut grid, -1e300, 0.0, 1.0, FREE), 0);
+        assert_eq!(fill_disc(&mut grid, f64::NAN, 0.0, 1.0, FREE), 0);
+    }
+}

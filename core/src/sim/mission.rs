@@ -776,7 +776,12 @@ impl Mission {
     /// Chooses a goal. `keep_current`: periodic replanning keeps the current goal while it is
     /// still a reachable candidate. Returns `Some(NoFrontier)` at the end of the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
-        let grid = self.occupancy();
+        let mut grid = self.occupancy();
+        // Footprint clearing (as robot costmaps do): the robot stands on the ground under it, so
+        // that ground is traversable whatever registration speckle says — within the robot
+        // radius plus one cell, so that the robot's own cell is never inflated.
+        let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
+        crate::grid::fill_disc(&mut grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }
