@@ -93,6 +93,11 @@ pub struct MissionParams {
     pub metrics_period_s: f64,
     /// Stop before entering a ground-truth untraversable cell (a bumper). Default true.
     pub safety_stop: bool,
+    /// Footprint clearing before each decision, as robot costmaps do: the cells within the robot
+    /// radius plus one cell of the estimated pose are free in the grid the planner gets (the
+    /// robot stands on that ground), so registration speckle under the robot cannot block every
+    /// plan. Default true.
+    pub clear_footprint: bool,
     /// Overrides the world's time limit, seconds.
     pub time_limit_s: Option<f64>,
     /// Decisions in a row without a plan (each followed by 2 s of looking around) before the
@@ -120,6 +125,7 @@ impl Default for MissionParams {
             goal_timeout_extra_s: 20.0,
             metrics_period_s: 1.0,
             safety_stop: true,
+            clear_footprint: true,
             time_limit_s: None,
             max_failed_decisions: 30,
             slam: SlamParams::default(),
@@ -777,11 +783,11 @@ impl Mission {
     /// still a reachable candidate. Returns `Some(NoFrontier)` at the end of the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
         let mut grid = self.occupancy();
-        // Footprint clearing (as robot costmaps do): the robot stands on the ground under it, so
-        // that ground is traversable whatever registration speckle says — within the robot
-        // radius plus one cell, so that the robot's own cell is never inflated.
-        let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
-        crate::grid::fill_disc(&mut grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
+        if self.mission.clear_footprint {
+            // Radius + one cell: the robot's own cell is then never inflated.
+            let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
+            crate::grid::fill_disc(&mut grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
+        }
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }

@@ -188,8 +188,10 @@ fn slam_covariance_grows_between_exact_marginals_and_drops_at_loop_closures() {
 
 /// Regression (paper world, random, seed 13): a robot whose own cell stays untraversable in its
 /// map could look around until the time limit. Here the start is on top of a 0.4 m box whose
-/// edges, inflated by the robot radius, cover the whole top: every decision fails, and the
-/// mission ends as `Stuck` after `max_failed_decisions` of them, long before the time limit.
+/// edges, inflated by the robot radius, cover the whole top; without footprint clearing every
+/// decision fails, and the mission ends as `Stuck` after `max_failed_decisions` of them, long
+/// before the time limit. With footprint clearing (the default) the robot's cell is free and the
+/// decisions succeed.
 #[test]
 fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
     let params = Params::default();
@@ -197,10 +199,14 @@ fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
         + "\n[[boxes]]\nmin_m = [1.0, 1.0]\nmax_m = [1.4, 1.4]\nheight_m = 0.3\n";
     let spec = WorldSpec::from_toml(&text, "stuck.toml").unwrap();
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
-    let mission = MissionParams { max_failed_decisions: 3, ..MissionParams::default() };
-    let mut m = Mission::new(world, params, mission, Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
+    let mission = MissionParams { max_failed_decisions: 3, clear_footprint: false, ..MissionParams::default() };
+    let mut m = Mission::new(world.clone(), params.clone(), mission.clone(), Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
     let s = m.run();
     assert_eq!(s.end_reason, Some(EndReason::Stuck), "{s:?}");
     assert_eq!(s.planning_errors, 3);
     assert!(s.time_s < 60.0 && s.gt_violations == 0, "{s:?}");
+    let cleared = MissionParams { clear_footprint: true, time_limit_s: Some(60.0), ..mission };
+    let s = Mission::new(world, params, cleared, Strategy::Fit, 1, Localisation::GroundTruth).unwrap().run();
+    assert_eq!((s.planning_errors, s.gt_violations), (0, 0), "{s:?}");
+    assert_ne!(s.end_reason, Some(EndReason::Stuck));
 }
