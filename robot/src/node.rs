@@ -158,6 +158,8 @@ struct PoseSample {
     pose: Pose2,
     stamp_s: f64,
     received_s: f64,
+    /// Mean of the roll and pitch variances of the message's covariance, rad² (0 if absent).
+    tilt_var_rad2: f64,
 }
 
 /// The exploration node's state.
@@ -385,8 +387,18 @@ impl Explorer {
                 }
             }
         }
+        // With a pose topic that carries a covariance, each point's height gets the variance its
+        // tilt uncertainty implies (σ_t² × horizontal range², as in the core's simulator), so the
+        // map discounts the roughness that registration noise explains.
+        let origin = self.topic_pose.filter(|s| self.cfg.pose_source == PoseSource::Topic && s.tilt_var_rad2 > 0.0);
         if let Some(m) = &mut self.cloud_mapper {
-            let s = m.map.insert_points(points);
+            let s = match origin {
+                Some(o) => {
+                    let (x, y, var) = (o.pose.x_m, o.pose.y_m, o.tilt_var_rad2);
+                    m.map.insert_points_with_variance(points.into_iter().map(|p| (p, var * ((p.x - x).powi(2) + (p.y - y).powi(2)))))
+                }
+                None => m.map.insert_points(points),
+            };
             m.dirty |= s.inserted > 0;
         }
     }
@@ -419,7 +431,11 @@ impl Explorer {
             return self.warn("pose_late", now_s, format!("late pose dropped (stamp {stamp_s:.3} s < {:.3} s)", old.stamp_s));
         }
         let pose = convert::pose2_of_isometry(&map_from_body);
-        self.topic_pose = Some(PoseSample { pose, stamp_s, received_s: now_s });
+        // ROS order (x, y, z, rot X, rot Y, rot Z), fixed axes: roll and pitch at 21 and 28.
+        let c = &msg.pose.covariance;
+        let tilt = 0.5 * (c[21] + c[28]);
+        let tilt_var_rad2 = if tilt.is_finite() && tilt > 0.0 { tilt } else { 0.0 };
+        self.topic_pose = Some(PoseSample { pose, stamp_s, received_s: now_s, tilt_var_rad2 });
     }
 
     /// `geometry_msgs/PolygonStamped`: the exploration boundary; an empty polygon clears it.

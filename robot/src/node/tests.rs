@@ -351,6 +351,41 @@ fn clouds_build_the_map() {
     assert!(g[0].1.x_m.hypot(g[0].1.y_m) > 1.5);
 }
 
+/// A patch 5 m from the robot sampled twice, 6 cm apart in height (two scans registered with
+/// different tilts): roughness 3 cm, lethal as measured. With the pose's roll/pitch variance
+/// (2e-5 rad² each → σ_z = √(2e-5 · 25) = 2.2 cm at 5 m) the hazard discounts it (√(9 − 4·5) cm
+/// → 0): free. Without a covariance nothing changes.
+#[test]
+fn pose_covariance_discounts_registration_noise_in_cloud_maps() {
+    let run = |tilt_var: f64| {
+        let cfg = NodeConfig {
+            map_source: MapSource::Clouds,
+            pose_source: PoseSource::Topic,
+            cloud_map: crate::config::CloudMapConfig { origin_x_m: -1.0, origin_y_m: -1.0, size_x_m: 8.0, size_y_m: 2.0 },
+            ..NodeConfig::default()
+        };
+        let mut e = Explorer::new(cfg, Params::default());
+        let mut p = msgs::PoseWithCovarianceStamped { header: header(0.0, "map"), ..Default::default() };
+        p.pose.pose = pose_of_pose2(Pose2::new(0.0, 0.0, 0.0));
+        p.pose.covariance[21] = tilt_var;
+        p.pose.covariance[28] = tilt_var;
+        e.handle_pose(&p, 0.0);
+        let mut pts = Vec::new();
+        for i in 0..50 {
+            for j in 0..50 {
+                let (x, y) = (4.5 + i as f64 * 0.02, -0.5 + j as f64 * 0.02);
+                pts.push(Point3::new(x, y, 0.03));
+                pts.push(Point3::new(x, y, -0.03));
+            }
+        }
+        e.handle_cloud(&cloud_of_points(&pts, header(0.0, "map")), 0.0);
+        let _ = e.tick(0.0);
+        *e.map().expect("map built from the cloud").at_world(5.0, 0.0).unwrap()
+    };
+    assert_eq!(run(0.0), LETHAL);
+    assert_eq!(run(2e-5), FREE);
+}
+
 #[test]
 fn every_goal_is_free_on_random_worlds() {
     for seed in 0..4 {
