@@ -13,7 +13,7 @@
 //! when the disc radius changes; built either way they agree with the per-cell fusion to rounding.
 
 use super::estimate::disc_offsets;
-use super::moments::CellMoments;
+use super::moments::{CellMoments, add_outer};
 use crate::grid::GridGeometry;
 
 /// Raw moments of one disc (see the module doc), coordinates relative to the cell's centre and
@@ -57,13 +57,7 @@ impl DiscSum {
         for k in 0..3 {
             self.sum[k] += d[k];
         }
-        let s = &mut self.sum_sq;
-        s[0] += d[0] * d[0];
-        s[1] += d[0] * d[1];
-        s[2] += d[0] * d[2];
-        s[3] += d[1] * d[1];
-        s[4] += d[1] * d[2];
-        s[5] += d[2] * d[2];
+        add_outer(&mut self.sum_sq, d, 1.0);
         self.count += 1;
     }
 

@@ -106,7 +106,7 @@ impl CellMoments {
 
 /// scatter += w · d dᵀ (upper triangle).
 #[inline]
-fn add_outer(s: &mut [f64; 6], d: [f64; 3], w: f64) {
+pub(super) fn add_outer(s: &mut [f64; 6], d: [f64; 3], w: f64) {
     let wd = [w * d[0], w * d[1], w * d[2]];
     s[0] += wd[0] * d[0];
     s[1] += wd[0] * d[1];
