@@ -4,7 +4,7 @@
 //! Per tick (`dt_s`): the robot follows its path (carrot controller, GT motion with a safety stop
 //! before any ground-truth untraversable cell), odometry integrates the measured motion, and
 //! every `scan_every_*` the LiDAR sweep, the depth camera's ground points and the body's footprint
-//! are registered with the *estimated* pose into the traversability map (incremental update);
+//! are registered with the *estimated* pose into the traversability map (lazily estimated, below);
 //! every `camera_every_s` the camera observes landmarks, which build the landmark map. The goal
 //! is (re)chosen on arrival (after turning to Θ*), on failure (timeout → blacklist `Failed`),
 //! when the path is blocked, and every `replan_period_s` (then the current goal is kept while it
@@ -20,9 +20,13 @@
 //! ATE is the 3D distance between the estimated and true body positions (for ground truth and
 //! odometry the estimate's height is the terrain's under it).
 //!
-//! Cost per tick: O(path) control; per scan O(rays × march) + O(changed cells × disc²); per
-//! decision the selector's cost (one Dijkstra, rays, u2) plus O(cells) thresholding; per metrics
-//! row O(explorable cells).
+//! The traversability map is estimated lazily: a scan only adds its points (O(disc cells) each);
+//! the cells along the remaining path are re-estimated for the blocked-path check, every stale
+//! cell at a decision, and the metrics count known cells from flags kept without estimating.
+//!
+//! Cost per tick: O(path) control; per scan O(rays × march) + O(points × disc cells) + O(path
+//! corridor); per decision the selector's cost (one Dijkstra, rays, u2) plus the stale cells'
+//! estimates and O(cells) thresholding; per metrics row O(cells whose disc changed).
 
 #![allow(clippy::collapsible_if)] // nested ifs mirror the decision steps
 

@@ -26,8 +26,9 @@
 //! |---|---|
 //! | `moments.rs` | per-cell moments, Welford insertion, exact parallel-axis fusion |
 //! | `plane.rs` | plane fit from moments: normal, slope, roughness, degenerate cases |
-//! | `map.rs` | the moments layer: insertion, sizing to a cloud, clearing, dirty set |
-//! | `estimate.rs` | disc fusion → slope / step / roughness / hazard / score; thresholding |
+//! | `map.rs` | the moments layer: insertion (with an optional height variance), sizing to a cloud, clearing, stale cells |
+//! | `disc_sums.rs` | per-cell sums of the points in its disc, kept up to date at insertion |
+//! | `estimate.rs` | disc sums → slope / step / roughness / hazard / score; lazy refresh; thresholding |
 //! | `render.rs` | score layer → RGB image |
 
 mod disc_sums;
