@@ -11,6 +11,7 @@
 //! loses about ε·|d|² ≈ 10⁻¹⁷ m² for decimetre-sized discs — far below any roughness of interest.
 //! The sums are rebuilt from the per-cell moments ([`DiscSums::from_moments`], parallel-axis shift)
 //! when the disc radius changes; built either way they agree with the per-cell fusion to rounding.
+//! Memory: 96 bytes per cell, beside the cell moments' 104.
 
 use super::estimate::disc_offsets;
 use super::moments::{CellMoments, add_outer};
