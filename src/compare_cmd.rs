@@ -11,11 +11,9 @@
 //!   over seeds, and per baseline and metric the two-sided Mann–Whitney U test against `fit`
 //!   (against the first strategy listed when `fit` is not).
 
-use crate::explore_cmd::{
-    COV_TRACE_LABEL, LocalisationArg, MissionArgs, RunOutput, StrategyArg, localisation_of, progress_bar, run_and_write, strategy_of,
-};
+use crate::explore_cmd::{LocalisationArg, MissionArgs, RunOutput, StrategyArg, localisation_of, progress_bar, run_and_write, strategy_of};
 use crate::load;
-use crate::plot::{Curve, Figure};
+use crate::plot::{self, Curve};
 use crate::stats::{Spread, mann_whitney_u, percentile};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
@@ -225,23 +223,13 @@ fn curves(strategies: &[StrategyArg], figures: &[RunFigures], get: fn(&MetricsRo
 }
 
 fn write_figures(out: &std::path::Path, world: &str, strategies: &[StrategyArg], figures: &[RunFigures]) -> Result<()> {
-    let note = "mean over seeds, band 25–75 %";
-    Figure {
-        title: format!("Unexplored area — {world} ({note})"),
-        x_label: "time (s)".into(),
-        y_label: "unexplored (% of explorable cells)".into(),
-        y_range: Some((0.0, 100.0)),
-        curves: curves(strategies, figures, |r| r.unexplored_pct),
-    }
-    .write(out, "unexplored")?;
-    Figure {
-        title: format!("Pose covariance trace — {world} ({note})"),
-        x_label: "time (s)".into(),
-        y_label: COV_TRACE_LABEL.into(),
-        y_range: None,
-        curves: curves(strategies, figures, |r| r.cov_trace),
-    }
-    .write(out, "cov_trace")
+    let subject = format!("{world} (mean over seeds, band 25–75 %)");
+    plot::write_mission_figures(
+        out,
+        &subject,
+        curves(strategies, figures, |r| r.unexplored_pct),
+        curves(strategies, figures, |r| r.cov_trace),
+    )
 }
 
 /// A number for a table: 3 significant digits, plain when 0.01 ≤ |v| < 10⁵.

@@ -8,7 +8,7 @@
 //! files per run.
 
 use crate::load;
-use crate::plot::{Curve, Figure};
+use crate::plot::{self, Curve};
 use anyhow::{Context, Result, bail};
 use clap::{Args, ValueEnum};
 use fitslam_core::{
@@ -227,26 +227,8 @@ pub fn run_and_write(
     let label = format!("{strategy:?} seed {seed}").to_lowercase();
     let t: Vec<f64> = rows.iter().map(|r| r.time_s).collect();
     let curve = |y: Vec<f64>| Curve { label: label.clone(), t_s: t.clone(), y, band: None };
-    let title = format!("{} — {label}", setup.world.spec.name);
-    Figure {
-        title: format!("Unexplored area, {title}"),
-        x_label: "time (s)".into(),
-        y_label: "unexplored (% of explorable cells)".into(),
-        y_range: Some((0.0, 100.0)),
-        curves: vec![curve(rows.iter().map(|r| r.unexplored_pct).collect())],
-    }
-    .write(out, "unexplored")?;
-    Figure {
-        title: format!("Pose covariance trace, {title}"),
-        x_label: "time (s)".into(),
-        y_label: COV_TRACE_LABEL.into(),
-        y_range: None,
-        curves: vec![curve(rows.iter().map(|r| r.cov_trace).collect())],
-    }
-    .write(out, "cov_trace")?;
+    let subject = format!("{} — {label}", setup.world.spec.name);
+    let curves = |f: fn(&MetricsRow) -> f64| vec![curve(rows.iter().map(f).collect())];
+    plot::write_mission_figures(out, &subject, curves(|r| r.unexplored_pct), curves(|r| r.cov_trace))?;
     Ok(RunOutput { summary, rows, wall_s })
 }
-
-/// The y label of cov_trace plots: the trace of the pose covariance (6×6 with SLAM, (x, y, θ) with
-/// odometry) adds m² and rad².
-pub const COV_TRACE_LABEL: &str = "tr(cov) (m² + rad²)";

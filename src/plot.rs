@@ -172,6 +172,24 @@ impl Figure {
     }
 }
 
+/// The y label of cov_trace plots: the trace of the pose covariance (6×6 with SLAM, (x, y, θ) with
+/// odometry) adds m² and rad².
+const COV_TRACE_LABEL: &str = "tr(cov) (m² + rad²)";
+
+/// The two figures of a mission or a comparison (notes §8), `DIR/unexplored.{svg,png}` and
+/// `DIR/cov_trace.{svg,png}`: % unexplored and tr(cov) over time; `subject` ends both titles.
+pub fn write_mission_figures(dir: &Path, subject: &str, unexplored: Vec<Curve>, cov_trace: Vec<Curve>) -> Result<()> {
+    let figure = |what: &str, y_label: &str, y_range, curves| Figure {
+        title: format!("{what} — {subject}"),
+        x_label: "time (s)".into(),
+        y_label: y_label.into(),
+        y_range,
+        curves,
+    };
+    figure("Unexplored area", "unexplored (% of explorable cells)", Some((0.0, 100.0)), unexplored).write(dir, "unexplored")?;
+    figure("Pose covariance trace", COV_TRACE_LABEL, None, cov_trace).write(dir, "cov_trace")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

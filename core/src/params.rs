@@ -329,16 +329,13 @@ impl Params {
 
     /// Checks ranges; returns a message naming the first bad field.
     pub fn validate(&self) -> Result<(), String> {
-        fn pos(name: &str, v: f64) -> Result<(), String> {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number > 0 (got {v})")) }
-        }
+        let pos = check_positive;
+        let nonneg = check_non_negative;
         fn unit(name: &str, v: f64) -> Result<(), String> {
             if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} must be in [0, 1] (got {v})")) }
         }
         pos("grid.resolution_m", self.grid.resolution_m)?;
-        if !(self.robot.radius_m >= 0.0 && self.robot.radius_m.is_finite()) {
-            return Err(format!("robot.radius_m must be ≥ 0 (got {})", self.robot.radius_m));
-        }
+        nonneg("robot.radius_m", self.robot.radius_m)?;
         if !self.robot.camera_height_m.is_finite() {
             return Err("robot.camera_height_m must be finite".into());
         }
@@ -356,18 +353,12 @@ impl Params {
         pos("traversability.max_step_m", self.traversability.max_step_m)?;
         pos("traversability.max_roughness_m", self.traversability.max_roughness_m)?;
         unit("traversability.tau", self.traversability.tau)?;
-        if !(self.traversability.noise_discount_sigmas >= 0.0 && self.traversability.noise_discount_sigmas.is_finite()) {
-            return Err("traversability.noise_discount_sigmas must be ≥ 0".into());
-        }
-        if !(self.traversability.min_spread_ratio >= 0.0 && self.traversability.min_spread_ratio.is_finite()) {
-            return Err("traversability.min_spread_ratio must be ≥ 0".into());
-        }
+        nonneg("traversability.noise_discount_sigmas", self.traversability.noise_discount_sigmas)?;
+        nonneg("traversability.min_spread_ratio", self.traversability.min_spread_ratio)?;
         if self.frontier.max_cluster_cells == 0 || self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
             return Err("frontier: need 0 < min_cluster_cells ≤ max_cluster_cells".into());
         }
-        if !(self.frontier.blacklist_radius_m >= 0.0 && self.frontier.blacklist_radius_m.is_finite()) {
-            return Err("frontier.blacklist_radius_m must be ≥ 0".into());
-        }
+        nonneg("frontier.blacklist_radius_m", self.frontier.blacklist_radius_m)?;
         unit("u1.alpha", self.u1.alpha)?;
         pos("u1.delta_theta_rad", self.u1.delta_theta_rad)?;
         if self.u1.delta_theta_rad > std::f64::consts::TAU {
@@ -385,9 +376,7 @@ impl Params {
             pos("u2.waypoint_spacing_m", s)?;
         }
         pos("u2.sigma_bearing_rad", self.u2.sigma_bearing_rad)?;
-        if !(self.u2.sigma_landmark_m >= 0.0 && self.u2.sigma_landmark_m.is_finite()) {
-            return Err("u2.sigma_landmark_m must be ≥ 0".into());
-        }
+        nonneg("u2.sigma_landmark_m", self.u2.sigma_landmark_m)?;
         Ok(())
     }
 
@@ -395,6 +384,16 @@ impl Params {
     pub fn waypoint_spacing_m(&self) -> f64 {
         self.u2.waypoint_spacing_m.unwrap_or(self.camera.max_depth_m)
     }
+}
+
+/// `Ok` when `v` is finite and > 0, else a message naming the field `name` (for `validate`s).
+pub fn check_positive(name: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number > 0 (got {v})")) }
+}
+
+/// `Ok` when `v` is finite and ≥ 0, else a message naming the field `name` (for `validate`s).
+pub fn check_non_negative(name: &str, v: f64) -> Result<(), String> {
+    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number ≥ 0 (got {v})")) }
 }
 
 #[cfg(test)]

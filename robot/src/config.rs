@@ -241,9 +241,7 @@ impl ConfigFile {
 impl NodeConfig {
     /// Checks ranges and names.
     pub fn validate(&self) -> Result<(), String> {
-        fn pos(name: &str, v: f64) -> Result<(), String> {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("node.{name} must be a finite number > 0 (got {v})")) }
-        }
+        let pos = |name: &str, v: f64| fitslam_core::params::check_positive(&format!("node.{name}"), v);
         pos("replan_period_s", self.replan_period_s)?;
         pos("goal_timeout_s", self.goal_timeout_s)?;
         pos("goal_response_timeout_s", self.goal_response_timeout_s)?;

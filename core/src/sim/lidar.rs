@@ -146,9 +146,7 @@ impl RayCaster {
         let (au, bu) = ((origin.x - g.origin_x_m) * inv_res - 0.5, dir.x * inv_res);
         let (av, bv) = ((origin.y - g.origin_y_m) * inv_res - 0.5, dir.y * inv_res);
         let (oz, dz) = (origin.z, dir.z);
-        // Patch index of a coordinate inside the grid (u ≥ −½, so u + 1 > 0 truncates = floor).
-        let patch = |u: f64, n: usize| ((u + 1.0).max(0.0) as usize).min(n);
-        let (mut p, mut q) = (patch(au, w), patch(av, h));
+        let (mut p, mut q) = (patch_index(au, w), patch_index(av, h));
         let top = self.levels.len() - 1;
         let mut level = 0usize;
         let mut t = 0.0f64;
@@ -193,43 +191,33 @@ impl RayCaster {
             // Step into the next node along the exit side(s); the other index follows the ray,
             // kept inside this node's range against rounding.
             t = t_exit;
-            let (exit_x, exit_y) = (tx <= ty, ty <= tx);
-            if exit_x {
-                if bu > 0.0 {
-                    p = p_hi + 1;
-                    if p > w {
-                        return None;
-                    }
-                } else {
-                    if p_lo == 0 {
-                        return None;
-                    }
-                    p = p_lo - 1;
-                }
-            } else if bu != 0.0 {
-                // Monotone along the ray, so the walk always progresses.
-                let along = patch(au + bu * t, w).clamp(p_lo, p_hi);
-                p = if bu > 0.0 { along.max(p) } else { along.min(p) };
-            }
-            if exit_y {
-                if bv > 0.0 {
-                    q = q_hi + 1;
-                    if q > h {
-                        return None;
-                    }
-                } else {
-                    if q_lo == 0 {
-                        return None;
-                    }
-                    q = q_lo - 1;
-                }
-            } else if bv != 0.0 {
-                let along = patch(av + bv * t, h).clamp(q_lo, q_hi);
-                q = if bv > 0.0 { along.max(q) } else { along.min(q) };
-            }
+            p = next_patch(tx <= ty, p, (p_lo, p_hi), au + bu * t, bu, w)?;
+            q = next_patch(ty <= tx, q, (q_lo, q_hi), av + bv * t, bv, h)?;
             level = (level + 1).min(top);
         }
     }
+}
+
+/// One axis of the walk's step to the next node: the patch index after the node spanning
+/// `lo..=hi` (`n` patches along the axis). When the ray `exits` across this axis it moves one past
+/// the node's side, `None` past the grid; otherwise the index follows the ray's coordinate `u`
+/// (slope `b`), kept in the node's range and monotone along the ray so the walk always progresses.
+#[inline]
+fn next_patch(exits: bool, index: usize, (lo, hi): (usize, usize), u: f64, b: f64, n: usize) -> Option<usize> {
+    if exits {
+        return if b > 0.0 { Some(hi + 1).filter(|&i| i <= n) } else { lo.checked_sub(1) };
+    }
+    if b == 0.0 {
+        return Some(index);
+    }
+    let along = patch_index(u, n).clamp(lo, hi);
+    Some(if b > 0.0 { along.max(index) } else { along.min(index) })
+}
+
+/// Patch index of a coordinate inside the grid (u ≥ −½, so u + 1 > 0 truncates = floor).
+#[inline]
+fn patch_index(u: f64, n: usize) -> usize {
+    ((u + 1.0).max(0.0) as usize).min(n)
 }
 
 /// The first t in [t0, t1] where the ray `[au, bu, av, bv, oz, dz]` (u = au + bu·t,

@@ -147,7 +147,7 @@ impl MissionParams {
 
     /// Checks ranges; returns a message naming the first bad field.
     pub fn validate(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be > 0 (got {v})")) };
+        let pos = crate::params::check_positive;
         pos("dt_s", self.dt_s)?;
         pos("drive.max_speed_mps", self.drive.max_speed_mps)?;
         pos("drive.max_turn_rate_radps", self.drive.max_turn_rate_radps)?;

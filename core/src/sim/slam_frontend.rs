@@ -127,9 +127,8 @@ impl Default for SlamParams {
 impl SlamParams {
     /// Checks ranges; returns a message naming the first bad field.
     pub fn validate(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("slam.{name} must be > 0 (got {v})")) };
-        let nonneg =
-            |name: &str, v: f64| if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("slam.{name} must be ≥ 0 (got {v})")) };
+        let pos = |name: &str, v: f64| crate::params::check_positive(&format!("slam.{name}"), v);
+        let nonneg = |name: &str, v: f64| crate::params::check_non_negative(&format!("slam.{name}"), v);
         pos("keyframe_every_m", self.keyframe_every_m)?;
         pos("keyframe_every_rad", self.keyframe_every_rad)?;
         nonneg("z_sigma_per_sqrt_m", self.z_sigma_per_sqrt_m)?;
