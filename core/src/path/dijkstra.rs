@@ -4,24 +4,63 @@
 //! Dial-style bucket queue, exact for these costs: edge costs are 1 or √2 (in cells), so with
 //! buckets one cell wide (bucket k holds costs in [k, k+1)) a node settled from bucket k can only
 //! relax others into buckets k+1 or k+2 — never improve a node of its own bucket — so a bucket's
-//! nodes may be settled in any order and three rotating buckets suffice.
+//! nodes may be settled in any order, three rotating buckets suffice, and everything in bucket k
+//! is final when k is reached.
 //!
-//! Memory is what costs here, not arithmetic, so the search works on a **window**: the bounding
-//! box of the passable cells (no path can leave it), padded with a border of impassable cells so
-//! the inner loop has no bounds checks. Per window cell it keeps an f64 cost, one flag byte
-//! (passable, settled, target) and one parent byte (the move that reached it): 10 bytes, not the
-//! 4 million × 17 bytes a whole-grid layout with u32 parents would touch on a 2000 × 2000 map.
-//! With targets ([`dijkstra_to`]) the search stops as soon as all of them are settled.
+//! Costs are **fixed-point integers**: `1 + cells · 2^shift`, with the largest shift (≤ 52) for
+//! which no path in the window (fewer moves than cells, each ≤ 2 cells) can overflow a u64. Sums
+//! of 1s are exact and each √2 is rounded to within 2^-(shift+1) cells, so two paths of at most
+//! L moves compare with an error below 2L · 2^-(shift+1) cells. Distinct real lengths a + b√2 with
+//! a, b ≤ L differ by at least 1/((1 + √2) L) (as |a² − 2b²| ≥ 1), so comparisons — and the
+//! optimum — are exact whenever L² < 2^shift / 2.5: any path at all in a window of up to ~1.2
+//! million cells, and paths of up to ~940,000 moves in a 2000 × 2000 window (shift 41). Integer
+//! costs also make the bucket index a shift, with no float conversion in the inner loop.
+//!
+//! Memory is what costs here, so the search works on a **window**: the bounding box of the
+//! passable cells (no path can leave it), padded with a border of impassable cells so no move
+//! leaves the arrays. Per window cell it keeps only the cost (0 = impassable, so one comparison
+//! tests both passability and improvement): 8 bytes, against 4 million × 17 bytes for a
+//! whole-grid layout with f64 costs and u32 parents on a 2000 × 2000 map. Parents are not stored;
+//! exact integer costs let [`DistanceField::path_to`] recover them. Each bucket is put into
+//! block-wise memory order before it is settled ([`BlockOrder`]). With targets ([`dijkstra_to`])
+//! the search stops as soon as all of them are settled.
 //!
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
 
 use super::{Path, PathError, check_start};
 use crate::grid::{Cell, GridGeometry, OccupancyGrid};
 
-const PASSABLE: u8 = 1;
-const SETTLED: u8 = 2;
-const TARGET: u8 = 4;
-const NO_PARENT: u8 = u8::MAX;
+/// Cost of an impassable (or border) cell: below every real cost, which is ≥ 1.
+const BLOCKED: u64 = 0;
+const UNREACHED: u64 = u64::MAX;
+/// Cost of the start: zero path length.
+const START: u64 = 1;
+
+/// The fixed-point cost scale: one cell is `2^shift`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Scale {
+    shift: u32,
+    orth: u64,
+    diag: u64,
+}
+
+impl Scale {
+    /// The finest scale at which no path through `cells` cells (each move ≤ 2 cells) overflows.
+    fn for_cells(cells: usize) -> Self {
+        let shift = (u64::MAX / (2 * cells as u64 + 2)).ilog2().min(52);
+        let orth = 1u64 << shift;
+        Self { shift, orth, diag: (std::f64::consts::SQRT_2 * orth as f64).round() as u64 }
+    }
+
+    #[inline]
+    fn bucket(&self, cost: u64) -> u64 {
+        cost >> self.shift
+    }
+
+    fn cells(&self, cost: u64) -> f64 {
+        (cost - 1) as f64 / self.orth as f64
+    }
+}
 
 /// The searched part of the grid: columns `col0..col0 + width`, rows `row0..row0 + height`, stored
 /// with a one-cell border (padded width `width + 2`).
@@ -68,13 +107,12 @@ pub struct DistanceField {
     pub geometry: GridGeometry,
     pub start: Cell,
     window: Window,
-    /// Path cost from the start in cell units (padded window layout); exact where settled.
-    cost_cells: Vec<f64>,
-    flags: Vec<u8>,
-    /// Move (index into [`Window::offsets`]) by which each settled cell was reached.
-    parent_move: Vec<u8>,
-    /// Whether every reachable cell was settled (no early stop).
-    complete: bool,
+    scale: Scale,
+    /// Fixed-point path cost from the start (padded window layout): [`BLOCKED`] where
+    /// impassable, [`UNREACHED`] where not reached, final where settled.
+    cost: Vec<u64>,
+    /// Reached cells cheaper than this are settled ([`UNREACHED`]: every reachable cell is).
+    settled_below: u64,
 }
 
 impl DistanceField {
@@ -82,13 +120,18 @@ impl DistanceField {
     fn settled_index(&self, cell: Cell) -> Option<usize> {
         self.geometry.index(cell)?;
         let p = self.window.index(cell)?;
-        (self.flags[p] & SETTLED != 0).then_some(p)
+        self.is_settled(self.cost[p]).then_some(p)
+    }
+
+    #[inline]
+    fn is_settled(&self, cost: u64) -> bool {
+        cost != BLOCKED && cost < self.settled_below
     }
 
     /// Path length from the start to `cell` in metres, if it was reached. After an early stop
     /// ([`dijkstra_to`]) cells farther than the last target are not reached.
     pub fn distance_m(&self, cell: Cell) -> Option<f64> {
-        self.settled_index(cell).map(|p| self.cost_cells[p] * self.geometry.resolution_m)
+        self.settled_index(cell).map(|p| self.scale.cells(self.cost[p]) * self.geometry.resolution_m)
     }
 
     /// Whether `cell` was reached (see [`Self::distance_m`]).
@@ -98,26 +141,38 @@ impl DistanceField {
 
     /// Whether the search settled every reachable cell (then "not reached" means unreachable).
     pub fn is_complete(&self) -> bool {
-        self.complete
+        self.settled_below == UNREACHED
     }
 
     /// Number of cells settled.
     pub fn settled_count(&self) -> usize {
-        self.flags.iter().filter(|&&f| f & SETTLED != 0).count()
+        self.cost.iter().filter(|&&c| self.is_settled(c)).count()
     }
 
-    /// The shortest path from the start to `cell`, if reached.
+    /// The shortest path from the start to `cell`, if reached. Parents are not stored: with
+    /// exact integer costs, a cell's parent is the first neighbour (in move order) whose cost
+    /// plus the legal move's cost is exactly its own.
     pub fn path_to(&self, cell: Cell) -> Option<Path> {
         let mut k = self.settled_index(cell)?;
-        let length_m = self.cost_cells[k] * self.geometry.resolution_m;
+        let length_m = self.scale.cells(self.cost[k]) * self.geometry.resolution_m;
         let offsets = self.window.offsets();
+        let open = |p: isize| self.cost[p as usize] != BLOCKED;
         let mut cells = vec![cell];
-        loop {
-            let m = self.parent_move[k];
-            if m == NO_PARENT {
-                break;
-            }
-            k = (k as isize - offsets[usize::from(m)]) as usize;
+        while self.cost[k] != START {
+            let ck = self.cost[k];
+            let parent = offsets.iter().enumerate().find_map(|(m, &d)| {
+                let j = k as isize - d;
+                let (step, legal) = if m < 4 {
+                    (self.scale.orth, true)
+                } else {
+                    // The diagonal d = dy·pw + dx from j needs j + dx and j + dy·pw open.
+                    let dx = if m % 2 == 0 { 1 } else { -1 };
+                    (self.scale.diag, open(j + dx) && open(j + d - dx))
+                };
+                (legal && ck.checked_sub(step) == Some(self.cost[j as usize])).then_some(j as usize)
+            });
+            // A settled non-start cell always has one (it was reached by such a move).
+            k = parent?;
             cells.push(self.window.cell(k));
         }
         cells.reverse();
@@ -136,19 +191,66 @@ pub fn dijkstra_to(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targe
     search(grid, start, allow_unknown, Some(targets))
 }
 
-/// Bounding box of the passable cells (non-empty: the start is passable).
-fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Window {
-    let g = grid.geometry;
-    let (mut c0, mut c1, mut r0, mut r1) = (start.col as usize, start.col as usize, start.row as usize, start.row as usize);
-    for r in 0..g.height {
-        let row = &grid.data[r * g.width..(r + 1) * g.width];
-        if let Some(first) = row.iter().position(|&v| super::passable(v, allow_unknown)) {
-            let last = row.iter().rposition(|&v| super::passable(v, allow_unknown)).unwrap_or(first);
-            c0 = c0.min(first);
-            c1 = c1.max(last);
-            r0 = r0.min(r);
-            r1 = r1.max(r);
+/// Puts a bucket into memory order block by block (a counting sort on `index >> BLOCK_SHIFT`), so
+/// that the wavefront is processed a few rows at a time and a block's costs stay in cache: most of
+/// a full sort's locality at a fraction of its cost.
+struct BlockOrder {
+    counts: Vec<u32>,
+    scratch: Vec<u32>,
+}
+
+impl BlockOrder {
+    /// 4096 cells: 32 KiB of costs, a few rows of a typical window.
+    const BLOCK_SHIFT: u32 = 12;
+
+    fn new(cells: usize) -> Self {
+        Self { counts: vec![0; (cells >> Self::BLOCK_SHIFT) + 2], scratch: Vec::new() }
+    }
+
+    fn order(&mut self, bucket: &mut Vec<u32>) {
+        if bucket.len() < 64 {
+            return;
         }
+        self.counts.fill(0);
+        for &p in bucket.iter() {
+            self.counts[(p >> Self::BLOCK_SHIFT) as usize + 1] += 1;
+        }
+        for b in 1..self.counts.len() {
+            self.counts[b] += self.counts[b - 1];
+        }
+        self.scratch.clear();
+        self.scratch.resize(bucket.len(), 0);
+        for &p in bucket.iter() {
+            let slot = &mut self.counts[(p >> Self::BLOCK_SHIFT) as usize];
+            self.scratch[*slot as usize] = p;
+            *slot += 1;
+        }
+        std::mem::swap(bucket, &mut self.scratch);
+    }
+}
+
+/// Bounding box of the passable cells (non-empty: the start is passable). Rows are scanned in
+/// chunks with a branch-free test, which the compiler vectorises.
+fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Window {
+    const CHUNK: usize = 64;
+    let g = grid.geometry;
+    let passable = |v: &i8| super::passable(*v, allow_unknown);
+    // Passable is "below the lethal threshold", signed (unknown allowed) or unsigned (unknown,
+    // being negative, is then large): a chunk has a passable cell iff its minimum does.
+    let any = |chunk: &[i8]| match allow_unknown {
+        true => chunk.iter().copied().min().is_some_and(|v| passable(&v)),
+        false => chunk.iter().map(|&v| v as u8).min().is_some_and(|v| passable(&(v as i8))),
+    };
+    let (mut c0, mut c1, mut r0, mut r1) = (start.col as usize, start.col as usize, start.row as usize, start.row as usize);
+    for (r, row) in grid.data.chunks_exact(g.width).enumerate() {
+        let Some(first) = row.chunks(CHUNK).position(any) else { continue };
+        let last = row.chunks(CHUNK).rposition(any).unwrap_or(first);
+        let first = first * CHUNK + row[first * CHUNK..].iter().position(passable).unwrap_or(0);
+        let last = last * CHUNK + row[last * CHUNK..].chunks(CHUNK).next().and_then(|c| c.iter().rposition(passable)).unwrap_or(0);
+        c0 = c0.min(first);
+        c1 = c1.max(last);
+        r0 = r0.min(r);
+        r1 = r1.max(r);
     }
     Window { col0: c0, row0: r0, width: c1 - c0 + 1, height: r1 - r0 + 1 }
 }
@@ -159,43 +261,45 @@ fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: Optio
     let win = passable_window(grid, allow_unknown, start);
     let pw = win.padded_width();
     let n = pw * (win.height + 2);
-    let mut flags = vec![0u8; n];
+    let scale = Scale::for_cells(n);
+    let mut cost = vec![BLOCKED; n];
     for r in 0..win.height {
         let src = (win.row0 + r) * g.width + win.col0;
         let row = &grid.data[src..src + win.width];
-        let out = &mut flags[(r + 1) * pw + 1..(r + 1) * pw + 1 + win.width];
+        let out = &mut cost[(r + 1) * pw + 1..(r + 1) * pw + 1 + win.width];
         for (o, &v) in out.iter_mut().zip(row) {
-            *o = u8::from(super::passable(v, allow_unknown));
+            *o = if super::passable(v, allow_unknown) { UNREACHED } else { BLOCKED };
         }
     }
+    // Target marks, one bit per window cell (read once per settled cell).
+    let mut is_target = vec![0u64; n.div_ceil(64)];
+    let bit = |p: usize| (p / 64, 1u64 << (p % 64));
     let mut targets_left = usize::MAX;
     if let Some(targets) = targets {
         targets_left = 0;
         for &t in targets {
             if let Some(p) = win.index(t).filter(|_| g.index(t).is_some())
-                && flags[p] & (PASSABLE | TARGET) == PASSABLE
+                && cost[p] != BLOCKED
+                && is_target[bit(p).0] & bit(p).1 == 0
             {
-                flags[p] |= TARGET;
+                is_target[bit(p).0] |= bit(p).1;
                 targets_left += 1;
             }
         }
     }
-    let mut cost = vec![f64::INFINITY; n];
-    let mut parent_move = vec![NO_PARENT; n];
     let s = win.index(start).ok_or(PathError::StartOutsideMap)?;
     let mut buckets: [Vec<u32>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    cost[s] = 0.0;
+    cost[s] = START;
     buckets[0].push(s as u32);
-    let off = win.offsets();
-    let sqrt2 = std::f64::consts::SQRT_2;
-    let (mut k, mut empty) = (0usize, 0);
+    let mut blocks = BlockOrder::new(n);
+    let (mut k, mut empty) = (0u64, 0);
     // Targets given but none passable: nothing to search for.
-    let mut complete = targets_left != 0;
-    if !complete {
+    let mut settled_below = if targets_left == 0 { 1 } else { UNREACHED };
+    if targets_left == 0 {
         empty = 3;
     }
     'search: while empty < 3 {
-        let b = k % 3;
+        let b = (k % 3) as usize;
         if buckets[b].is_empty() {
             empty += 1;
             k += 1;
@@ -203,45 +307,43 @@ fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: Optio
         }
         empty = 0;
         let mut bucket = std::mem::take(&mut buckets[b]);
-        // Memory order: neighbouring cells of the wavefront share cache lines.
-        bucket.sort_unstable();
+        blocks.order(&mut bucket);
         for &iu in &bucket {
             let i = iu as usize;
-            if flags[i] & SETTLED != 0 || cost[i] as usize != k {
+            let ci = cost[i];
+            // A cell is queued in each bucket its cost passes through; only its final one counts.
+            if scale.bucket(ci) != k {
                 continue;
             }
-            flags[i] |= SETTLED;
-            if flags[i] & TARGET != 0 {
+            if is_target[bit(i).0] & bit(i).1 != 0 {
                 targets_left -= 1;
                 if targets_left == 0 {
-                    complete = false;
+                    settled_below = (k + 1) << scale.shift;
                     break 'search;
                 }
             }
-            let ci = cost[i];
-            for (m, &d) in off[..4].iter().enumerate() {
-                let j = (i as isize + d) as usize;
-                let c = ci + 1.0;
-                if flags[j] & PASSABLE != 0 && c < cost[j] {
+            let (east, west, north, south) = (i + 1, i - 1, i + pw, i - pw);
+            let open = |j: usize| cost[j] != BLOCKED;
+            let (e, w, n, s) = (open(east), open(west), open(north), open(south));
+            // Relaxations land in bucket k + 1 or k + 2, never in the one being settled.
+            let mut relax = |j: usize, c: u64| {
+                let cj = cost[j];
+                if c < cj {
                     cost[j] = c;
-                    parent_move[j] = m as u8;
-                    buckets[c as usize % 3].push(j as u32);
+                    if scale.bucket(cj) != scale.bucket(c) {
+                        buckets[(scale.bucket(c) % 3) as usize].push(j as u32);
+                    }
                 }
+            };
+            let c = ci + scale.orth;
+            for j in [east, west, north, south] {
+                relax(j, c);
             }
-            for (m, &d) in off.iter().enumerate().skip(4) {
-                let j = (i as isize + d) as usize;
-                let c = ci + sqrt2;
-                // No corner cutting: both orthogonal neighbours must be passable. The diagonal
-                // d = dy·pw + dx splits into the orthogonal moves dx and dy·pw.
-                let (dx, dy) = if m % 2 == 0 { (1, d - 1) } else { (-1, d + 1) };
-                if flags[j] & PASSABLE != 0
-                    && c < cost[j]
-                    && flags[(i as isize + dx) as usize] & PASSABLE != 0
-                    && flags[(i as isize + dy) as usize] & PASSABLE != 0
-                {
-                    cost[j] = c;
-                    parent_move[j] = m as u8;
-                    buckets[c as usize % 3].push(j as u32);
+            // Diagonals, without cutting corners: both orthogonal neighbours must be passable.
+            let c = ci + scale.diag;
+            for (ok, j) in [(e && n, north + 1), (w && n, north - 1), (e && s, south + 1), (w && s, south - 1)] {
+                if ok {
+                    relax(j, c);
                 }
             }
         }
@@ -249,5 +351,22 @@ fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: Optio
         buckets[b] = bucket;
         k += 1;
     }
-    Ok(DistanceField { geometry: g, start, window: win, cost_cells: cost, flags, parent_move, complete })
+    Ok(DistanceField { geometry: g, start, window: win, scale, cost, settled_below })
+}
+
+#[cfg(test)]
+mod scale_tests {
+    use super::Scale;
+
+    #[test]
+    fn the_scale_is_the_finest_that_cannot_overflow() {
+        let n = 2002 * 2002;
+        let s = Scale::for_cells(n);
+        assert_eq!(s.shift, 41);
+        assert!((2 * n as u128 + 2) << s.shift <= u64::MAX as u128);
+        assert!((2 * n as u128 + 2) << (s.shift + 1) > u64::MAX as u128);
+        assert!((s.diag as f64 - std::f64::consts::SQRT_2 * 2f64.powi(41)).abs() <= 0.5);
+        assert_eq!(Scale::for_cells(100).shift, 52);
+        assert_eq!(s.cells(1 + 3 * s.orth), 3.0);
+    }
 }

@@ -9,7 +9,7 @@ mod dijkstra;
 pub use astar::astar;
 pub use dijkstra::{DistanceField, dijkstra, dijkstra_to};
 
-use crate::grid::{Cell, CellClass, GridGeometry, OccupancyGrid};
+use crate::grid::{Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -51,11 +51,8 @@ impl Path {
 /// Whether a cell value can be driven through.
 #[inline]
 pub fn passable(value: i8, allow_unknown: bool) -> bool {
-    match CellClass::of(value) {
-        CellClass::Free => true,
-        CellClass::Unknown => allow_unknown,
-        CellClass::Lethal => false,
-    }
+    // Branch-free form of "free, or unknown if allowed" (unknown is negative), so scans vectorise.
+    if allow_unknown { value < LETHAL_THRESHOLD } else { (value as u8) < LETHAL_THRESHOLD as u8 }
 }
 
 /// The 8 moves as (dcol, drow, cost in cells), orthogonal first.

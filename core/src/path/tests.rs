@@ -162,3 +162,29 @@ fn the_window_is_the_bounding_box_of_the_free_cells() {
     assert!(near.settled_count() < 14);
     assert_eq!(near.distance_m(Cell::new(3, 1)), Some(0.1));
 }
+
+#[test]
+fn passable_is_free_or_allowed_unknown_for_every_value() {
+    for v in i8::MIN..=i8::MAX {
+        let class = crate::grid::CellClass::of(v);
+        assert_eq!(passable(v, false), class == crate::grid::CellClass::Free, "{v}");
+        assert_eq!(passable(v, true), class != crate::grid::CellClass::Lethal, "{v}");
+    }
+}
+
+#[test]
+fn long_paths_keep_exact_octile_lengths() {
+    // 1500 × 1500 open cells: the fixed-point scale is coarsest here among the tests; the corner
+    // to corner path is 1499 diagonal moves and a straight edge is 1499 orthogonal ones.
+    let g = Grid::filled(GridGeometry::new(0.0, 0.0, 0.05, 1500, 1500), FREE);
+    let d = dijkstra(&g, Cell::new(0, 0), false).unwrap();
+    let diag = d.distance_m(Cell::new(1499, 1499)).unwrap();
+    assert!((diag - 0.05 * 1499.0 * std::f64::consts::SQRT_2).abs() < 1e-9, "{diag}");
+    assert!((d.distance_m(Cell::new(1499, 0)).unwrap() - 0.05 * 1499.0).abs() < 1e-12);
+    // A knight-like target: 700 diagonal + 300 orthogonal moves.
+    let knight = d.distance_m(Cell::new(1000, 700)).unwrap();
+    assert!((knight - 0.05 * (300.0 + 700.0 * std::f64::consts::SQRT_2)).abs() < 1e-9, "{knight}");
+    let p = d.path_to(Cell::new(1000, 700)).unwrap();
+    assert_eq!(p.cells.len(), 1001);
+    assert_eq!(p.length_m, knight);
+}
