@@ -1,6 +1,7 @@
 //! Wavefront frontier detection (WFD; notes §3, paper §II-C).
 //!
-//! A BFS over free cells from the robot's cell, 4-connected. With the planner's no-corner-cutting
+//! A flood fill (the paper's BFS; the order does not change the result) over free cells from the
+//! robot's cell, 4-connected. With the planner's no-corner-cutting
 //! rule (a diagonal step needs both orthogonal neighbours passable, see [`crate::path`]) every
 //! diagonal move can be replaced by two orthogonal ones, so this is exactly the set of cells the
 //! 8-connected planner reaches with `allow_unknown = false`. A reached cell is a *frontier cell*
@@ -8,7 +9,7 @@
 //! its centre lies inside the exploration [`Boundary`] (the BFS itself ignores the boundary: the
 //! robot may drive outside it to reach a frontier inside it).
 //!
-//! Flat arrays only: one `u8` state per cell and a `VecDeque` of indices. O(N) time and memory for
+//! Flat arrays only: one `u8` state per cell and a stack of (column, row). O(N) time and memory for
 //! N grid cells (the BFS touches only reachable cells; the state layer is allocated zeroed), plus
 //! O(F log F) to sort the F frontier cells by index, plus O(F·V) for a boundary of V vertices.
 
@@ -16,7 +17,6 @@ use super::cluster::cluster_frontier;
 use super::{Boundary, FrontierCluster, FrontierError};
 use crate::grid::{Cell, CellClass, OccupancyGrid};
 use crate::params::FrontierParams;
-use std::collections::VecDeque;
 
 /// State layer values shared with the clustering step.
 pub(super) const UNREACHED: u8 = 0;
@@ -36,34 +36,38 @@ pub(super) fn wavefront(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Bou
     }
     let (w, h) = (g.width, g.height);
     let mut state = vec![UNREACHED; g.len()];
-    let mut queue = VecDeque::new();
+    // The reached set does not depend on the visiting order, so a stack will do; cells carry
+    // their column and row, so no division is needed to find the map's edges.
+    let mut stack = vec![(start % w, start / w)];
     let mut frontier = Vec::new();
     state[start] = REACHED;
-    queue.push_back(start);
-    while let Some(i) = queue.pop_front() {
-        let (c, r) = (i % w, i / w);
+    while let Some((c, r)) = stack.pop() {
+        let i = r * w + c;
         let mut touches_unknown = false;
-        let mut visit = |j: usize| match CellClass::of(grid.data[j]) {
-            CellClass::Free => {
-                if state[j] == UNREACHED {
-                    state[j] = REACHED;
-                    queue.push_back(j);
+        let mut visit = |cc: usize, rr: usize| {
+            let j = rr * w + cc;
+            match CellClass::of(grid.data[j]) {
+                CellClass::Free => {
+                    if state[j] == UNREACHED {
+                        state[j] = REACHED;
+                        stack.push((cc, rr));
+                    }
                 }
+                CellClass::Unknown => touches_unknown = true,
+                CellClass::Lethal => {}
             }
-            CellClass::Unknown => touches_unknown = true,
-            CellClass::Lethal => {}
         };
         if c > 0 {
-            visit(i - 1);
+            visit(c - 1, r);
         }
         if c + 1 < w {
-            visit(i + 1);
+            visit(c + 1, r);
         }
         if r > 0 {
-            visit(i - w);
+            visit(c, r - 1);
         }
         if r + 1 < h {
-            visit(i + w);
+            visit(c, r + 1);
         }
         if touches_unknown
             && boundary.is_none_or(|b| {

@@ -3,11 +3,11 @@
 //!
 //! Exact Euclidean inflation: a cell becomes lethal if the distance between its centre and the
 //! centre of any lethal cell is ≤ `radius_m`. Implemented as a stamp of the precomputed disc
-//! offsets around each lethal cell that borders a non-lethal one (interior lethal cells cannot
+//! (one horizontal span per row) around each lethal cell that borders a non-lethal one (interior lethal cells cannot
 //! add anything new). O(B · r²) for B boundary cells and r the radius in cells. Unknown cells
 //! stay unknown unless the disc covers them (then lethal: they are within reach of an obstacle).
 
-use super::{CellClass, LETHAL, OccupancyGrid};
+use super::{CellClass, LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
 
 /// Returns a copy of `grid` with every cell within `radius_m` of a lethal cell set to [`LETHAL`].
 pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
@@ -21,17 +21,23 @@ pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
         return out;
     }
     let r2 = (radius_m / g.resolution_m) * (radius_m / g.resolution_m) + 1e-9;
-    let offsets: Vec<(i32, i32)> = (-r_cells..=r_cells)
-        .flat_map(|dy| (-r_cells..=r_cells).map(move |dx| (dx, dy)))
-        .filter(|&(dx, dy)| ((dx * dx + dy * dy) as f64) <= r2)
+    // The disc as one horizontal span per row offset: (dy, half-width in cells).
+    let spans: Vec<(i32, i32)> = (-r_cells..=r_cells)
+        .map(|dy| (dy, (0..=r_cells).take_while(|&dx| ((dx * dx + dy * dy) as f64) <= r2).last().unwrap_or(0)))
         .collect();
     let (w, h) = (g.width as i32, g.height as i32);
     let lethal = |c: i32, r: i32| CellClass::of(grid.data[r as usize * g.width + c as usize]) == CellClass::Lethal;
-    for r in 0..h {
-        for c in 0..w {
-            if !lethal(c, r) {
-                continue;
-            }
+    const CHUNK: usize = 64;
+    for (r, row) in grid.data.chunks_exact(g.width).enumerate() {
+        let r = r as i32;
+        // Most of a map has no lethal cell: skip 64 cells at a time on their (vectorised) maximum.
+        let lethal_cols = row
+            .chunks(CHUNK)
+            .enumerate()
+            .filter(|(_, chunk)| chunk.iter().copied().max().is_some_and(|v| v >= LETHAL_THRESHOLD))
+            .flat_map(|(k, chunk)| (k * CHUNK..k * CHUNK + chunk.len()).filter(|&c| row[c] >= LETHAL_THRESHOLD));
+        for c in lethal_cols {
+            let c = c as i32;
             let interior = [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().all(|&(dx, dy)| {
                 let (nc, nr) = (c + dx, r + dy);
                 nc < 0 || nr < 0 || nc >= w || nr >= h || lethal(nc, nr)
@@ -39,10 +45,12 @@ pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
             if interior {
                 continue;
             }
-            for &(dx, dy) in &offsets {
-                let (nc, nr) = (c + dx, r + dy);
-                if nc >= 0 && nr >= 0 && nc < w && nr < h {
-                    out.data[nr as usize * g.width + nc as usize] = LETHAL;
+            for &(dy, half) in &spans {
+                let nr = r + dy;
+                if (0..h).contains(&nr) {
+                    let (c0, c1) = ((c - half).max(0) as usize, (c + half).min(w - 1) as usize);
+                    let row = nr as usize * g.width;
+                    out.data[row + c0..=row + c1].fill(LETHAL);
                 }
             }
         }
@@ -66,5 +74,29 @@ mod tests {
         assert_eq!(n, 13);
         assert_eq!(*out.get(Cell::new(7, 5)).unwrap(), LETHAL);
         assert_eq!(*out.get(Cell::new(7, 6)).unwrap(), FREE);
+    }
+
+    proptest::proptest! {
+        /// The span stamp agrees with the definition: lethal iff lethal before or within
+        /// `radius_m` (centre to centre) of a lethal cell.
+        #[test]
+        fn inflation_matches_the_definition(
+            cells in proptest::collection::vec(proptest::prop_oneof![8 => proptest::strategy::Just(FREE), 1 => proptest::strategy::Just(LETHAL), 1 => proptest::strategy::Just(crate::grid::UNKNOWN)], 24 * 17),
+            radius_cells in 0.0f64..4.5,
+        ) {
+            let g = GridGeometry::new(0.0, 0.0, 0.05, 24, 17);
+            let grid = Grid { geometry: g, data: cells };
+            let out = inflate_lethal(&grid, radius_cells * 0.05);
+            for r in 0..17i32 {
+                for c in 0..24i32 {
+                    let near = (0..17i32).any(|rr| (0..24i32).any(|cc| {
+                        let d2 = ((cc - c) * (cc - c) + (rr - r) * (rr - r)) as f64;
+                        *grid.get(Cell::new(cc, rr)).unwrap() == LETHAL && d2 <= radius_cells * radius_cells + 1e-9
+                    }));
+                    let expected = if near { LETHAL } else { *grid.get(Cell::new(c, r)).unwrap() };
+                    proptest::prop_assert_eq!(*out.get(Cell::new(c, r)).unwrap(), expected, "cell ({}, {})", c, r);
+                }
+            }
+        }
     }
 }
