@@ -237,8 +237,13 @@ impl StudioApp {
         egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, self));
 
         // The parameters or the scene may have changed above: bring the decision up to date.
-        // (The canvas drew last frame's decision for at most one frame.)
-        if self.params.validate().is_ok() && self.pipeline.update(&self.scene, self.revs, &self.params) {
+        // (The canvas drew last frame's decision for at most one frame.) A terrain map is
+        // re-scored first if a hazard parameter moved.
+        let valid = self.params.validate().is_ok();
+        if valid && self.scene.map.refresh_terrain(&self.params.traversability) {
+            self.revs.map += 1;
+        }
+        if valid && self.pipeline.update(&self.scene, self.revs, &self.params) {
             ctx.request_repaint();
             // While the robot is dragged across obstacles the canvas shows the error live; only
             // a failure that stays is worth a message.
@@ -263,8 +268,12 @@ impl StudioApp {
         let Some(lane) = self.mission.runner.as_mut().and_then(|r| r.lanes.get_mut(i)) else { return };
         let m = &mut lane.mission;
         let name = format!("{} / {} at t = {:.1} s", m.world.spec.name, crate::sim_runner::strategy_label(lane.strategy), m.time_s);
-        let map =
-            crate::scene::MapLayers { score: m.layers().score.clone(), source: name.clone(), kind: crate::scene::MapKind::Traversability };
+        let map = crate::scene::MapLayers {
+            score: m.layers().score.clone(),
+            source: name.clone(),
+            kind: crate::scene::MapKind::Traversability,
+            terrain: None,
+        };
         let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
         let mut scene = Scene::new(map, landmarks, Some(m.est), self.params.frontier.blacklist_radius_m);
         scene.robot = m.est;
@@ -576,6 +585,7 @@ fn empty_scene() -> Scene {
         score: Grid::filled(GridGeometry::new(0.0, 0.0, 0.05, 1, 1), f32::NAN),
         source: "empty".into(),
         kind: crate::scene::MapKind::Synthetic,
+        terrain: None,
     };
     Scene::new(map, Landmarks::default(), None, 0.5)
 }

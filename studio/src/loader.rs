@@ -146,8 +146,7 @@ fn load_cloud(name: String, bytes: Vec<u8>, intent: Intent, params: &Params) -> 
         Intent::TerrainCloud => {
             let cloud = io::load_cloud(&bytes, &name).map_err(|e| e.to_string())?;
             let map = TraversabilityMap::from_cloud(&cloud, params).map_err(|e| format!("{name}: {e}"))?;
-            let layers = map.compute(&params.traversability);
-            Ok(Loaded::Map(MapLayers { score: layers.score, source: base_name(&name).to_string(), kind: MapKind::Traversability }))
+            Ok(Loaded::Map(MapLayers::from_terrain(map, &params.traversability, base_name(&name))))
         }
         Intent::Any | Intent::Map | Intent::Params => Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent })),
     }

@@ -101,6 +101,34 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
         .on_hover_text("Robot radius lethal cells are inflated by for planning (LeoRover: 0.25 m).");
     rects.push(("inflation", r.rect));
     ui.checkbox(&mut p.planner.allow_unknown, "plan through unknown");
+    egui::CollapsingHeader::new("Terrain hazard").default_open(false).show(ui, |ui| {
+        ui.label("Re-scores a map made from a terrain cloud, and the mission worlds.");
+        let t = &mut p.traversability;
+        let r = scaled_slider(ui, &mut t.max_slope_rad, deg, 5.0..=90.0, "max slope [°]", 1)
+            .on_hover_text("Slope at which the hazard reaches 1 (default 35°).");
+        rects.push(("max_slope", r.rect));
+        let r = ui
+            .add(egui::Slider::new(&mut t.max_step_m, 0.01..=0.5).text("max step [m]").fixed_decimals(3))
+            .on_hover_text("Height difference in the disc at which the hazard reaches 1 (default 0.15 m).");
+        rects.push(("max_step", r.rect));
+        let r = ui
+            .add(egui::Slider::new(&mut t.max_roughness_m, 0.005..=0.2).text("max roughness [m]").fixed_decimals(3))
+            .on_hover_text("RMS distance to the fitted plane at which the hazard reaches 1 (default 0.05 m).");
+        rects.push(("max_roughness", r.rect));
+        let r = ui
+            .add(egui::Slider::new(&mut t.disc_radius_m, 0.05..=0.5).text("disc radius [m]").fixed_decimals(2))
+            .on_hover_text("Radius of the disc of points fused per cell (default 0.15 m).");
+        rects.push(("disc_radius", r.rect));
+        let r = ui
+            .add(egui::Slider::new(&mut t.min_points, 1..=50).text("min points"))
+            .on_hover_text("Fewer points in the disc: the cell is unknown (default 5).");
+        rects.push(("min_points", r.rect));
+        let r = ui
+            .add(egui::Slider::new(&mut t.noise_discount_sigmas, 0.0..=4.0).text("noise discount [σ]").fixed_decimals(1))
+            .on_hover_text("Standard deviations of registration noise discounted from roughness and step (default 2).");
+        rects.push(("noise_discount", r.rect));
+        ui.checkbox(&mut t.step_relative_to_plane, "step from the fitted plane");
+    });
 
     ui.add_space(8.0);
     ui.horizontal(|ui| {

@@ -5,7 +5,10 @@
 
 use fitslam_core::frontier::{Blacklist, Boundary};
 use fitslam_core::grid::{CellClass, Grid, GridGeometry, OccupancyGrid};
+use fitslam_core::params::TraversabilityParams;
+use fitslam_core::traversability::TraversabilityMap;
 use fitslam_core::{PointCloud, Pose2};
+use std::sync::Arc;
 
 /// A map as the studio holds it: one traversability score per cell in [0, 1] (1 traversable,
 /// 0 lethal), NaN where unknown. Thresholding by τ gives the binary grid (notes §2).
@@ -17,6 +20,16 @@ pub struct MapLayers {
     pub source: String,
     /// How it was made, shown in the status line.
     pub kind: MapKind,
+    /// For a map computed from a terrain cloud: the fused points, so the score can be
+    /// recomputed when the hazard parameters change.
+    pub terrain: Option<Terrain>,
+}
+
+/// The point map behind a cloud-made score layer and the parameters the score was computed with.
+#[derive(Clone, Debug)]
+pub struct Terrain {
+    pub map: Arc<TraversabilityMap>,
+    pub params: TraversabilityParams,
 }
 
 /// How a map was obtained.
@@ -42,7 +55,28 @@ impl MapLayers {
                 _ => 1.0 - f32::from(v.clamp(0, 100)) / 100.0,
             })
             .collect();
-        Self { score: Grid { geometry: grid.geometry, data }, source: source.into(), kind: MapKind::Occupancy }
+        Self { score: Grid { geometry: grid.geometry, data }, source: source.into(), kind: MapKind::Occupancy, terrain: None }
+    }
+
+    /// From a terrain point map, scored with `params` (notes §2); keeps the map for
+    /// [`Self::refresh_terrain`].
+    pub fn from_terrain(map: TraversabilityMap, params: &TraversabilityParams, source: impl Into<String>) -> Self {
+        let score = map.compute(params).score;
+        let terrain = Some(Terrain { map: Arc::new(map), params: params.clone() });
+        Self { score, source: source.into(), kind: MapKind::Traversability, terrain }
+    }
+
+    /// Recomputes the score of a terrain map when a hazard parameter differs from the ones it was
+    /// computed with (τ only thresholds, later); returns whether it did. Other maps: no-op.
+    pub fn refresh_terrain(&mut self, params: &TraversabilityParams) -> bool {
+        let Some(t) = &mut self.terrain else { return false };
+        let same_hazard = TraversabilityParams { tau: t.params.tau, ..params.clone() } == t.params;
+        if same_hazard {
+            return false;
+        }
+        self.score = t.map.compute(params).score;
+        t.params = params.clone();
+        true
     }
 
     pub fn geometry(&self) -> GridGeometry {

@@ -306,3 +306,39 @@ fn native_file_browser_opens_a_map_and_reads_its_image_next_to_it() {
     assert_eq!(app.scene.map.geometry().width, 400);
     assert!(app.pipeline.ok_decision().is_some());
 }
+
+#[test]
+fn hazard_sliders_rescore_a_terrain_cloud_map() {
+    // A 12° ramp, 3 m × 3 m, a point every 2 cm: its slope hazard is 12/35 at the default
+    // maximum (score 0.66, free at τ = 0.5) and 12/15 with a 15° maximum (score 0.2, lethal).
+    let slope = 12f64.to_radians().tan();
+    let mut csv = String::from("x,y,z\n");
+    for i in 0..150 {
+        for j in 0..150 {
+            let (x, y) = (0.02 * f64::from(i), 0.02 * f64::from(j));
+            csv.push_str(&format!("{x},{y},{}\n", slope * x));
+        }
+    }
+    let mut h = harness_with(Some("courtyard"));
+    h.state_mut().load_files(vec![IncomingFile { name: "ramp.csv".into(), bytes: Ok(csv.into_bytes()), intent: Intent::TerrainCloud }]);
+    h.run_ok();
+    assert_eq!(h.state().scene.map.source, "ramp.csv");
+    let mean_score = |h: &Harness<'_, StudioApp>| {
+        let known: Vec<f32> = h.state().scene.map.score.data.iter().copied().filter(|s| !s.is_nan()).collect();
+        assert!(known.len() > 1000, "{} known cells", known.len());
+        known.iter().sum::<f32>() / known.len() as f32
+    };
+    let lethal = |h: &Harness<'_, StudioApp>| h.state().pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
+    let before = mean_score(&h);
+    assert!((before - (1.0 - 12.0 / 35.0)).abs() < 0.05, "{before}");
+    let lethal_before = lethal(&h);
+    h.get_by_label("Terrain hazard").click();
+    h.run_ok();
+    slider(&h, "max slope [°]").set_value_accesskit(15.0);
+    h.run_ok();
+    h.run_ok();
+    assert!((h.state().params.traversability.max_slope_rad.to_degrees() - 15.0).abs() < 1e-9);
+    let after = mean_score(&h);
+    assert!((after - (1.0 - 12.0 / 15.0)).abs() < 0.05, "{after}");
+    assert!(lethal(&h) > lethal_before, "{} !> {lethal_before}", lethal(&h));
+}
