@@ -6,7 +6,9 @@
 //! gives the block's dimension (6, 3, 2, 1); more means over-confident.
 //!
 //! `cargo bench --bench slam_consistency -- [WORLD.toml] [--seeds N] [--time-s T]
-//! [--gravity-sigma-rad S] [--marginal-every K]` (defaults: the paper world, 3 seeds, 400 s).
+//! [--gravity-sigma-rad S] [--marginal-every K] [--window K] [--max-observations N]` (defaults:
+//! the paper world, 3 seeds, 400 s, the simulator's `SlamParams`; `--window 100000` makes every
+//! update a full optimisation, `--max-observations 0` drops the landmark factors).
 
 use fitslam_core::params::{Params, Strategy};
 use fitslam_core::sim::mission::StampedPose;
@@ -32,6 +34,12 @@ fn main() {
     }
     if let Some(k) = value("--marginal-every") {
         mp.slam.marginal_every_keyframes = k as usize;
+    }
+    if let Some(k) = value("--window") {
+        mp.slam.graph.window_keyframes = k as usize;
+    }
+    if let Some(k) = value("--max-observations") {
+        mp.slam.max_observations_per_keyframe = k as usize;
     }
 
     // Blocks of ξ = (δt, δφ): whole, position, roll/pitch, yaw.
