@@ -6,7 +6,8 @@
 //! gives the block's dimension (6, 3, 2, 1); more means over-confident.
 //!
 //! `cargo bench --bench slam_consistency -- [WORLD.toml] [--seeds N] [--time-s T]
-//! [--gravity-sigma-rad S] [--marginal-every K] [--window K] [--max-observations N]` (defaults:
+//! [--gravity-sigma-rad S] [--tilt-gyro-sigma S] [--marginal-every K] [--window K]
+//! [--max-observations N]` (defaults:
 //! the paper world, 3 seeds, 400 s, the simulator's `SlamParams`; `--window 100000` makes every
 //! update a full optimisation, `--max-observations 0` drops the landmark factors).
 
@@ -34,6 +35,9 @@ fn main() {
     }
     if let Some(k) = value("--marginal-every") {
         mp.slam.marginal_every_keyframes = k as usize;
+    }
+    if let Some(s) = value("--tilt-gyro-sigma") {
+        mp.slam.tilt_gyro_sigma_per_sqrt_s = s;
     }
     if let Some(k) = value("--window") {
         mp.slam.graph.window_keyframes = k as usize;
