@@ -268,12 +268,7 @@ impl StudioApp {
         let Some(lane) = self.mission.runner.as_mut().and_then(|r| r.lanes.get_mut(i)) else { return };
         let m = &mut lane.mission;
         let name = format!("{} / {} at t = {:.1} s", m.world.spec.name, crate::sim_runner::strategy_label(lane.strategy), m.time_s);
-        let map = crate::scene::MapLayers {
-            score: m.layers().score.clone(),
-            source: name.clone(),
-            kind: crate::scene::MapKind::Traversability,
-            terrain: None,
-        };
+        let map = crate::scene::MapLayers::from_score(m.layers().score.clone(), name.clone(), crate::scene::MapKind::Traversability);
         let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
         let mut scene = Scene::new(map, landmarks, Some(m.est), self.params.frontier.blacklist_radius_m);
         scene.robot = m.est;
@@ -581,12 +576,11 @@ impl StudioApp {
 /// A one-cell unknown map, used only if a built-in asset fails to build.
 fn empty_scene() -> Scene {
     use fitslam_core::grid::{Grid, GridGeometry};
-    let map = crate::scene::MapLayers {
-        score: Grid::filled(GridGeometry::new(0.0, 0.0, 0.05, 1, 1), f32::NAN),
-        source: "empty".into(),
-        kind: crate::scene::MapKind::Synthetic,
-        terrain: None,
-    };
+    let map = crate::scene::MapLayers::from_score(
+        Grid::filled(GridGeometry::new(0.0, 0.0, 0.05, 1, 1), f32::NAN),
+        "empty",
+        crate::scene::MapKind::Synthetic,
+    );
     Scene::new(map, Landmarks::default(), None, 0.5)
 }
 

@@ -208,7 +208,7 @@ fn synthetic_courtyard(blacklist_radius_m: f64) -> Result<Scene, String> {
         }
     }
     let score = Grid::from_vec(geometry, data).ok_or("synthetic map size mismatch")?;
-    let map = MapLayers { score, source: "courtyard".into(), kind: MapKind::Synthetic, terrain: None };
+    let map = MapLayers::from_score(score, "courtyard", MapKind::Synthetic);
     let landmarks = Landmarks { cloud: courtyard_landmarks(w_m, h_m), source: "courtyard landmarks".into() };
     Ok(Scene::new(map, landmarks, Some(robot), blacklist_radius_m))
 }

@@ -44,6 +44,11 @@ pub enum MapKind {
 }
 
 impl MapLayers {
+    /// A score layer with no terrain points behind it.
+    pub fn from_score(score: Grid<f32>, source: impl Into<String>, kind: MapKind) -> Self {
+        Self { score, source: source.into(), kind, terrain: None }
+    }
+
     /// From a ROS occupancy grid: free 0 → score 1, lethal 100 → 0, p% → 1 − p/100, unknown
     /// (−1) → NaN. A trinary map then thresholds to itself for any τ in (0, 1].
     pub fn from_occupancy(grid: &OccupancyGrid, source: impl Into<String>) -> Self {
@@ -55,7 +60,7 @@ impl MapLayers {
                 _ => 1.0 - f32::from(v.clamp(0, 100)) / 100.0,
             })
             .collect();
-        Self { score: Grid { geometry: grid.geometry, data }, source: source.into(), kind: MapKind::Occupancy, terrain: None }
+        Self::from_score(Grid { geometry: grid.geometry, data }, source, MapKind::Occupancy)
     }
 
     /// From a terrain point map, scored with `params` (notes §2); keeps the map for

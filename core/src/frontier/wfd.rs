@@ -1,8 +1,8 @@
 //! Wavefront frontier detection (WFD; notes §3, paper §II-C).
 //!
 //! A flood fill (the paper's BFS; the order does not change the result) over free cells from the
-//! robot's cell, 4-connected. With the planner's no-corner-cutting
-//! rule (a diagonal step needs both orthogonal neighbours passable, see [`crate::path`]) every
+//! robot's cell, 4-connected. With the planner's no-corner-cutting rule (a diagonal step needs
+//! both orthogonal neighbours passable, see [`crate::path`]) every
 //! diagonal move can be replaced by two orthogonal ones, so this is exactly the set of cells the
 //! 8-connected planner reaches with `allow_unknown = false`. A reached cell is a *frontier cell*
 //! when it has an unknown 4-neighbour inside the grid (the map's edge is not unknown space) and

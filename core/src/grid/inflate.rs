@@ -2,12 +2,12 @@
 //! keeps its whole footprint off untraversable ground.
 //!
 //! Exact Euclidean inflation: a cell becomes lethal if the distance between its centre and the
-//! centre of any lethal cell is ≤ `radius_m`. Implemented as a stamp of the precomputed disc
-//! (one horizontal span per row) around each lethal cell that borders a non-lethal one (interior lethal cells cannot
-//! add anything new). O(B · r²) for B boundary cells and r the radius in cells. Unknown cells
+//! centre of any lethal cell is ≤ `radius_m`. Implemented as a stamp of the precomputed disc (one
+//! horizontal span per row) around each lethal cell that borders a non-lethal one (interior lethal
+//! cells cannot add anything new). O(B · r²) for B boundary cells and r the radius in cells. Unknown cells
 //! stay unknown unless the disc covers them (then lethal: they are within reach of an obstacle).
 
-use super::{CellClass, LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
+use super::{LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
 
 /// Returns a copy of `grid` with every cell within `radius_m` of a lethal cell set to [`LETHAL`].
 pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
@@ -26,7 +26,7 @@ pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
         .map(|dy| (dy, (0..=r_cells).take_while(|&dx| ((dx * dx + dy * dy) as f64) <= r2).last().unwrap_or(0)))
         .collect();
     let (w, h) = (g.width as i32, g.height as i32);
-    let lethal = |c: i32, r: i32| CellClass::of(grid.data[r as usize * g.width + c as usize]) == CellClass::Lethal;
+    let lethal = |c: i32, r: i32| grid.data[r as usize * g.width + c as usize] >= LETHAL_THRESHOLD;
     const CHUNK: usize = 64;
     for (r, row) in grid.data.chunks_exact(g.width).enumerate() {
         let r = r as i32;

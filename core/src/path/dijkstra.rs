@@ -101,7 +101,7 @@ impl Window {
     }
 }
 
-/// Distances (in cells) and parents from one start.
+/// Shortest-path costs from one start, and the paths they imply.
 #[derive(Clone, Debug)]
 pub struct DistanceField {
     pub geometry: GridGeometry,
@@ -247,7 +247,8 @@ fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Wi
         let Some(first) = row.chunks(CHUNK).position(any) else { continue };
         let last = row.chunks(CHUNK).rposition(any).unwrap_or(first);
         let first = first * CHUNK + row[first * CHUNK..].iter().position(passable).unwrap_or(0);
-        let last = last * CHUNK + row[last * CHUNK..].chunks(CHUNK).next().and_then(|c| c.iter().rposition(passable)).unwrap_or(0);
+        let tail = &row[last * CHUNK..(last * CHUNK + CHUNK).min(row.len())];
+        let last = last * CHUNK + tail.iter().rposition(passable).unwrap_or(0);
         c0 = c0.min(first);
         c1 = c1.max(last);
         r0 = r0.min(r);
