@@ -53,7 +53,7 @@ pub struct StudioApp {
     inbox: Inbox,
     browser: FileBrowser,
     /// Map YAMLs waiting for their image: (yaml name, yaml bytes, image base name).
-    pending_yaml: Vec<(String, Vec<u8>, String)>,
+    pairing: loader::Pairing,
     /// A cloud dropped without intent, waiting for the user's choice.
     ask_cloud: Option<IncomingFile>,
     /// Screen rectangles of named widgets this frame (published on the web for tests).
@@ -96,7 +96,7 @@ impl StudioApp {
             mission: MissionView::default(),
             inbox: Inbox::default(),
             browser: FileBrowser::default(),
-            pending_yaml: Vec::new(),
+            pairing: loader::Pairing::default(),
             ask_cloud: None,
             widget_rects: BTreeMap::new(),
             last_title: String::new(),
@@ -150,7 +150,7 @@ impl StudioApp {
         if files.is_empty() {
             return;
         }
-        let results = loader::load_batch(files, &mut self.pending_yaml, &self.params);
+        let results = loader::load_batch(files, &mut self.pairing, &self.params);
         for r in results {
             match r {
                 Ok(Loaded::Map(map)) => {
@@ -181,10 +181,8 @@ impl StudioApp {
                     self.params = *p;
                     self.info("parameters loaded");
                 }
-                Ok(Loaded::WaitingForImage { yaml_name, yaml_bytes, image }) => {
+                Ok(Loaded::WaitingForImage { yaml_name, image }) => {
                     self.info(format!("{yaml_name}: now drop or open its image {image}"));
-                    self.pending_yaml.retain(|(n, _, _)| *n != yaml_name);
-                    self.pending_yaml.push((yaml_name, yaml_bytes, image));
                 }
                 Ok(Loaded::AskCloudUse(f)) => self.ask_cloud = Some(f),
                 Err(e) => self.error(e),

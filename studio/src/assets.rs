@@ -101,7 +101,7 @@ fn jacksboro(blacklist_radius_m: f64) -> Result<Scene, String> {
         file("jacksboro/landmarks.ply", JACKSBORO_LANDMARKS, Intent::Landmarks),
     ];
     let (mut map, mut landmarks) = (None, None);
-    for r in loader::load_batch(files, &mut Vec::new(), &fitslam_core::Params::default()) {
+    for r in loader::load_batch(files, &mut loader::Pairing::default(), &fitslam_core::Params::default()) {
         match r? {
             Loaded::Map(m) => map = Some(m),
             Loaded::Landmarks(l) => landmarks = Some(l),

@@ -39,8 +39,14 @@ pub struct Inbox(Arc<Mutex<Vec<IncomingFile>>>);
 
 impl Inbox {
     pub fn push(&self, file: IncomingFile) {
+        self.push_all(vec![file]);
+    }
+
+    /// Queues files that belong together (one drop, one picker selection) under one lock, so
+    /// a frame never drains half of them.
+    pub fn push_all(&self, files: Vec<IncomingFile>) {
         if let Ok(mut v) = self.0.lock() {
-            v.push(file);
+            v.extend(files);
         }
     }
 
@@ -52,24 +58,34 @@ impl Inbox {
     /// Queues the files dropped on the window this frame (read asynchronously on the web).
     pub fn take_dropped(&self, ctx: &egui::Context) {
         let dropped = ctx.input_mut(|i| std::mem::take(&mut i.raw.dropped_files));
-        for file in dropped {
-            let name = file.path().file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            #[cfg(not(target_arch = "wasm32"))]
-            {
-                let full = file.path().to_string_lossy().into_owned();
-                let name = if full.is_empty() { name } else { full };
-                self.push(IncomingFile { name, bytes: file.bytes(), intent: Intent::Any });
-            }
-            #[cfg(target_arch = "wasm32")]
-            {
-                let inbox = self.clone();
-                let ctx = ctx.clone();
-                wasm_bindgen_futures::spawn_local(async move {
+        if dropped.is_empty() {
+            return;
+        }
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            let _ = ctx;
+            let batch = dropped.into_iter().map(|file| IncomingFile {
+                name: file.path().to_string_lossy().into_owned(),
+                bytes: file.bytes(),
+                intent: Intent::Any,
+            });
+            self.push_all(batch.collect());
+        }
+        #[cfg(target_arch = "wasm32")]
+        {
+            // One task reads the whole drop and queues it at once (see `push_all`).
+            let inbox = self.clone();
+            let ctx = ctx.clone();
+            wasm_bindgen_futures::spawn_local(async move {
+                let mut batch = Vec::with_capacity(dropped.len());
+                for file in dropped {
+                    let name = file.path().file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
                     let bytes = file.bytes_async().await;
-                    inbox.push(IncomingFile { name, bytes, intent: Intent::Any });
-                    ctx.request_repaint();
-                });
-            }
+                    batch.push(IncomingFile { name, bytes, intent: Intent::Any });
+                }
+                inbox.push_all(batch);
+                ctx.request_repaint();
+            });
         }
     }
 }

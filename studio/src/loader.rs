@@ -24,7 +24,6 @@ pub enum Loaded {
     /// A map YAML whose image has not arrived yet (the web cannot read a file's neighbours).
     WaitingForImage {
         yaml_name: String,
-        yaml_bytes: Vec<u8>,
         image: String,
     },
     /// A point cloud dropped without saying what it is: the user is asked.
@@ -48,11 +47,22 @@ fn is_image(ext: &str) -> bool {
     matches!(ext, "png" | "pgm")
 }
 
-/// Loads a batch of files (one drop or one pick). A map YAML is paired with an image of the
-/// batch whose base name matches its `image:` key; `pending` holds YAMLs still waiting for their
-/// image from an earlier batch and is updated. `params` gives the resolution of bare images and
-/// the traversability parameters for clouds.
-pub fn load_batch(files: Vec<IncomingFile>, pending: &mut Vec<(String, Vec<u8>, String)>, params: &Params) -> Vec<Result<Loaded, String>> {
+/// What one batch leaves for the next, so a map's YAML and its image pair up in either order
+/// even when they arrive separately (two drops, two picks).
+#[derive(Debug, Default)]
+pub struct Pairing {
+    /// Map YAMLs still waiting for their image: (YAML name, YAML bytes, image base name).
+    waiting: Vec<(String, Vec<u8>, String)>,
+    /// The last image loaded as a bare map: (base name, name, bytes). Only the last is kept.
+    last_image: Option<(String, String, Vec<u8>)>,
+}
+
+/// Loads a batch of files (one drop or one pick). A map YAML is paired with an image whose base
+/// name matches its `image:` key: first from the batch, then (natively) the file next to it,
+/// then the last bare image of an earlier batch; otherwise it waits in `pairing` for a later
+/// batch. `params` gives the resolution of bare images and the traversability parameters for
+/// clouds.
+pub fn load_batch(files: Vec<IncomingFile>, pairing: &mut Pairing, params: &Params) -> Vec<Result<Loaded, String>> {
     let mut out = Vec::new();
     // Images of this batch, by base name, so YAMLs can claim them.
     let mut images: Vec<(String, String, Vec<u8>)> = Vec::new();
@@ -79,8 +89,12 @@ pub fn load_batch(files: Vec<IncomingFile>, pending: &mut Vec<(String, Vec<u8>, 
                             Ok(b) => map_from_yaml(&bytes, &f.name, &b, &image_name),
                             Err(e) => Err(format!("{}: its image {}: {e}", f.name, yaml.image)),
                         });
+                    } else if let Some((_, image_name, image_bytes)) = pairing.last_image.take_if(|(b, _, _)| *b == wanted) {
+                        out.push(map_from_yaml(&bytes, &f.name, &image_bytes, &image_name));
                     } else {
-                        out.push(Ok(Loaded::WaitingForImage { yaml_name: f.name, yaml_bytes: bytes, image: wanted }));
+                        pairing.waiting.retain(|(n, _, _)| *n != f.name);
+                        pairing.waiting.push((f.name.clone(), bytes, wanted.clone()));
+                        out.push(Ok(Loaded::WaitingForImage { yaml_name: f.name, image: wanted }));
                     }
                 }
                 Err(map_err) => {
@@ -99,13 +113,14 @@ pub fn load_batch(files: Vec<IncomingFile>, pending: &mut Vec<(String, Vec<u8>, 
             ))),
         }
     }
-    // Images left: a pending YAML's, or bare maps.
+    // Images left: a waiting YAML's, or bare maps.
     for (base, name, bytes) in images {
-        if let Some(k) = pending.iter().position(|(_, _, img)| *img == base) {
-            let (yaml_name, yaml_bytes, _) = pending.remove(k);
+        if let Some(k) = pairing.waiting.iter().position(|(_, _, img)| *img == base) {
+            let (yaml_name, yaml_bytes, _) = pairing.waiting.remove(k);
             out.push(map_from_yaml(&yaml_bytes, &yaml_name, &bytes, &name));
         } else {
             out.push(bare_image_map(&bytes, &name, params.grid.resolution_m));
+            pairing.last_image = Some((base, name, bytes));
         }
     }
     out
@@ -173,21 +188,48 @@ mod tests {
     #[test]
     fn yaml_and_image_pair_within_a_batch_by_base_name() {
         let yaml = b"image: sub/tiny.pgm\nresolution: 0.5\norigin: [1.0, 2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
-        let mut pending = Vec::new();
+        let mut pending = Pairing::default();
         let out = load_batch(vec![file("tiny.pgm", PGM), file("tiny.yaml", yaml)], &mut pending, &Params::default());
         assert_eq!(out.len(), 1);
         let Ok(Loaded::Map(m)) = &out[0] else { panic!("{out:?}") };
         let g = m.geometry();
         assert_eq!((g.width, g.height, g.resolution_m, g.origin_x_m, g.origin_y_m), (2, 1, 0.5, 1.0, 2.0));
         assert_eq!(m.score.data, vec![0.0, 1.0]);
-        assert!(pending.is_empty());
+        assert!(pending.waiting.is_empty() && pending.last_image.is_none());
+    }
+
+    #[test]
+    fn yaml_and_image_pair_across_batches_in_either_order() {
+        let yaml: &[u8] =
+            b"image: tiny.pgm\nresolution: 0.5\norigin: [1.0, 2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+        let params = Params::default();
+        for image_first in [true, false] {
+            let mut pairing = Pairing::default();
+            let (a, b) = if image_first {
+                (file("tiny.pgm", PGM), file("tiny.yaml", yaml))
+            } else {
+                (file("tiny.yaml", yaml), file("tiny.pgm", PGM))
+            };
+            let first = load_batch(vec![a], &mut pairing, &params);
+            if image_first {
+                let Ok(Loaded::Map(m)) = &first[0] else { panic!("{first:?}") };
+                assert_eq!(m.geometry().resolution_m, params.grid.resolution_m, "a bare image first");
+            } else {
+                assert!(matches!(&first[0], Ok(Loaded::WaitingForImage { image, .. }) if image == "tiny.pgm"), "{first:?}");
+            }
+            let second = load_batch(vec![b], &mut pairing, &params);
+            let Ok(Loaded::Map(m)) = &second[0] else { panic!("{second:?}") };
+            let g = m.geometry();
+            assert_eq!((g.resolution_m, g.origin_x_m, g.origin_y_m), (0.5, 1.0, 2.0), "image first: {image_first}");
+            assert!(pairing.waiting.is_empty() && pairing.last_image.is_none());
+        }
     }
 
     #[test]
     fn a_lone_image_is_a_map_at_the_current_resolution() {
         let mut params = Params::default();
         params.grid.resolution_m = 0.1;
-        let out = load_batch(vec![file("x.pgm", PGM)], &mut Vec::new(), &params);
+        let out = load_batch(vec![file("x.pgm", PGM)], &mut Pairing::default(), &params);
         let Ok(Loaded::Map(m)) = &out[0] else { panic!("{out:?}") };
         assert_eq!(m.geometry().resolution_m, 0.1);
         assert_eq!(m.source, "x.pgm");
@@ -195,12 +237,12 @@ mod tests {
 
     #[test]
     fn parameter_files_load_and_bad_ones_name_the_file() {
-        let out = load_batch(vec![file("p.toml", b"[u1]\nalpha = 0.7\n")], &mut Vec::new(), &Params::default());
+        let out = load_batch(vec![file("p.toml", b"[u1]\nalpha = 0.7\n")], &mut Pairing::default(), &Params::default());
         let Ok(Loaded::Params(p)) = &out[0] else { panic!("{out:?}") };
         assert_eq!(p.u1.alpha, 0.7);
-        let out = load_batch(vec![file("p.yaml", b"u1:\n  alpha: 0.2\n")], &mut Vec::new(), &Params::default());
+        let out = load_batch(vec![file("p.yaml", b"u1:\n  alpha: 0.2\n")], &mut Pairing::default(), &Params::default());
         assert!(matches!(&out[0], Ok(Loaded::Params(p)) if p.u1.alpha == 0.2), "{out:?}");
-        let out = load_batch(vec![file("q.yaml", b"u1:\n  alpah: 0.2\n")], &mut Vec::new(), &Params::default());
+        let out = load_batch(vec![file("q.yaml", b"u1:\n  alpah: 0.2\n")], &mut Pairing::default(), &Params::default());
         let Err(e) = &out[0] else { panic!("{out:?}") };
         assert!(e.contains("q.yaml") && e.contains("alpah"), "{e}");
     }
@@ -208,10 +250,10 @@ mod tests {
     #[test]
     fn clouds_without_intent_ask_and_with_intent_load() {
         let csv = b"x,y,z\n1,2,3\n4,5,6\n";
-        let out = load_batch(vec![file("l.csv", csv)], &mut Vec::new(), &Params::default());
+        let out = load_batch(vec![file("l.csv", csv)], &mut Pairing::default(), &Params::default());
         assert!(matches!(&out[0], Ok(Loaded::AskCloudUse(f)) if f.name == "l.csv"), "{out:?}");
         let f = IncomingFile { name: "l.csv".into(), bytes: Ok(csv.to_vec()), intent: Intent::Landmarks };
-        let out = load_batch(vec![f], &mut Vec::new(), &Params::default());
+        let out = load_batch(vec![f], &mut Pairing::default(), &Params::default());
         assert!(matches!(&out[0], Ok(Loaded::Landmarks(l)) if l.cloud.len() == 2), "{out:?}");
     }
 
@@ -225,7 +267,7 @@ mod tests {
             }
         }
         let f = IncomingFile { name: "floor.csv".into(), bytes: Ok(csv.into_bytes()), intent: Intent::TerrainCloud };
-        let out = load_batch(vec![f], &mut Vec::new(), &Params::default());
+        let out = load_batch(vec![f], &mut Pairing::default(), &Params::default());
         let Ok(Loaded::Map(m)) = &out[0] else { panic!("{out:?}") };
         assert_eq!(m.kind, MapKind::Traversability);
         assert!(m.known_cells() > 0);

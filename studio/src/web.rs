@@ -49,19 +49,22 @@ pub fn pick_files(intent: Intent, inbox: Inbox, ctx: egui::Context) {
     let input_in_cb = input.clone();
     let on_change = Closure::<dyn FnMut(web_sys::Event)>::new(move |_e: web_sys::Event| {
         if let Some(files) = input_in_cb.files() {
-            for i in 0..files.length() {
-                let Some(file) = files.get(i) else { continue };
-                let (inbox, ctx) = (inbox.clone(), ctx.clone());
-                wasm_bindgen_futures::spawn_local(async move {
-                    let name = file.name();
+            let files: Vec<web_sys::File> = (0..files.length()).filter_map(|i| files.get(i)).collect();
+            let (inbox, ctx) = (inbox.clone(), ctx.clone());
+            // One task reads the whole selection and queues it at once, so a map's YAML and its
+            // image always reach the loader in the same batch.
+            wasm_bindgen_futures::spawn_local(async move {
+                let mut batch = Vec::with_capacity(files.len());
+                for file in files {
                     let bytes = wasm_bindgen_futures::JsFuture::from(file.array_buffer())
                         .await
                         .map(|buf| js_sys::Uint8Array::new(&buf).to_vec())
                         .map_err(|e| format!("{e:?}"));
-                    inbox.push(IncomingFile { name, bytes, intent });
-                    ctx.request_repaint();
-                });
-            }
+                    batch.push(IncomingFile { name: file.name(), bytes, intent });
+                }
+                inbox.push_all(batch);
+                ctx.request_repaint();
+            });
         }
         input_in_cb.remove();
     });
