@@ -35,7 +35,7 @@ use super::camera::{CameraNoise, CameraObservation, LandmarkIndex, depth_ground_
 use super::lidar::{LidarParams, RayCaster, gaussian, scan};
 use super::odometry::OdometryNoise;
 use super::robot::{DriveParams, PathFollower, Twist, body_on_terrain, footprint_points, integrate};
-use super::slam_frontend::{SlamFrontend, SlamParams};
+use super::slam_frontend::{BodyIncrement, SlamFrontend, SlamParams};
 use crate::PointCloud;
 use crate::frontier::Blacklist;
 use crate::frontier::BlacklistReason;
@@ -43,6 +43,7 @@ use crate::grid::OccupancyGrid;
 use crate::params::{Params, Strategy};
 use crate::pose::{Pose2, wrap_pi};
 use crate::select::{DecisionInput, DropReason, GoalSelector, make_selector};
+use crate::slam::lie::so3_log;
 use crate::slam::{CovarianceTraces, Se3};
 use crate::traversability::{TraversabilityLayers, TraversabilityMap};
 use crate::utility::LandmarkVoxels;
@@ -288,8 +289,9 @@ pub struct Mission {
     pub est_cov6: Matrix6<f64>,
     slam: Option<SlamFrontend>,
     slam_errors: u64,
-    /// True (roll, pitch) at the previous tick (the gyro measures their change).
-    last_tilt_gt: [f64; 2],
+    /// True `world_from_body` at the previous tick (the wheels and the gyro measure the motion
+    /// since, in the body frame): SLAM only.
+    last_body_gt: Se3,
     body_points: Vec<Vector3<f64>>,
     tmap: TraversabilityMap,
     /// Estimated lazily: cells are refreshed along the path after each scan and everywhere at
@@ -376,7 +378,7 @@ impl Mission {
             est_cov6: Matrix6::zeros(),
             slam: None,
             slam_errors: 0,
-            last_tilt_gt: [0.0; 2],
+            last_body_gt: Se3::identity(),
             body_points: Vec::new(),
             tmap,
             layers,
@@ -425,10 +427,9 @@ impl Mission {
             // The first keyframe: the start pose (the map frame), with the camera's first view.
             let (gp, gr) = body_on_terrain(&m.world.field, m.gt, m.mission.drive.body_half_m);
             m.observe_camera(gp, &gr);
-            let (roll, pitch, _) = gr.euler_angles();
-            m.last_tilt_gt = [roll, pitch];
             let start = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
-            let fe = SlamFrontend::new(m.mission.slam.clone(), start, m.gt, [roll, pitch], &m.observations).map_err(|e| e.to_string())?;
+            m.last_body_gt = start;
+            let fe = SlamFrontend::new(m.mission.slam.clone(), start, &m.observations).map_err(|e| e.to_string())?;
             m.slam = Some(fe);
             m.last_camera_s = 0.0;
         }
@@ -593,36 +594,53 @@ impl Mission {
     /// Updates the estimate from the odometry of one tick.
     fn localise(&mut self, ds: f64, dth: f64, dt: f64) {
         let slope = self.world.field.slope_at(self.gt.x_m, self.gt.y_m).unwrap_or(0.0);
-        let (ms, mth) = self.mission.odometry.measure(ds, dth, dt, slope, &mut self.rng);
-        match self.localisation {
-            Localisation::GroundTruth => self.est = self.gt,
-            Localisation::Odometry => {
-                let th = self.est.yaw_rad + 0.5 * mth;
-                let (c, s) = (th.cos(), th.sin());
-                self.est = Pose2 { x_m: self.est.x_m + ms * c, y_m: self.est.y_m + ms * s, yaw_rad: wrap_pi(self.est.yaw_rad + mth) };
-                let f = Matrix3::new(1.0, 0.0, -ms * s, 0.0, 1.0, ms * c, 0.0, 0.0, 1.0);
-                let (vs, vt) = self.mission.odometry.variances(ds, dth, dt);
-                let l = nalgebra::Matrix3x2::new(c, -0.5 * ms * s, s, 0.5 * ms * c, 0.0, 1.0);
-                let q = nalgebra::Matrix2::new(vs, 0.0, 0.0, vt);
-                self.est_cov = f * self.est_cov * f.transpose() + l * q * l.transpose();
-            }
-            Localisation::Slam => {
-                // The gyro's roll and pitch change: the true change on the terrain + noise.
-                let (_, gr) = body_on_terrain(&self.world.field, self.gt, self.mission.drive.body_half_m);
-                let (roll, pitch, _) = gr.euler_angles();
-                let var_tilt = self.mission.slam.tilt_gyro_sigma_per_sqrt_s.powi(2) * dt;
-                let sg = var_tilt.sqrt();
-                let [r0, p0] = self.last_tilt_gt;
-                let dtilt = [wrap_pi(roll - r0) + sg * gaussian(&mut self.rng), wrap_pi(pitch - p0) + sg * gaussian(&mut self.rng)];
-                self.last_tilt_gt = [roll, pitch];
-                let (vs, vt) = self.mission.odometry.variances(ds, dth, dt);
-                if let Some(fe) = self.slam.as_mut() {
-                    fe.odometry_step(ms, mth, dtilt, vs, vt, var_tilt);
-                    self.est = pose2_of(&fe.estimate());
-                }
-                self.update_slam_covariance();
-            }
+        if self.localisation == Localisation::Slam {
+            self.localise_slam(dt, slope);
+            return;
         }
+        let (ms, mth) = self.mission.odometry.measure(ds, dth, dt, slope, &mut self.rng);
+        if self.localisation == Localisation::GroundTruth {
+            self.est = self.gt;
+            return;
+        }
+        let th = self.est.yaw_rad + 0.5 * mth;
+        let (c, s) = (th.cos(), th.sin());
+        self.est = Pose2 { x_m: self.est.x_m + ms * c, y_m: self.est.y_m + ms * s, yaw_rad: wrap_pi(self.est.yaw_rad + mth) };
+        let f = Matrix3::new(1.0, 0.0, -ms * s, 0.0, 1.0, ms * c, 0.0, 0.0, 1.0);
+        let (vs, vt) = self.mission.odometry.variances(ds, dth, dt);
+        let l = nalgebra::Matrix3x2::new(c, -0.5 * ms * s, s, 0.5 * ms * c, 0.0, 1.0);
+        let q = nalgebra::Matrix2::new(vs, 0.0, 0.0, vt);
+        self.est_cov = f * self.est_cov * f.transpose() + l * q * l.transpose();
+    }
+
+    /// The SLAM front end's odometry tick, measured in the body frame: the true motion since
+    /// the last tick on the terrain, `T_prev⁻¹ T_now`; the wheels measure its length (signed by
+    /// the direction of travel) with the odometry's noise and slip, the gyro its rotation with
+    /// σ_g² dt on roll and pitch and the odometry's yaw noise.
+    fn localise_slam(&mut self, dt: f64, slope: f64) {
+        let (gp, gr) = body_on_terrain(&self.world.field, self.gt, self.mission.drive.body_half_m);
+        let now = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
+        let truth = self.last_body_gt.between(&now);
+        self.last_body_gt = now;
+        let distance = truth.translation.norm().copysign(truth.translation.x);
+        let rotation = so3_log(&truth.rotation);
+        let odometry = &self.mission.odometry;
+        let (md, myaw) = odometry.measure(distance, rotation.z, dt, slope, &mut self.rng);
+        let (vd, vyaw) = odometry.variances(distance, rotation.z, dt);
+        let var_tilt = self.mission.slam.tilt_gyro_sigma_per_sqrt_s.powi(2) * dt;
+        let sg = var_tilt.sqrt();
+        let step = BodyIncrement {
+            distance_m: md,
+            rotation_rad: Vector3::new(rotation.x + sg * gaussian(&mut self.rng), rotation.y + sg * gaussian(&mut self.rng), myaw),
+            var_distance_m2: vd,
+            var_vertical_m2: self.mission.slam.z_sigma_per_sqrt_m.powi(2) * distance.abs(),
+            var_rotation_rad2: Vector3::new(var_tilt, var_tilt, vyaw),
+        };
+        if let Some(fe) = self.slam.as_mut() {
+            fe.odometry_step(&step);
+            self.est = pose2_of(&fe.estimate());
+        }
+        self.update_slam_covariance();
     }
 
     /// Refreshes `est_cov6` and `est_cov` from the SLAM front end.

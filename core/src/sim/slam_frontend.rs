@@ -7,20 +7,21 @@
 //! `keyframe_every_m` (0.5 m) or turned `keyframe_every_rad` (0.5 rad) since the last one (never
 //! while standing still). The first keyframe is the start pose (the map frame, fixed: the gauge).
 //!
-//! **Odometry lifted to SE(3).** The wheels + gyro give a planar dead-reckoned track
-//! (x, y, yaw; [`super::odometry`]); the gyro's roll and pitch rates integrate the tilt (each
-//! tick the true change + N(0, σ_g² dt), σ_g = `tilt_gyro_sigma_per_sqrt_s`: a random
-//! walk, smooth between scans — white per-tick attitude noise would tilt every LiDAR scan
-//! independently and, at 10 m range, turn overlapping ground into rough, lethal cells); height
-//! integrates `dz = −δs · tan(pitch)`. The odometry pose is `T_o = (R(roll, pitch, yaw),
-//! (x, y, z))`, and the odometry factor between keyframes a, b is `T_o(a)⁻¹ T_o(b)` (only
-//! relative motion enters: the odometry's absolute drift is irrelevant). Its covariance: since
-//! the keyframe, the planar error P (x, y, yaw, world axes) is propagated per tick exactly as in
-//! odometry mode (`P ← F P Fᵀ + L Q Lᵀ`), the tilt error adds σ_g² dt per axis, the height error
-//! `δs² var_tilt + σ_z² |δs|`. Written Σ_w in world axes (δt, δφ), it maps to the factor's right-perturbation
-//! tangent by `Σ = B Σ_w Bᵀ`, `B = diag(R_bᵀ, R_bᵀ)` (R_b the odometry rotation at b: the
-//! keyframe-a terms cancel in `Ad(T_rel⁻¹) · [[I, [t]×], [0, I]]`). A floor of 10⁻⁸ on the
-//! diagonal keeps it invertible when turning in place.
+//! **Odometry in SE(3), integrated in the body frame** (notes §8). Each control tick the wheels
+//! measure the distance driven `d` (along the body's x axis) and the gyro the body-frame rotation
+//! increment `δφ` (roll and pitch with σ_g² dt per axis, σ_g = `tilt_gyro_sigma_per_sqrt_s`;
+//! yaw with the odometry's own noise, [`super::odometry`]). The motion since the latest keyframe
+//! is composed from those increments, `T_rel ← T_rel · ΔT`, `ΔT = (Exp(δφ), Exp(δφ/2) (d, 0, 0))`
+//! (the chord of the tick's arc), so the odometry factor between keyframes a, b holds only the
+//! noise of the ticks between them, as a real gyro's relative rotation does. (Integrating an
+//! *absolute* odometry attitude and differencing two of them lets the absolute tilt drift leak
+//! into every relative rotation when the robot turns; unmodelled, that made the gravity factors
+//! and the odometry disagree: BENCHMARKS, SLAM backend.) Its covariance, in `T_rel`'s right
+//! tangent (ξ = (δt, δφ)), is propagated per tick: `Σ ← Ad(ΔT⁻¹) Σ Ad(ΔT⁻¹)ᵀ + J Q Jᵀ` with
+//! `Q = diag(σ_d², σ_z² |d|, σ_roll², σ_pitch², σ_yaw²)` (σ_z = `z_sigma_per_sqrt_m`: the
+//! terrain's curvature under the chord) and `J` the tick's noise Jacobian
+//! ([`propagate_relative`]). A floor of 10⁻⁸ on the diagonal keeps it invertible when standing
+//! still or turning in place.
 //!
 //! **Landmark factors.** At each keyframe the camera observes; each observation is the landmark
 //! in the robot frame with the camera model's covariance (bearing σ_b across the line of
@@ -54,13 +55,12 @@
 
 use std::collections::{BTreeMap, HashSet};
 
-use nalgebra::{Matrix3, Matrix6, Point3, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix6, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::camera::CameraObservation;
 use crate::cloud::PointCloud;
-use crate::pose::{Pose2, wrap_pi};
-use crate::slam::lie::hat;
+use crate::slam::lie::{hat, so3_exp, so3_log};
 use crate::slam::optimizer::OptimizerParams;
 use crate::slam::{GraphSlam, GraphSlamParams, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
 use crate::traversability::TraversabilityMap;
@@ -79,7 +79,8 @@ pub struct SlamParams {
     /// Gyro roll/pitch rate noise σ_g, rad/√s (a random walk on the tilt). Default 2·10⁻⁴
     /// (0.7°/√h, a consumer MEMS gyro; the odometry's yaw uses its own, noisier figure).
     pub tilt_gyro_sigma_per_sqrt_s: f64,
-    /// Height noise σ_z per √metre driven. Default 0.01.
+    /// Noise σ_z of the motion across the body's x–y plane per √metre driven (the wheels do not
+    /// see the terrain's curvature under a tick's chord). Default 0.01.
     pub z_sigma_per_sqrt_m: f64,
     /// The IMU accelerometer's absolute tilt noise σ, radians, for a gravity factor at every
     /// keyframe; 0 disables it. Default 0.003 (≈ 0.17°, a calibrated MEMS IMU at rover speeds).
@@ -240,35 +241,53 @@ fn tilt_variance(cov: &Matrix6<f64>) -> f64 {
     (0.5 * (cov[(3, 3)] + cov[(4, 4)])).max(0.0)
 }
 
-/// The odometry factor's covariance in its right-perturbation tangent from the world-axis
-/// errors since the keyframe: planar `(x, y, yaw)` covariance, height variance, per-axis tilt
-/// variance; `world_from_current` is the odometry rotation now. `Σ = B Σ_w Bᵀ`,
-/// `B = diag(Rᵀ, Rᵀ)` (module doc), plus the diagonal floor.
-pub fn relative_covariance(
-    planar_world: &Matrix3<f64>,
-    var_z_m2: f64,
-    var_tilt_rad2: f64,
-    world_from_current: &Matrix3<f64>,
-) -> Matrix6<f64> {
-    let mut w = Matrix6::zeros();
-    let map = [0usize, 1, 5];
-    for (i, &a) in map.iter().enumerate() {
-        for (j, &b) in map.iter().enumerate() {
-            w[(a, b)] = planar_world[(i, j)];
-        }
+/// One odometry tick measured in the body frame: distance driven along the body's x axis and
+/// the gyro's rotation increment, with their noise variances.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyIncrement {
+    /// Distance driven, metres (negative when reversing).
+    pub distance_m: f64,
+    /// Rotation increment (roll, pitch, yaw axes of the body), radians.
+    pub rotation_rad: Vector3<f64>,
+    /// Variance of the distance, m².
+    pub var_distance_m2: f64,
+    /// Variance of the motion across the body's x–y plane (the wheels do not measure the
+    /// terrain's curvature under the chord), m².
+    pub var_vertical_m2: f64,
+    /// Variance of the rotation increment per body axis (roll, pitch, yaw), rad².
+    pub var_rotation_rad2: Vector3<f64>,
+}
+
+impl BodyIncrement {
+    /// The tick's motion `ΔT = (Exp(δφ), Exp(δφ/2) (d, 0, 0))`.
+    pub fn motion(&self) -> Se3 {
+        let t = so3_exp(&(0.5 * self.rotation_rad)) * Vector3::new(self.distance_m, 0.0, 0.0);
+        Se3::new(so3_exp(&self.rotation_rad), t)
     }
-    w[(2, 2)] = var_z_m2;
-    w[(3, 3)] = var_tilt_rad2;
-    w[(4, 4)] = var_tilt_rad2;
-    let mut b = Matrix6::zeros();
-    let rt = world_from_current.transpose();
-    b.fixed_view_mut::<3, 3>(0, 0).copy_from(&rt);
-    b.fixed_view_mut::<3, 3>(3, 3).copy_from(&rt);
-    let mut s = b * w * b.transpose();
-    for i in 0..6 {
-        s[(i, i)] += COV_FLOOR;
-    }
-    (s + s.transpose()) * 0.5
+}
+
+/// `T_rel · ΔT` and its covariance in the right tangent (ξ = (δt, δφ)) from `T_rel`'s
+/// `covariance` and the tick's noise: `Σ' = Ad(ΔT⁻¹) Σ Ad(ΔT⁻¹)ᵀ + J Q Jᵀ`, where a noise
+/// `n = (n_d, n_z, n_φ)` perturbs `ΔT` by `ρ = A (n_d e_x + n_z e_z − (d/2) [e_x]× n_φ)`,
+/// `A = Exp(−δφ/2)`, and `φ = n_φ` (first order; the half-rotation puts half the tick's turn
+/// noise on its lever).
+pub fn propagate_relative(relative: &Se3, covariance: &Matrix6<f64>, step: &BodyIncrement) -> (Se3, Matrix6<f64>) {
+    let motion = step.motion();
+    let a = so3_exp(&(-0.5 * step.rotation_rad)).to_rotation_matrix().into_inner();
+    let mut j = nalgebra::Matrix6x5::zeros();
+    j.fixed_view_mut::<3, 1>(0, 0).copy_from(&a.column(0));
+    j.fixed_view_mut::<3, 1>(0, 1).copy_from(&a.column(2));
+    j.fixed_view_mut::<3, 3>(0, 2).copy_from(&(-0.5 * step.distance_m * a * hat(&Vector3::x())));
+    j.fixed_view_mut::<3, 3>(3, 2).copy_from(&Matrix3::identity());
+    let v = step.var_rotation_rad2;
+    let q = nalgebra::Matrix5::from_diagonal(&nalgebra::Vector5::new(step.var_distance_m2, step.var_vertical_m2, v.x, v.y, v.z));
+    let cov = compound_covariance(covariance, &motion, &(j * q * j.transpose()));
+    (*relative * motion, cov)
+}
+
+/// `covariance` plus the diagonal floor (an odometry factor must be invertible).
+fn with_floor(covariance: &Matrix6<f64>) -> Matrix6<f64> {
+    covariance + Matrix6::identity() * COV_FLOOR
 }
 
 /// Covariance of `T_k · T_rel` (right perturbations) from the keyframe's `Σ_k` and the
@@ -309,16 +328,9 @@ pub struct KeyframeOutcome {
 pub struct SlamFrontend {
     params: SlamParams,
     slam: GraphSlam,
-    /// Dead-reckoned planar track and height (world frame).
-    odo: Pose2,
-    odo_z_m: f64,
-    /// Gyro-integrated roll, pitch.
-    tilt_rad: [f64; 2],
-    odo_at_keyframe: Se3,
-    /// Errors since the keyframe: planar (x, y, yaw) and height.
-    rel_planar_cov: Matrix3<f64>,
-    rel_var_z_m2: f64,
-    rel_var_tilt_rad2: f64,
+    /// Odometry since the latest keyframe, `T_rel`, and its covariance (right tangent).
+    keyframe_from_current: Se3,
+    relative_cov: Matrix6<f64>,
     keyframe_pose: Se3,
     keyframe_cov: Matrix6<f64>,
     keyframes_since_marginal: usize,
@@ -333,15 +345,9 @@ pub struct SlamFrontend {
 }
 
 impl SlamFrontend {
-    /// Starts at `world_from_start` (the first keyframe, fixed) with its (roll, pitch)
-    /// `tilt_rad` and the camera's first observations.
-    pub fn new(
-        params: SlamParams,
-        world_from_start: Se3,
-        start: Pose2,
-        tilt_rad: [f64; 2],
-        observations: &[CameraObservation],
-    ) -> Result<Self, SlamError> {
+    /// Starts at `world_from_start` (the first keyframe, fixed) with the camera's first
+    /// observations.
+    pub fn new(params: SlamParams, world_from_start: Se3, observations: &[CameraObservation]) -> Result<Self, SlamError> {
         let mut scratch = Vec::new();
         select_observations(observations, |_| false, params.max_observations_per_keyframe, &mut scratch);
         let slam = GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?;
@@ -349,13 +355,8 @@ impl SlamFrontend {
         clouds.start_keyframe(0.0);
         let mut me = Self {
             slam,
-            odo: start,
-            odo_z_m: world_from_start.translation.z,
-            tilt_rad,
-            odo_at_keyframe: Se3::identity(),
-            rel_planar_cov: Matrix3::zeros(),
-            rel_var_z_m2: 0.0,
-            rel_var_tilt_rad2: 0.0,
+            keyframe_from_current: Se3::identity(),
+            relative_cov: Matrix6::zeros(),
             keyframe_pose: world_from_start,
             keyframe_cov: Matrix6::zeros(),
             keyframes_since_marginal: 0,
@@ -368,7 +369,6 @@ impl SlamFrontend {
             scratch: Vec::new(),
             params,
         };
-        me.odo_at_keyframe = me.odometry_pose();
         me.anchor_new_landmarks(&scratch);
         Ok(me)
     }
@@ -395,33 +395,14 @@ impl SlamFrontend {
         self.reregistrations
     }
 
-    /// One control tick of odometry: measured distance `ds_m`, turn `dtheta_rad`, change of
-    /// (roll, pitch) `dtilt_rad`, and their noise variances. O(1).
-    pub fn odometry_step(&mut self, ds_m: f64, dtheta_rad: f64, dtilt_rad: [f64; 2], var_ds: f64, var_dtheta: f64, var_dtilt: f64) {
-        let th = self.odo.yaw_rad + 0.5 * dtheta_rad;
-        let (c, s) = (th.cos(), th.sin());
-        let f = Matrix3::new(1.0, 0.0, -ds_m * s, 0.0, 1.0, ds_m * c, 0.0, 0.0, 1.0);
-        let l = nalgebra::Matrix3x2::new(c, -0.5 * ds_m * s, s, 0.5 * ds_m * c, 0.0, 1.0);
-        let q = nalgebra::Matrix2::new(var_ds, 0.0, 0.0, var_dtheta);
-        self.rel_planar_cov = f * self.rel_planar_cov * f.transpose() + l * q * l.transpose();
-        let tilt = [self.tilt_rad[0] + dtilt_rad[0], self.tilt_rad[1] + dtilt_rad[1]];
-        let pitch = 0.5 * (self.tilt_rad[1] + tilt[1]);
-        self.odo_z_m -= ds_m * pitch.tan();
-        self.rel_var_tilt_rad2 += var_dtilt;
-        self.rel_var_z_m2 += ds_m * ds_m * self.rel_var_tilt_rad2 + self.params.z_sigma_per_sqrt_m.powi(2) * ds_m.abs();
-        self.odo = Pose2 { x_m: self.odo.x_m + ds_m * c, y_m: self.odo.y_m + ds_m * s, yaw_rad: wrap_pi(self.odo.yaw_rad + dtheta_rad) };
-        self.tilt_rad = tilt;
+    /// One control tick of odometry measured in the body frame ([`propagate_relative`]). O(1).
+    pub fn odometry_step(&mut self, step: &BodyIncrement) {
+        (self.keyframe_from_current, self.relative_cov) = propagate_relative(&self.keyframe_from_current, &self.relative_cov, step);
     }
 
-    /// The odometry (dead-reckoned) pose `T_o`.
-    fn odometry_pose(&self) -> Se3 {
-        let r = Rotation3::from_euler_angles(self.tilt_rad[0], self.tilt_rad[1], self.odo.yaw_rad);
-        Se3::new(UnitQuaternion::from_rotation_matrix(&r), Vector3::new(self.odo.x_m, self.odo.y_m, self.odo_z_m))
-    }
-
-    /// `T_o(k)⁻¹ T_o(now)`: the odometry since the latest keyframe.
+    /// `T_rel`: the odometry since the latest keyframe.
     pub fn keyframe_from_current(&self) -> Se3 {
-        self.odo_at_keyframe.inverse() * self.odometry_pose()
+        self.keyframe_from_current
     }
 
     /// `world_from_robot` estimate: the latest keyframe ⊕ odometry since.
@@ -429,21 +410,16 @@ impl SlamFrontend {
         self.keyframe_pose * self.keyframe_from_current()
     }
 
-    fn relative_cov(&self) -> Matrix6<f64> {
-        relative_covariance(&self.rel_planar_cov, self.rel_var_z_m2, self.rel_var_tilt_rad2, &self.odometry_pose().rotation_matrix())
-    }
-
     /// 6×6 covariance of [`Self::estimate`] (ξ = (δt, δφ), body frame).
     pub fn covariance(&self) -> Matrix6<f64> {
-        compound_covariance(&self.keyframe_cov, &self.keyframe_from_current(), &self.relative_cov())
+        compound_covariance(&self.keyframe_cov, &self.keyframe_from_current, &with_floor(&self.relative_cov))
     }
 
     /// Whether the robot moved or turned enough for a new keyframe.
     pub fn keyframe_due(&self) -> bool {
-        let k = self.odo_at_keyframe;
-        let moved = (self.odo.x_m - k.translation.x).hypot(self.odo.y_m - k.translation.y);
-        let k_yaw = k.rotation.euler_angles().2;
-        let turned = wrap_pi(self.odo.yaw_rad - k_yaw).abs();
+        let rel = &self.keyframe_from_current;
+        let moved = rel.translation.norm();
+        let turned = so3_log(&rel.rotation).norm();
         moved >= self.params.keyframe_every_m || turned >= self.params.keyframe_every_rad
     }
 
@@ -455,11 +431,11 @@ impl SlamFrontend {
         observations: &[CameraObservation],
         up_in_body: Option<Vector3<f64>>,
     ) -> Result<KeyframeOutcome, SlamError> {
-        let rel = self.keyframe_from_current();
+        let rel = self.keyframe_from_current;
         let gravity = up_in_body
             .filter(|_| self.params.gravity_sigma_rad > 0.0)
             .map(|up_in_body| Gravity { up_in_body, sigma_rad: self.params.gravity_sigma_rad });
-        let odometry = Odometry { previous_from_current: rel, covariance: self.relative_cov(), gravity };
+        let odometry = Odometry { previous_from_current: rel, covariance: with_floor(&self.relative_cov), gravity };
         let compounded = self.covariance();
         let mut scratch = std::mem::take(&mut self.scratch);
         let slam = &self.slam;
@@ -473,10 +449,8 @@ impl SlamFrontend {
             }
         };
         self.keyframe_pose = self.slam.current_pose();
-        self.odo_at_keyframe = self.odometry_pose();
-        self.rel_planar_cov = Matrix3::zeros();
-        self.rel_var_z_m2 = 0.0;
-        self.rel_var_tilt_rad2 = 0.0;
+        self.keyframe_from_current = Se3::identity();
+        self.relative_cov = Matrix6::zeros();
         self.keyframes_since_marginal += 1;
         self.keyframe_cov = compounded;
         let exact_due = update.full || self.keyframes_since_marginal >= self.params.marginal_every_keyframes;
@@ -495,7 +469,7 @@ impl SlamFrontend {
             let lever = self.params.reregister_lever_m;
             let moved = poses.iter().zip(&self.registered).any(|(now, then)| {
                 let d = then.between(now);
-                d.translation.norm() + lever * crate::slam::lie::so3_log(&d.rotation).norm() > self.params.reregister_shift_m
+                d.translation.norm() + lever * so3_log(&d.rotation).norm() > self.params.reregister_shift_m
             });
             if moved {
                 self.registered = poses;
@@ -591,7 +565,9 @@ fn select_observations(observations: &[CameraObservation], known: impl Fn(u64) -
 mod tests {
     use super::*;
     use crate::grid::GridGeometry;
+    use crate::pose::{Pose2, wrap_pi};
     use crate::sim::odometry::OdometryNoise;
+    use nalgebra::UnitQuaternion;
     use crate::slam::CovarianceTraces;
 
     #[test]
@@ -662,18 +638,54 @@ mod tests {
     }
 
     #[test]
-    fn relative_covariance_is_rotated_into_the_current_body_frame() {
-        // Body x = world y (yaw 90°): world x/y variances swap, tilt stays per axis, yaw stays.
-        let p = Matrix3::from_diagonal(&Vector3::new(1e-2, 4e-2, 9e-4));
-        let r = Rotation3::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2).into_inner();
-        let s = relative_covariance(&p, 2e-3, 5e-4, &r);
-        let expect = [4e-2, 1e-2, 2e-3, 5e-4, 5e-4, 9e-4];
-        for i in 0..6 {
-            assert!((s[(i, i)] - expect[i] - COV_FLOOR).abs() < 1e-12, "{i}: {}", s[(i, i)]);
+    fn yaw_noise_on_a_straight_drive_has_the_closed_form_lateral_variance() {
+        // n ticks of d straight ahead, yaw noise q per tick only. Tick k's noise turns the
+        // second half of its own chord and the n − k ticks after it: lateral error
+        // Σ n_k d (n − k + ½), variance q d² Σ_{j<n} (j + ½)² = q d² (n³/3 − n/12); yaw n q;
+        // their covariance q d Σ (j + ½) = q d n²/2. (Heading 0: body = world axes.)
+        let (n, d, q) = (40usize, 0.05, 1e-6);
+        let step = BodyIncrement { distance_m: d, rotation_rad: Vector3::zeros(), var_distance_m2: 0.0, var_vertical_m2: 0.0, var_rotation_rad2: Vector3::new(0.0, 0.0, q) };
+        let (mut rel, mut cov) = (Se3::identity(), Matrix6::zeros());
+        for _ in 0..n {
+            (rel, cov) = propagate_relative(&rel, &cov, &step);
         }
-        assert!(s.cholesky().is_some());
-        // Turning in place (no translation noise): still invertible thanks to the floor.
-        assert!(relative_covariance(&Matrix3::zeros(), 0.0, 0.0, &Matrix3::identity()).cholesky().is_some());
+        let nf = n as f64;
+        assert!((rel.translation - Vector3::new(nf * d, 0.0, 0.0)).norm() < 1e-12);
+        let lateral = q * d * d * (nf.powi(3) / 3.0 - nf / 12.0);
+        assert!((cov[(1, 1)] - lateral).abs() < 1e-9 * lateral, "{} vs {lateral}", cov[(1, 1)]);
+        assert!((cov[(5, 5)] - nf * q).abs() < 1e-15);
+        assert!((cov[(1, 5)] - q * d * nf * nf / 2.0).abs() < 1e-15);
+        assert!(cov[(0, 0)].abs() < 1e-18 && cov[(2, 2)].abs() < 1e-18, "no along-track or height error without their noise");
+    }
+
+    #[test]
+    fn relative_motion_holds_only_the_noise_of_its_own_ticks() {
+        // Tilt noise on the way to a keyframe does not enter the next relative motion: after a
+        // keyframe T_rel restarts from the identity with zero covariance, whatever came before.
+        let mut fe = SlamFrontend::new(SlamParams::default(), Se3::identity(), &[]).unwrap();
+        let tilt = BodyIncrement {
+            distance_m: 0.05,
+            rotation_rad: Vector3::new(0.01, -0.02, 0.1),
+            var_distance_m2: 1e-6,
+            var_vertical_m2: 1e-6,
+            var_rotation_rad2: Vector3::new(4e-8, 4e-8, 1e-6),
+        };
+        while !fe.keyframe_due() {
+            fe.odometry_step(&tilt);
+        }
+        assert!(fe.relative_cov[(3, 3)] > 0.0);
+        fe.add_keyframe(&[], None).unwrap();
+        assert_eq!(fe.keyframe_from_current(), Se3::identity());
+        assert_eq!(fe.relative_cov, Matrix6::zeros());
+        // A pure turn in place: the relative rotation is the gyro's increments, composed in the
+        // body frame (here about one axis: their sum), whatever the absolute attitude.
+        let turn = BodyIncrement { distance_m: 0.0, rotation_rad: Vector3::new(0.0, 0.0, 0.05), ..tilt };
+        for _ in 0..4 {
+            fe.odometry_step(&turn);
+        }
+        let angle = so3_log(&fe.keyframe_from_current().rotation);
+        assert!((angle - Vector3::new(0.0, 0.0, 0.2)).norm() < 1e-12, "{angle}");
+        assert!((fe.relative_cov[(3, 3)] - 4.0 * 4e-8).abs() < 1e-18, "four ticks of roll noise");
     }
 
     #[test]
@@ -715,7 +727,7 @@ mod tests {
         };
         let noise = OdometryNoise::default();
         let start = pose_at(0.0);
-        let mut fe = SlamFrontend::new(SlamParams::default(), se3(start), start, [0.0, 0.0], &observe(start)).unwrap();
+        let mut fe = SlamFrontend::new(SlamParams::default(), se3(start), &observe(start)).unwrap();
         assert!(fe.backend().landmark_count() > 0);
         let (ds, dt) = (0.05, 0.125);
         let dth = ds / radius;
@@ -723,7 +735,14 @@ mod tests {
         let mut traces = Vec::new(); // (keyframe, trace before, trace after, loop closure)
         for k in 1..=steps {
             let (vs, vt) = noise.variances(ds, dth, dt);
-            fe.odometry_step(ds, dth, [0.0, 0.0], vs, vt, 0.0);
+            let step = BodyIncrement {
+                distance_m: ds,
+                rotation_rad: Vector3::new(0.0, 0.0, dth),
+                var_distance_m2: vs,
+                var_vertical_m2: 0.0,
+                var_rotation_rad2: Vector3::new(0.0, 0.0, vt),
+            };
+            fe.odometry_step(&step);
             if fe.keyframe_due() {
                 let before = CovarianceTraces::of(&fe.covariance()).cov_trace;
                 let o = fe.add_keyframe(&observe(pose_at(k as f64 * dth)), None).unwrap();
