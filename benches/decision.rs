@@ -1,7 +1,9 @@
 //! One full FIT-SLAM decision on the synthetic 100 m × 100 m world at 0.05 m (2000 × 2000 cells,
 //! partially explored with a ragged frontier, obstacles, 50,000 landmarks): median of several
 //! runs (and the minimum, less sensitive to other processes on the machine), single-threaded,
-//! with a per-stage breakdown.
+//! with a per-stage breakdown. The stages and the selector keep their grid-sized buffers from run
+//! to run, as a selector does from decision to decision in a mission; the last line is the same
+//! decision by a fresh selector (buffers allocated, and page-faulted, afresh).
 //!
 //! `cargo bench --bench decision` (optionally `-- RUNS`).
 
@@ -9,7 +11,7 @@ use fitslam_core::fixtures::{SyntheticWorldSpec, synthetic_world};
 use fitslam_core::frontier::Blacklist;
 use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
 use fitslam_core::params::{Params, Strategy};
-use fitslam_core::select::candidates::{distances, frontier_clusters, prepare, rank_and_choose, score_u1, score_u2};
+use fitslam_core::select::candidates::{PlanBuffers, distances, frontier_clusters, prepare, rank_and_choose, score_u1, score_u2};
 use fitslam_core::select::{DecisionInput, FitSlam, GoalSelector};
 use fitslam_core::utility::LandmarkVoxels;
 use std::time::Instant;
@@ -55,16 +57,19 @@ fn main() {
         "u2 (waypoints, FIM)",
         "total (stages)",
         "FitSlam::select",
+        "FitSlam::select, fresh",
     ];
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let mut summary = String::new();
+    let mut buffers = PlanBuffers::default();
+    let mut selector = FitSlam::default();
     for run in 0..runs {
         let t0 = Instant::now();
-        let prepared = prepare(&input, &params).expect("prepare");
+        let prepared = prepare(&input, &params, &mut buffers).expect("prepare");
         let t1 = Instant::now();
-        let clusters = frontier_clusters(&input, &prepared, &params).expect("frontiers");
+        let clusters = frontier_clusters(&input, &prepared, &params, &mut buffers).expect("frontiers");
         let t2 = Instant::now();
-        let field = distances(&prepared, &clusters, &params).expect("dijkstra");
+        let field = distances(&prepared, &clusters, &params, &mut buffers).expect("dijkstra");
         let t3 = Instant::now();
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, Strategy::Fit).expect("u1");
         let t4 = Instant::now();
@@ -72,10 +77,13 @@ fn main() {
         let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
         rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
         let t5 = Instant::now();
-        let full = FitSlam.select(&input, &params).expect("select");
+        let full = selector.select(&input, &params).expect("select");
         let t6 = Instant::now();
+        let fresh = FitSlam::default().select(&input, &params).expect("select");
+        let t7 = Instant::now();
         assert_eq!(full.chosen, d.chosen);
-        for (k, (a, b)) in [(t0, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5), (t0, t5), (t5, t6)].iter().enumerate() {
+        assert_eq!(fresh.chosen, d.chosen);
+        for (k, (a, b)) in [(t0, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5), (t0, t5), (t5, t6), (t6, t7)].iter().enumerate() {
             times[k].push(1e3 * (*b - *a).as_secs_f64());
         }
         if run == 0 {
@@ -97,6 +105,7 @@ fn main() {
                 d.goal.map_or(f64::NAN, |p| p.y_m),
             );
         }
+        buffers.recycle(prepared, field);
     }
     println!("{summary}");
     println!("{runs} runs, one thread:               median        min");

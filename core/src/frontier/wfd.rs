@@ -23,9 +23,15 @@ pub(super) const UNREACHED: u8 = 0;
 pub(super) const REACHED: u8 = 1;
 pub(super) const FRONTIER: u8 = 2;
 
-/// The BFS: returns the state layer (every reachable free cell `REACHED` or `FRONTIER`) and the
-/// frontier cells' flat indices in increasing order.
-pub(super) fn wavefront(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Boundary>) -> Result<(Vec<u8>, Vec<usize>), FrontierError> {
+/// The BFS: fills `state` (every reachable free cell `REACHED` or `FRONTIER`, the rest
+/// `UNREACHED`; its storage is reused) and returns the frontier cells' flat indices in
+/// increasing order.
+pub(super) fn wavefront(
+    grid: &OccupancyGrid,
+    robot: Cell,
+    boundary: Option<&Boundary>,
+    state: &mut Vec<u8>,
+) -> Result<Vec<usize>, FrontierError> {
     let g = grid.geometry;
     if grid.data.len() != g.len() {
         return Err(FrontierError::GridSizeMismatch { data_len: grid.data.len(), cells: g.len() });
@@ -35,7 +41,8 @@ pub(super) fn wavefront(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Bou
         return Err(FrontierError::RobotNotFree(robot));
     }
     let (w, h) = (g.width, g.height);
-    let mut state = vec![UNREACHED; g.len()];
+    state.clear();
+    state.resize(g.len(), UNREACHED);
     // The reached set does not depend on the visiting order, so a stack will do; cells carry
     // their column and row, so no division is needed to find the map's edges.
     let mut stack = vec![(start % w, start / w)];
@@ -80,13 +87,13 @@ pub(super) fn wavefront(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Bou
         }
     }
     frontier.sort_unstable();
-    Ok((state, frontier))
+    Ok(frontier)
 }
 
 /// The reachable frontier cells (step 1 of [`detect_frontiers`]), in increasing flat index
 /// (row-major from the bottom-left). Errors as [`detect_frontiers`].
 pub fn frontier_cells(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Boundary>) -> Result<Vec<Cell>, FrontierError> {
-    let (_, frontier) = wavefront(grid, robot, boundary)?;
+    let frontier = wavefront(grid, robot, boundary, &mut Vec::new())?;
     Ok(frontier.into_iter().map(|i| grid.geometry.cell_at(i)).collect())
 }
 
@@ -107,9 +114,21 @@ pub fn detect_frontiers(
     boundary: Option<&Boundary>,
     params: &FrontierParams,
 ) -> Result<Vec<FrontierCluster>, FrontierError> {
+    detect_frontiers_with(grid, robot, boundary, params, &mut Vec::new())
+}
+
+/// [`detect_frontiers`] with the flood's state layer in `state`, whose storage is reused (a
+/// planner that decides again and again keeps one).
+pub fn detect_frontiers_with(
+    grid: &OccupancyGrid,
+    robot: Cell,
+    boundary: Option<&Boundary>,
+    params: &FrontierParams,
+    state: &mut Vec<u8>,
+) -> Result<Vec<FrontierCluster>, FrontierError> {
     if params.max_cluster_cells == 0 {
         return Err(FrontierError::ZeroMaxClusterCells);
     }
-    let (mut state, frontier) = wavefront(grid, robot, boundary)?;
-    Ok(cluster_frontier(&grid.geometry, &mut state, &frontier, params))
+    let frontier = wavefront(grid, robot, boundary, state)?;
+    Ok(cluster_frontier(&grid.geometry, state, &frontier, params))
 }

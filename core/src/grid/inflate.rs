@@ -11,14 +11,24 @@ use super::{LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
 
 /// Returns a copy of `grid` with every cell within `radius_m` of a lethal cell set to [`LETHAL`].
 pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
-    let mut out = grid.clone();
+    let mut out = OccupancyGrid { geometry: grid.geometry, data: Vec::new() };
+    inflate_lethal_into(grid, radius_m, &mut out);
+    out
+}
+
+/// [`inflate_lethal`] into `out`, reusing its storage (a planner that decides again and again
+/// keeps one, so the copy does not allocate and page-fault a fresh grid each time).
+pub fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut OccupancyGrid) {
+    out.geometry = grid.geometry;
+    out.data.clear();
+    out.data.extend_from_slice(&grid.data);
     let g = grid.geometry;
     if !(radius_m > 0.0) || g.is_empty() {
-        return out;
+        return;
     }
     let r_cells = (radius_m / g.resolution_m).floor() as i32;
     if r_cells == 0 {
-        return out;
+        return;
     }
     let r2 = (radius_m / g.resolution_m) * (radius_m / g.resolution_m) + 1e-9;
     // The disc as one horizontal span per row offset: (dy, half-width in cells).
@@ -55,7 +65,6 @@ pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
             }
         }
     }
-    out
 }
 
 #[cfg(test)]

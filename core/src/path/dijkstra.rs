@@ -144,6 +144,11 @@ impl DistanceField {
         self.settled_below == UNREACHED
     }
 
+    /// The cost storage, for the next search to reuse ([`dijkstra_to_reusing`]).
+    pub fn into_buffer(self) -> Vec<u64> {
+        self.cost
+    }
+
     /// Number of cells settled.
     pub fn settled_count(&self) -> usize {
         self.cost.iter().filter(|&&c| self.is_settled(c)).count()
@@ -182,13 +187,26 @@ impl DistanceField {
 
 /// Runs Dijkstra from `start` over every passable cell (same moves as [`super::astar`]).
 pub fn dijkstra(grid: &OccupancyGrid, start: Cell, allow_unknown: bool) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, None)
+    search(grid, start, allow_unknown, None, Vec::new())
 }
 
 /// Runs Dijkstra from `start` until every passable cell of `targets` is settled (or nothing is
 /// left to settle): their distances and paths are exactly [`dijkstra`]'s.
 pub fn dijkstra_to(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: &[Cell]) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, Some(targets))
+    search(grid, start, allow_unknown, Some(targets), Vec::new())
+}
+
+/// [`dijkstra_to`] with the cost window in `buffer`, whose storage is reused (take it back with
+/// [`DistanceField::into_buffer`]): a planner that decides again and again then neither
+/// allocates nor page-faults the window each time.
+pub fn dijkstra_to_reusing(
+    grid: &OccupancyGrid,
+    start: Cell,
+    allow_unknown: bool,
+    targets: &[Cell],
+    buffer: Vec<u64>,
+) -> Result<DistanceField, PathError> {
+    search(grid, start, allow_unknown, Some(targets), buffer)
 }
 
 /// Puts a bucket into memory order block by block (a counting sort on `index >> BLOCK_SHIFT`), so
@@ -257,14 +275,21 @@ fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Wi
     Window { col0: c0, row0: r0, width: c1 - c0 + 1, height: r1 - r0 + 1 }
 }
 
-fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: Option<&[Cell]>) -> Result<DistanceField, PathError> {
+fn search(
+    grid: &OccupancyGrid,
+    start: Cell,
+    allow_unknown: bool,
+    targets: Option<&[Cell]>,
+    mut cost: Vec<u64>,
+) -> Result<DistanceField, PathError> {
     let g = grid.geometry;
     check_start(grid, start, allow_unknown)?;
     let win = passable_window(grid, allow_unknown, start);
     let pw = win.padded_width();
     let n = pw * (win.height + 2);
     let scale = Scale::for_cells(n);
-    let mut cost = vec![BLOCKED; n];
+    cost.clear();
+    cost.resize(n, BLOCKED);
     for r in 0..win.height {
         let src = (win.row0 + r) * g.width + win.col0;
         let row = &grid.data[src..src + win.width];

@@ -14,16 +14,36 @@
 //!    scored candidates.
 //! 5. [`score_u2`] (FIT-SLAM): u2 on the N best by u1.
 //!
-//! Cost: inflation O(B r²), WFD O(cells), Dijkstra O(n log n) over reachable cells, u1 O(C·R·L)
-//! for C candidates, R rays of L cells, u2 O(N·K·V) (see [`crate::utility::u2`]).
+//! Cost: inflation O(B r²), WFD O(cells), Dijkstra O(n) over the cells settled, u1 O(C·R·L)
+//! for C candidates, R rays of L cells, u2 O(N·K·V) (see [`crate::utility::u2`]). The three
+//! grid-sized buffers (inflated grid, flood state, cost window: ≈ 20 MB on a 2000 × 2000 map)
+//! live in the selector's [`PlanBuffers`] and are reused from one decision to the next.
 
 use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
-use crate::frontier::{FrontierCluster, detect_frontiers};
-use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal};
+use crate::frontier::{FrontierCluster, detect_frontiers_with};
+use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal_into};
 use crate::params::{Params, Strategy};
-use crate::path::{DistanceField, dijkstra_to};
+use crate::path::{DistanceField, dijkstra_to_reusing};
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
+
+/// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
+/// one decision neither allocates nor page-faults them afresh (measured in BENCHMARKS.md,
+/// Decision). Only capacity carries over: every step overwrites what it reads.
+#[derive(Clone, Debug, Default)]
+pub struct PlanBuffers {
+    inflated: Vec<i8>,
+    frontier_state: Vec<u8>,
+    cost: Vec<u64>,
+}
+
+impl PlanBuffers {
+    /// Takes the storage of a finished decision's inflated grid and distance field back.
+    pub fn recycle(&mut self, prepared: Prepared, field: DistanceField) {
+        self.inflated = prepared.inflated.data;
+        self.cost = field.into_buffer();
+    }
+}
 
 /// Output of [`prepare`]: the planning grid and the start cell.
 #[derive(Clone, Debug)]
@@ -38,8 +58,8 @@ pub struct Prepared {
     pub start_snapped: bool,
 }
 
-/// Step 1: validate, inflate, locate (and if needed snap) the robot.
-pub fn prepare(input: &DecisionInput, params: &Params) -> Result<Prepared, SelectError> {
+/// Step 1: validate, inflate (into `buffers`' storage), locate (and if needed snap) the robot.
+pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers) -> Result<Prepared, SelectError> {
     params.validate().map_err(SelectError::InvalidParams)?;
     let g = input.grid.geometry;
     if input.grid.data.len() != g.len() {
@@ -50,7 +70,8 @@ pub fn prepare(input: &DecisionInput, params: &Params) -> Result<Prepared, Selec
     }
     let requested =
         g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
-    let inflated = inflate_lethal(input.grid, params.robot.radius_m);
+    let mut inflated = OccupancyGrid { geometry: g, data: std::mem::take(&mut buffers.inflated) };
+    inflate_lethal_into(input.grid, params.robot.radius_m, &mut inflated);
     let free = |c: Cell| g.index(c).is_some_and(|i| CellClass::of(inflated.data[i]) == CellClass::Free);
     if free(requested) {
         return Ok(Prepared { inflated, robot_cell: requested, requested_robot_cell: requested, start_snapped: false });
@@ -80,17 +101,29 @@ pub fn prepare(input: &DecisionInput, params: &Params) -> Result<Prepared, Selec
 }
 
 /// Step 2: frontier clusters on the inflated grid, sorted by the candidate's flat index.
-pub fn frontier_clusters(input: &DecisionInput, prepared: &Prepared, params: &Params) -> Result<Vec<FrontierCluster>, SelectError> {
-    let mut clusters = detect_frontiers(&prepared.inflated, prepared.robot_cell, input.boundary, &params.frontier)?;
+pub fn frontier_clusters(
+    input: &DecisionInput,
+    prepared: &Prepared,
+    params: &Params,
+    buffers: &mut PlanBuffers,
+) -> Result<Vec<FrontierCluster>, SelectError> {
+    let state = &mut buffers.frontier_state;
+    let mut clusters = detect_frontiers_with(&prepared.inflated, prepared.robot_cell, input.boundary, &params.frontier, state)?;
     let g = prepared.inflated.geometry;
     clusters.sort_by_key(|c| g.index(c.candidate).unwrap_or(usize::MAX));
     Ok(clusters)
 }
 
 /// Step 3: one Dijkstra from the robot's cell, stopped once every candidate is settled.
-pub fn distances(prepared: &Prepared, clusters: &[FrontierCluster], params: &Params) -> Result<DistanceField, SelectError> {
+pub fn distances(
+    prepared: &Prepared,
+    clusters: &[FrontierCluster],
+    params: &Params,
+    buffers: &mut PlanBuffers,
+) -> Result<DistanceField, SelectError> {
     let targets: Vec<Cell> = clusters.iter().map(|c| c.candidate).collect();
-    Ok(dijkstra_to(&prepared.inflated, prepared.robot_cell, params.planner.allow_unknown, &targets)?)
+    let buffer = std::mem::take(&mut buffers.cost);
+    Ok(dijkstra_to_reusing(&prepared.inflated, prepared.robot_cell, params.planner.allow_unknown, &targets, buffer)?)
 }
 
 /// Step 4: the candidate reports with ρ, path, rays, Θ*, ΔE and u1 (see the module doc).
@@ -191,12 +224,14 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
     }
 }
 
-/// Steps 1–4: everything but u2.
-pub fn plan(input: &DecisionInput, params: &Params, strategy: Strategy) -> Result<Decision, SelectError> {
-    let prepared = prepare(input, params)?;
-    let clusters = frontier_clusters(input, &prepared, params)?;
-    let field = distances(&prepared, &clusters, params)?;
-    score_u1(input, &prepared, clusters, &field, params, strategy)
+/// Steps 1–4: everything but u2, with the grid-sized storage in `buffers`.
+pub fn plan(input: &DecisionInput, params: &Params, strategy: Strategy, buffers: &mut PlanBuffers) -> Result<Decision, SelectError> {
+    let prepared = prepare(input, params, buffers)?;
+    let clusters = frontier_clusters(input, &prepared, params, buffers)?;
+    let field = distances(&prepared, &clusters, params, buffers)?;
+    let decision = score_u1(input, &prepared, clusters, &field, params, strategy);
+    buffers.recycle(prepared, field);
+    decision
 }
 
 /// Assigns ranks 1.. to `indices` in increasing `key` (ties by candidate index), sets `chosen`

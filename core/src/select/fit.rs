@@ -2,17 +2,19 @@
 //! N best by u1, goal = argmax u2 (ties by candidate index). Cost: the pipeline's (see
 //! [`super::candidates`]).
 
-use super::candidates::{plan, rank_and_choose, score_u2};
+use super::candidates::{PlanBuffers, plan, rank_and_choose, score_u2};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy};
 
 /// FIT-SLAM: u1 then u2.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct FitSlam;
+#[derive(Clone, Debug, Default)]
+pub struct FitSlam {
+    buffers: PlanBuffers,
+}
 
 impl GoalSelector for FitSlam {
     fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
-        let mut d = plan(input, params, Strategy::Fit)?;
+        let mut d = plan(input, params, Strategy::Fit, &mut self.buffers)?;
         score_u2(&mut d, input, params);
         let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
         rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));

@@ -2,17 +2,19 @@
 //! length ρ (ties by candidate index). Every scored candidate is ranked by ρ. u1 is still
 //! reported (it is cheap and shows what FIT-SLAM would have weighed).
 
-use super::candidates::{plan, rank_and_choose};
+use super::candidates::{PlanBuffers, plan, rank_and_choose};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy};
 
 /// Nearest candidate by path length.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Greedy;
+#[derive(Clone, Debug, Default)]
+pub struct Greedy {
+    buffers: PlanBuffers,
+}
 
 impl GoalSelector for Greedy {
     fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
-        let mut d = plan(input, params, Strategy::Greedy)?;
+        let mut d = plan(input, params, Strategy::Greedy, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         rank_and_choose(&mut d, &scored, |c| c.rho_m.unwrap_or(f64::INFINITY));
         Ok(d)

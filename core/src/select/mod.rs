@@ -115,10 +115,10 @@ pub trait GoalSelector {
 /// The selector named by `params.strategy` (the random one seeded with `params.seed`).
 pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
     match params.strategy {
-        Strategy::Fit => Box::new(FitSlam),
-        Strategy::Greedy => Box::new(Greedy),
+        Strategy::Fit => Box::new(FitSlam::default()),
+        Strategy::Greedy => Box::new(Greedy::default()),
         Strategy::Random => Box::new(RandomSelector::new(params.seed)),
-        Strategy::U1 => Box::new(U1Only),
+        Strategy::U1 => Box::new(U1Only::default()),
     }
 }
 

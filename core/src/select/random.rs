@@ -3,7 +3,7 @@
 //! decisions). One draw per decision with at least one candidate; the drawn candidate gets
 //! rank 1 and the others no rank.
 
-use super::candidates::{choose, plan};
+use super::candidates::{PlanBuffers, choose, plan};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy};
 use rand::{RngExt, SeedableRng};
@@ -13,18 +13,19 @@ use rand_chacha::ChaCha8Rng;
 #[derive(Clone, Debug)]
 pub struct RandomSelector {
     rng: ChaCha8Rng,
+    buffers: PlanBuffers,
 }
 
 impl RandomSelector {
     /// A selector whose draws are determined by `seed`.
     pub fn new(seed: u64) -> Self {
-        Self { rng: ChaCha8Rng::seed_from_u64(seed) }
+        Self { rng: ChaCha8Rng::seed_from_u64(seed), buffers: PlanBuffers::default() }
     }
 }
 
 impl GoalSelector for RandomSelector {
     fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
-        let mut d = plan(input, params, Strategy::Random)?;
+        let mut d = plan(input, params, Strategy::Random, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         let chosen = (!scored.is_empty()).then(|| scored[self.rng.random_range(0..scored.len())]);
         if let Some(i) = chosen {

@@ -1,4 +1,4 @@
-use super::candidates::{distances, frontier_clusters, prepare, score_u1};
+use super::candidates::{PlanBuffers, distances, frontier_clusters, prepare, score_u1};
 use super::*;
 use crate::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use crate::frontier::{BlacklistReason, FrontierCluster};
@@ -34,7 +34,7 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
     let bl = Blacklist::new(p.frontier.blacklist_radius_m);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
 
-    let g = Greedy.select(&input, &p).unwrap();
+    let g = Greedy::default().select(&input, &p).unwrap();
     let (west, east) = ends(&g);
     assert_eq!(g.chosen, Some(west));
     assert!((g.candidates[west].rho_m.unwrap() - 7.5).abs() < 1e-9);
@@ -42,7 +42,7 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
     assert_eq!(g.candidates[west].rank, Some(1));
     assert_eq!(g.candidates[east].rank, Some(2));
 
-    let f = FitSlam.select(&input, &p).unwrap();
+    let f = FitSlam::default().select(&input, &p).unwrap();
     let (west, east) = ends(&f);
     assert_eq!(f.chosen, Some(east));
     let (cw, ce) = (&f.candidates[west], &f.candidates[east]);
@@ -67,7 +67,7 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
     // Without landmarks both paths carry no information and FIT-SLAM follows u1.
     let w0 = corridor_two_frontiers(false);
     let lv0 = voxels(&w0, &p);
-    let f0 = FitSlam.select(&DecisionInput::new(&w0.grid, &lv0, w0.robot, &bl), &p).unwrap();
+    let f0 = FitSlam::default().select(&DecisionInput::new(&w0.grid, &lv0, w0.robot, &bl), &p).unwrap();
     let best_u1 = (0..2).max_by(|&a, &b| f0.candidates[a].u1.partial_cmp(&f0.candidates[b].u1).unwrap().then(b.cmp(&a))).unwrap();
     assert_eq!(f0.chosen, Some(best_u1));
 }
@@ -79,13 +79,13 @@ fn u1_only_and_top_n() {
     let lv = voxels(&w, &p);
     let bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let u = U1Only.select(&input, &p).unwrap();
+    let u = U1Only::default().select(&input, &p).unwrap();
     let top = u.candidates.iter().position(|c| c.u1_rank == Some(1)).unwrap();
     assert_eq!(u.chosen, Some(top));
     assert!(u.candidates.iter().all(|c| c.u2.is_none() && c.waypoints.is_empty()));
     // N = 1: FIT-SLAM only scores u1's best, the other is dropped NotInTopN.
     p.u2.top_n = 1;
-    let f = FitSlam.select(&input, &p).unwrap();
+    let f = FitSlam::default().select(&input, &p).unwrap();
     assert_eq!(f.chosen, Some(top));
     assert_eq!(f.candidates[1 - top].dropped, Some(DropReason::NotInTopN));
     assert_eq!(f.candidates[1 - top].rank, None);
@@ -100,19 +100,19 @@ fn blacklisted_candidates_are_dropped_with_their_reason() {
     let lv = voxels(&w, &p);
     let mut bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let first = FitSlam.select(&input, &p).unwrap();
+    let first = FitSlam::default().select(&input, &p).unwrap();
     let (west, east) = ends(&first);
     let ce = &first.candidates[east];
     bl.add(ce.x_m + 0.3, ce.y_m, BlacklistReason::Failed);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let d = FitSlam.select(&input, &p).unwrap();
+    let d = FitSlam::default().select(&input, &p).unwrap();
     assert_eq!(d.candidates[east].dropped, Some(DropReason::Blacklisted(BlacklistReason::Failed)));
     assert_eq!(d.candidates[east].u1, None);
     assert_eq!(d.chosen, Some(west));
     // Blacklist both: end of mission, not an error.
     let cw = &first.candidates[west];
     bl.add(cw.x_m, cw.y_m, BlacklistReason::Reselected);
-    let d = FitSlam.select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
+    let d = FitSlam::default().select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
     assert_eq!(d.chosen, None);
     assert_eq!(d.goal, None);
 }
@@ -132,11 +132,12 @@ fn unreachable_candidates_are_reported_for_the_blacklist() {
     let lv = LandmarkVoxels::empty(0.25);
     let bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&grid, &lv, w.robot, &bl);
-    let prepared = prepare(&input, &p).unwrap();
-    let mut clusters = frontier_clusters(&input, &prepared, &p).unwrap();
+    let mut buffers = PlanBuffers::default();
+    let prepared = prepare(&input, &p, &mut buffers).unwrap();
+    let mut clusters = frontier_clusters(&input, &prepared, &p, &mut buffers).unwrap();
     assert_eq!(clusters.len(), 2);
     clusters.insert(0, FrontierCluster::from_ordered_cells(vec![Cell::new(10, 20)]).unwrap());
-    let field = distances(&prepared, &clusters, &p).unwrap();
+    let field = distances(&prepared, &clusters, &p, &mut buffers).unwrap();
     let d = score_u1(&input, &prepared, clusters, &field, &p, Strategy::Fit).unwrap();
     assert_eq!(d.candidates[0].dropped, Some(DropReason::NoPath));
     assert_eq!(d.candidates[0].rho_m, None);
@@ -158,7 +159,7 @@ fn random_is_reproducible_per_seed() {
         let mut s = RandomSelector::new(seed);
         (0..12).map(|_| s.select(&input, &p).unwrap().chosen.unwrap()).collect::<Vec<_>>()
     };
-    let n = Greedy.select(&input, &p).unwrap().candidates.iter().filter(|c| c.is_scored()).count();
+    let n = Greedy::default().select(&input, &p).unwrap().candidates.iter().filter(|c| c.is_scored()).count();
     assert!(n >= 3, "only {n} candidates");
     let a = draw(5);
     assert_eq!(a, draw(5));
@@ -179,8 +180,8 @@ fn ranks_are_complete_and_deterministic_on_a_bigger_world() {
     let lv = voxels(&w, &p);
     let bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let d = FitSlam.select(&input, &p).unwrap();
-    let d2 = FitSlam.select(&input, &p).unwrap();
+    let d = FitSlam::default().select(&input, &p).unwrap();
+    let d2 = FitSlam::default().select(&input, &p).unwrap();
     assert_eq!(d, d2);
     // Candidates sorted by flat cell index.
     let g = w.grid.geometry;
@@ -194,7 +195,7 @@ fn ranks_are_complete_and_deterministic_on_a_bigger_world() {
     // The top N by u2 are the top N by u1.
     assert!(ranked.iter().all(|&i| d.candidates[i].u1_rank.unwrap() <= p.u2.top_n));
     // Greedy ranks every scored candidate by increasing ρ.
-    let gr = Greedy.select(&input, &p).unwrap();
+    let gr = Greedy::default().select(&input, &p).unwrap();
     let order = gr.ranking();
     assert_eq!(order.len(), scored);
     assert!(order.windows(2).all(|r| gr.candidates[r[0]].rho_m <= gr.candidates[r[1]].rho_m));
@@ -207,19 +208,19 @@ fn robot_cell_errors_and_snapping() {
     let lv = LandmarkVoxels::empty(0.25);
     let bl = Blacklist::new(0.5);
     let at = |x: f64, y: f64| DecisionInput::new(&w.grid, &lv, Pose2::new(x, y, 0.0), &bl);
-    assert_eq!(Greedy.select(&at(f64::NAN, 1.0), &p).unwrap_err(), SelectError::RobotPoseNotFinite);
-    assert!(matches!(Greedy.select(&at(-1.0, 1.0), &p).unwrap_err(), SelectError::RobotOutsideMap { .. }));
+    assert_eq!(Greedy::default().select(&at(f64::NAN, 1.0), &p).unwrap_err(), SelectError::RobotPoseNotFinite);
+    assert!(matches!(Greedy::default().select(&at(-1.0, 1.0), &p).unwrap_err(), SelectError::RobotOutsideMap { .. }));
     // Row 11 (y = 1.15) is within 0.25 m of the wall on row 9: lethal after inflation (rows
     // 10–11). The nearest free cell within 0.25 + 0.1 m is on row 12, straight up.
-    let d = Greedy.select(&at(11.55, 1.15), &p).unwrap();
+    let d = Greedy::default().select(&at(11.55, 1.15), &p).unwrap();
     assert!(d.start_snapped);
     assert_eq!(d.requested_robot_cell, Cell::new(115, 11));
     assert_eq!(d.robot_cell, Cell::new(115, 12));
     // Deep inside unknown space: no free cell within reach.
-    assert!(matches!(Greedy.select(&at(1.0, 1.0), &p).unwrap_err(), SelectError::RobotBlocked { .. }));
+    assert!(matches!(Greedy::default().select(&at(1.0, 1.0), &p).unwrap_err(), SelectError::RobotBlocked { .. }));
     let mut bad = p.clone();
     bad.u1.alpha = 2.0;
-    assert!(matches!(Greedy.select(&at(11.55, 2.05), &bad).unwrap_err(), SelectError::InvalidParams(_)));
+    assert!(matches!(Greedy::default().select(&at(11.55, 2.05), &bad).unwrap_err(), SelectError::InvalidParams(_)));
 }
 
 #[test]
@@ -227,7 +228,7 @@ fn no_frontier_is_not_an_error() {
     let g = Grid::filled(GridGeometry::new(0.0, 0.0, 0.1, 30, 30), FREE);
     let lv = LandmarkVoxels::empty(0.25);
     let bl = Blacklist::new(0.5);
-    let d = FitSlam.select(&DecisionInput::new(&g, &lv, Pose2::new(1.5, 1.5, 0.0), &bl), &params()).unwrap();
+    let d = FitSlam::default().select(&DecisionInput::new(&g, &lv, Pose2::new(1.5, 1.5, 0.0), &bl), &params()).unwrap();
     assert!(d.candidates.is_empty());
     assert_eq!(d.chosen, None);
     let _ = (LETHAL, UNKNOWN);
@@ -280,4 +281,27 @@ fn decision_json_has_the_keys() {
         serde_json::json!({"blacklisted": "no_path"})
     );
     assert_eq!(serde_json::to_value(DropReason::NotInTopN).unwrap(), serde_json::json!("not_in_top_n"));
+}
+
+#[test]
+fn a_selector_reusing_its_buffers_decides_as_a_fresh_one() {
+    // Maps of different sizes and contents, in turn: the buffers carry capacity over, never
+    // content, so every decision equals a fresh selector's.
+    let p = params();
+    let corridor = corridor_two_frontiers(true);
+    let worlds = [synthetic_world(&SyntheticWorldSpec::small(5)), corridor, synthetic_world(&SyntheticWorldSpec::small(6))];
+    let bl = Blacklist::new(0.5);
+    let mut reused: Vec<Box<dyn GoalSelector>> =
+        vec![Box::new(FitSlam::default()), Box::new(Greedy::default()), Box::new(U1Only::default())];
+    for w in worlds.iter().chain(worlds.iter().rev()) {
+        let lv = voxels(w, &p);
+        let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+        let fresh: Vec<Box<dyn GoalSelector>> =
+            vec![Box::new(FitSlam::default()), Box::new(Greedy::default()), Box::new(U1Only::default())];
+        for (a, mut b) in reused.iter_mut().zip(fresh) {
+            let d = a.select(&input, &p).unwrap();
+            assert!(d.candidates.len() >= 2);
+            assert_eq!(d, b.select(&input, &p).unwrap(), "{:?} on a {:?} map", a.strategy(), w.grid.geometry);
+        }
+    }
 }

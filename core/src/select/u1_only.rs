@@ -1,17 +1,19 @@
 //! Ablation "u1 only" (notes §7; FIT-SLAM with β = 1): the candidate with the largest u1 (ties
 //! by candidate index). Every scored candidate is ranked by u1.
 
-use super::candidates::{plan, rank_and_choose};
+use super::candidates::{PlanBuffers, plan, rank_and_choose};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy};
 
 /// Largest u1.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct U1Only;
+#[derive(Clone, Debug, Default)]
+pub struct U1Only {
+    buffers: PlanBuffers,
+}
 
 impl GoalSelector for U1Only {
     fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
-        let mut d = plan(input, params, Strategy::U1)?;
+        let mut d = plan(input, params, Strategy::U1, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         rank_and_choose(&mut d, &scored, |c| -c.u1.unwrap_or(f64::NEG_INFINITY));
         Ok(d)

@@ -567,8 +567,8 @@ mod tests {
     use crate::grid::GridGeometry;
     use crate::pose::{Pose2, wrap_pi};
     use crate::sim::odometry::OdometryNoise;
-    use nalgebra::UnitQuaternion;
     use crate::slam::CovarianceTraces;
+    use nalgebra::UnitQuaternion;
 
     #[test]
     fn keyframe_clouds_keep_one_point_per_voxel_per_keyframe() {
@@ -644,7 +644,13 @@ mod tests {
         // Σ n_k d (n − k + ½), variance q d² Σ_{j<n} (j + ½)² = q d² (n³/3 − n/12); yaw n q;
         // their covariance q d Σ (j + ½) = q d n²/2. (Heading 0: body = world axes.)
         let (n, d, q) = (40usize, 0.05, 1e-6);
-        let step = BodyIncrement { distance_m: d, rotation_rad: Vector3::zeros(), var_distance_m2: 0.0, var_vertical_m2: 0.0, var_rotation_rad2: Vector3::new(0.0, 0.0, q) };
+        let step = BodyIncrement {
+            distance_m: d,
+            rotation_rad: Vector3::zeros(),
+            var_distance_m2: 0.0,
+            var_vertical_m2: 0.0,
+            var_rotation_rad2: Vector3::new(0.0, 0.0, q),
+        };
         let (mut rel, mut cov) = (Se3::identity(), Matrix6::zeros());
         for _ in 0..n {
             (rel, cov) = propagate_relative(&rel, &cov, &step);
