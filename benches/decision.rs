@@ -2,8 +2,7 @@
 //! partially explored with a ragged frontier, obstacles, 50,000 landmarks): median of several
 //! runs (and the minimum, less sensitive to other processes on the machine), single-threaded,
 //! with a per-stage breakdown. The stages and the selector keep their grid-sized buffers from run
-//! to run, as a selector does from decision to decision in a mission; the last line is the same
-//! decision by a fresh selector (buffers allocated, and page-faulted, afresh).
+//! to run, as a selector does from decision to decision in a mission.
 //!
 //! `cargo bench --bench decision` (optionally `-- RUNS`).
 
@@ -57,7 +56,6 @@ fn main() {
         "u2 (waypoints, FIM)",
         "total (stages)",
         "FitSlam::select",
-        "FitSlam::select, fresh",
     ];
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let mut summary = String::new();
@@ -79,11 +77,8 @@ fn main() {
         let t5 = Instant::now();
         let full = selector.select(&input, &params).expect("select");
         let t6 = Instant::now();
-        let fresh = FitSlam::default().select(&input, &params).expect("select");
-        let t7 = Instant::now();
         assert_eq!(full.chosen, d.chosen);
-        assert_eq!(fresh.chosen, d.chosen);
-        for (k, (a, b)) in [(t0, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5), (t0, t5), (t5, t6), (t6, t7)].iter().enumerate() {
+        for (k, (a, b)) in [(t0, t1), (t1, t2), (t2, t3), (t3, t4), (t4, t5), (t0, t5), (t5, t6)].iter().enumerate() {
             times[k].push(1e3 * (*b - *a).as_secs_f64());
         }
         if run == 0 {

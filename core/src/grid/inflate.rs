@@ -3,9 +3,11 @@
 //!
 //! Exact Euclidean inflation: a cell becomes lethal if the distance between its centre and the
 //! centre of any lethal cell is ≤ `radius_m`. Implemented as a stamp of the precomputed disc (one
-//! horizontal span per row) around each lethal cell that borders a non-lethal one (interior lethal
-//! cells cannot add anything new). O(B · r²) for B boundary cells and r the radius in cells. Unknown cells
-//! stay unknown unless the disc covers them (then lethal: they are within reach of an obstacle).
+//! horizontal span per row offset) around each horizontal run of lethal cells: the discs of the
+//! cells a..b of a run cover, at row offset dy, exactly the span [a − h(dy), b + h(dy)], so a run
+//! costs 2r + 1 fills whatever its length. O(cells / 64 + R · r) fills for R runs and r the
+//! radius in cells. Unknown cells stay unknown unless a disc covers them (then lethal: they are
+//! within reach of an obstacle).
 
 use super::{LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
 
@@ -35,34 +37,40 @@ pub fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut Occupa
     let spans: Vec<(i32, i32)> = (-r_cells..=r_cells)
         .map(|dy| (dy, (0..=r_cells).take_while(|&dx| ((dx * dx + dy * dy) as f64) <= r2).last().unwrap_or(0)))
         .collect();
-    let (w, h) = (g.width as i32, g.height as i32);
-    let lethal = |c: i32, r: i32| grid.data[r as usize * g.width + c as usize] >= LETHAL_THRESHOLD;
+    let (w, h) = (g.width, g.height as i32);
+    let stamp = |out: &mut OccupancyGrid, r: i32, a: usize, b: usize| {
+        for &(dy, half) in &spans {
+            let nr = r + dy;
+            if (0..h).contains(&nr) {
+                let half = half as usize;
+                let (c0, c1) = (a.saturating_sub(half), (b + half).min(w - 1));
+                let row = nr as usize * w;
+                out.data[row + c0..=row + c1].fill(LETHAL);
+            }
+        }
+    };
     const CHUNK: usize = 64;
-    for (r, row) in grid.data.chunks_exact(g.width).enumerate() {
-        let r = r as i32;
+    for (r, row) in grid.data.chunks_exact(w).enumerate() {
         // Most of a map has no lethal cell: skip 64 cells at a time on their (vectorised) maximum.
         let lethal_cols = row
             .chunks(CHUNK)
             .enumerate()
             .filter(|(_, chunk)| chunk.iter().copied().max().is_some_and(|v| v >= LETHAL_THRESHOLD))
             .flat_map(|(k, chunk)| (k * CHUNK..k * CHUNK + chunk.len()).filter(|&c| row[c] >= LETHAL_THRESHOLD));
+        // Stamp each run of consecutive lethal cells at once.
+        let mut run: Option<(usize, usize)> = None;
         for c in lethal_cols {
-            let c = c as i32;
-            let interior = [(1, 0), (-1, 0), (0, 1), (0, -1)].iter().all(|&(dx, dy)| {
-                let (nc, nr) = (c + dx, r + dy);
-                nc < 0 || nr < 0 || nc >= w || nr >= h || lethal(nc, nr)
-            });
-            if interior {
-                continue;
-            }
-            for &(dy, half) in &spans {
-                let nr = r + dy;
-                if (0..h).contains(&nr) {
-                    let (c0, c1) = ((c - half).max(0) as usize, (c + half).min(w - 1) as usize);
-                    let row = nr as usize * g.width;
-                    out.data[row + c0..=row + c1].fill(LETHAL);
+            run = match run {
+                Some((a, b)) if b + 1 == c => Some((a, c)),
+                Some((a, b)) => {
+                    stamp(out, r as i32, a, b);
+                    Some((c, c))
                 }
-            }
+                None => Some((c, c)),
+            };
+        }
+        if let Some((a, b)) = run {
+            stamp(out, r as i32, a, b);
         }
     }
 }

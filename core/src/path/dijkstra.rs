@@ -288,16 +288,17 @@ fn search(
     let pw = win.padded_width();
     let n = pw * (win.height + 2);
     let scale = Scale::for_cells(n);
+    // One writing pass: a border row, then per window row a border cell, the row, a border cell.
     cost.clear();
-    cost.resize(n, BLOCKED);
+    cost.reserve(n);
+    cost.resize(pw + 1, BLOCKED);
     for r in 0..win.height {
         let src = (win.row0 + r) * g.width + win.col0;
         let row = &grid.data[src..src + win.width];
-        let out = &mut cost[(r + 1) * pw + 1..(r + 1) * pw + 1 + win.width];
-        for (o, &v) in out.iter_mut().zip(row) {
-            *o = if super::passable(v, allow_unknown) { UNREACHED } else { BLOCKED };
-        }
+        cost.extend(row.iter().map(|&v| if super::passable(v, allow_unknown) { UNREACHED } else { BLOCKED }));
+        cost.extend_from_slice(&[BLOCKED, BLOCKED]);
     }
+    cost.resize(n, BLOCKED);
     // Target marks, one bit per window cell (read once per settled cell).
     let mut is_target = vec![0u64; n.div_ceil(64)];
     let bit = |p: usize| (p / 64, 1u64 << (p % 64));
