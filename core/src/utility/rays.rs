@@ -40,6 +40,9 @@ pub struct RayFan {
     /// Offsets (dcol, drow) of every ray, concatenated; ray k is `offsets[ray_start[k]..ray_start[k+1]]`.
     offsets: Vec<[i32; 2]>,
     ray_start: Vec<usize>,
+    /// The largest |dcol| or |drow| of any offset: from an origin at least this far inside
+    /// every edge, no ray can leave the grid.
+    reach_cells: i32,
     gains: GainTable,
 }
 
@@ -71,7 +74,8 @@ impl RayFan {
             longest = longest.max(offsets.len() - ray_start[ray_start.len() - 1]);
         }
         ray_start.push(offsets.len());
-        Ok(Self { angles_rad, offsets, ray_start, gains: GainTable::new(gamma, longest) })
+        let reach_cells = offsets.iter().map(|o| o[0].abs().max(o[1].abs())).max().unwrap_or(0);
+        Ok(Self { angles_rad, offsets, ray_start, reach_cells, gains: GainTable::new(gamma, longest) })
     }
 
     /// Ray angles `kΔθ`, radians, counter-clockwise from +x.
@@ -100,14 +104,31 @@ impl RayFan {
         gains_bits.clear();
         let g = grid.geometry;
         let (w, h) = (g.width as i64, g.height as i64);
-        let inside = g.contains(origin);
         let table = self.gains.as_slice();
-        for k in 0..self.len() {
-            let mut sum = 0.0;
-            if inside {
+        let (oc, or) = (i64::from(origin.col), i64::from(origin.row));
+        let reach = i64::from(self.reach_cells);
+        if !g.contains(origin) {
+            gains_bits.resize(self.len(), 0.0);
+        } else if oc >= reach && or >= reach && oc + reach < w && or + reach < h {
+            // Every ray stays on the grid: flat indices, no edge tests.
+            let base = (or * w + oc) as isize;
+            for k in 0..self.len() {
+                let mut sum = 0.0;
                 for (n, off) in self.ray_offsets(k).iter().enumerate() {
-                    let c = i64::from(origin.col) + i64::from(off[0]);
-                    let r = i64::from(origin.row) + i64::from(off[1]);
+                    let i = base + off[1] as isize * w as isize + off[0] as isize;
+                    match CellClass::of(grid.data[i as usize]) {
+                        CellClass::Lethal => break,
+                        CellClass::Unknown => sum += table[n],
+                        CellClass::Free => {}
+                    }
+                }
+                gains_bits.push(sum);
+            }
+        } else {
+            for k in 0..self.len() {
+                let mut sum = 0.0;
+                for (n, off) in self.ray_offsets(k).iter().enumerate() {
+                    let (c, r) = (oc + i64::from(off[0]), or + i64::from(off[1]));
                     if c < 0 || r < 0 || c >= w || r >= h {
                         break;
                     }
@@ -117,8 +138,8 @@ impl RayFan {
                         CellClass::Free => {}
                     }
                 }
+                gains_bits.push(sum);
             }
-            gains_bits.push(sum);
         }
     }
 }
@@ -252,6 +273,44 @@ mod tests {
         assert_eq!(out, vec![3.0, 1.0]);
         fan.cast(&gm, Cell::new(-1, 0), &mut out);
         assert_eq!(out, vec![0.0, 0.0]);
+    }
+
+    #[test]
+    fn interior_and_edge_origins_cast_as_the_definition() {
+        // A random 40 × 30 grid; rays reach 12 cells, so only origins 12 cells inside take the
+        // flat-index path. Every origin, on and off the grid, against a walk with edge tests.
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let mut gm = grid(40, 30, FREE);
+        for v in gm.data.iter_mut() {
+            *v = [FREE, FREE, UNKNOWN, UNKNOWN, LETHAL][rng.random_range(0..5)];
+        }
+        let fan = RayFan::new(0.3, 1.2, 0.1, 0.8).unwrap();
+        assert_eq!(fan.reach_cells, 12);
+        let mut out = Vec::new();
+        for row in -1..31 {
+            for col in -1..41 {
+                fan.cast(&gm, Cell::new(col, row), &mut out);
+                let expect: Vec<f64> = (0..fan.len())
+                    .map(|k| {
+                        let mut sum = 0.0;
+                        for (n, o) in fan.ray_offsets(k).iter().enumerate() {
+                            let Some(&v) = gm.get(Cell::new(col + o[0], row + o[1])).filter(|_| gm.geometry.contains(Cell::new(col, row)))
+                            else {
+                                break;
+                            };
+                            match CellClass::of(v) {
+                                CellClass::Lethal => break,
+                                CellClass::Unknown => sum += fan.gains.as_slice()[n],
+                                CellClass::Free => {}
+                            }
+                        }
+                        sum
+                    })
+                    .collect();
+                assert_eq!(out, expect, "origin ({col}, {row})");
+            }
+        }
     }
 
     #[test]
