@@ -88,12 +88,6 @@ impl Window {
         Some((r - self.row0 + 1) * self.padded_width() + (c - self.col0 + 1))
     }
 
-    #[inline]
-    fn cell(&self, p: usize) -> Cell {
-        let pw = self.padded_width();
-        Cell::new((p % pw + self.col0) as i32 - 1, (p / pw + self.row0) as i32 - 1)
-    }
-
     /// Padded-index offsets of the 8 moves: 4 orthogonal, then 4 diagonal.
     fn offsets(&self) -> [isize; 8] {
         let pw = self.padded_width() as isize;
@@ -163,6 +157,7 @@ impl DistanceField {
         let offsets = self.window.offsets();
         let open = |p: isize| self.cost[p as usize] != BLOCKED;
         let mut cells = vec![cell];
+        let mut at = cell;
         while self.cost[k] != START {
             let ck = self.cost[k];
             let parent = offsets.iter().enumerate().find_map(|(m, &d)| {
@@ -174,16 +169,21 @@ impl DistanceField {
                     let dx = if m % 2 == 0 { 1 } else { -1 };
                     (self.scale.diag, open(j + dx) && open(j + d - dx))
                 };
-                (legal && ck.checked_sub(step) == Some(self.cost[j as usize])).then_some(j as usize)
+                (legal && ck.checked_sub(step) == Some(self.cost[j as usize])).then_some((j as usize, m))
             });
             // A settled non-start cell always has one (it was reached by such a move).
-            k = parent?;
-            cells.push(self.window.cell(k));
+            let (j, m) = parent?;
+            let (dc, dr) = MOVES[m];
+            (k, at) = (j, Cell::new(at.col - dc, at.row - dr));
+            cells.push(at);
         }
         cells.reverse();
         Some(Path { cells, length_m })
     }
 }
+
+/// (dcol, drow) of the moves in [`Window::offsets`]' order.
+const MOVES: [(i32, i32); 8] = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)];
 
 /// Runs Dijkstra from `start` over every passable cell (same moves as [`super::astar`]).
 pub fn dijkstra(grid: &OccupancyGrid, start: Cell, allow_unknown: bool) -> Result<DistanceField, PathError> {
@@ -230,11 +230,16 @@ impl BlockOrder {
         if bucket.len() < 64 {
             return;
         }
-        self.counts.fill(0);
+        // `counts` is all zeros between calls; only the blocks this bucket touches are summed
+        // and cleared again.
+        let (mut lo, mut hi) = (usize::MAX, 0);
         for &p in bucket.iter() {
-            self.counts[(p >> Self::BLOCK_SHIFT) as usize + 1] += 1;
+            let b = (p >> Self::BLOCK_SHIFT) as usize;
+            self.counts[b + 1] += 1;
+            lo = lo.min(b);
+            hi = hi.max(b);
         }
-        for b in 1..self.counts.len() {
+        for b in lo + 1..=hi + 1 {
             self.counts[b] += self.counts[b - 1];
         }
         self.scratch.clear();
@@ -244,6 +249,7 @@ impl BlockOrder {
             self.scratch[*slot as usize] = p;
             *slot += 1;
         }
+        self.counts[lo..=hi + 1].fill(0);
         std::mem::swap(bucket, &mut self.scratch);
     }
 }
@@ -384,7 +390,16 @@ fn search(
 
 #[cfg(test)]
 mod scale_tests {
-    use super::Scale;
+    use super::{MOVES, Scale, Window};
+
+    #[test]
+    fn moves_match_the_window_offsets() {
+        let win = Window { col0: 3, row0: 4, width: 17, height: 9 };
+        let pw = win.padded_width() as isize;
+        for (d, (dc, dr)) in win.offsets().iter().zip(MOVES) {
+            assert_eq!(*d, dr as isize * pw + dc as isize);
+        }
+    }
 
     #[test]
     fn the_scale_is_the_finest_that_cannot_overflow() {
