@@ -7,7 +7,7 @@
 
 use fitslam_core::Params;
 use fitslam_core::select::DecisionInput;
-use fitslam_core::select::candidates::{distances, frontier_clusters, prepare, score_u1, score_u2};
+use fitslam_core::select::candidates::{PlanBuffers, distances, frontier_clusters, prepare, score_u1, score_u2};
 use fitslam_core::traversability::to_occupancy;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_studio::pipeline::{Pipeline, Revisions};
@@ -54,14 +54,15 @@ fn main() {
         let grid = to_occupancy(&scene.map.score, params.traversability.tau);
         let voxels = LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
         let input = DecisionInput::new(&grid, &voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
+        let mut buffers = PlanBuffers::default();
         let t = Instant::now();
-        let prepared = prepare(&input, &params).unwrap();
+        let prepared = prepare(&input, &params, &mut buffers).unwrap();
         let t_prep = t.elapsed();
         let t = Instant::now();
-        let clusters = frontier_clusters(&input, &prepared, &params).unwrap();
+        let clusters = frontier_clusters(&input, &prepared, &params, &mut buffers).unwrap();
         let t_front = t.elapsed();
         let t = Instant::now();
-        let field = distances(&prepared, &clusters, &params).unwrap();
+        let field = distances(&prepared, &clusters, &params, &mut buffers).unwrap();
         let t_dij = t.elapsed();
         let t = Instant::now();
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, params.selector.strategy).unwrap();
