@@ -27,7 +27,7 @@
 //!
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
 
-use super::{Path, PathError, check_start};
+use super::{MOVES, Path, PathError, check_start};
 use crate::grid::{Cell, GridGeometry, OccupancyGrid};
 
 /// Cost of an impassable (or border) cell: below every real cost, which is ≥ 1.
@@ -88,10 +88,11 @@ impl Window {
         Some((r - self.row0 + 1) * self.padded_width() + (c - self.col0 + 1))
     }
 
-    /// Padded-index offsets of the 8 moves: 4 orthogonal, then 4 diagonal.
+    /// Padded-index offsets of the 8 moves, in [`super::MOVES`]' order (4 orthogonal, then 4
+    /// diagonal).
     fn offsets(&self) -> [isize; 8] {
         let pw = self.padded_width() as isize;
-        [1, -1, pw, -pw, pw + 1, pw - 1, -pw + 1, -pw - 1]
+        MOVES.map(|(dc, dr, _)| dr as isize * pw + dc as isize)
     }
 }
 
@@ -173,7 +174,7 @@ impl DistanceField {
             });
             // A settled non-start cell always has one (it was reached by such a move).
             let (j, m) = parent?;
-            let (dc, dr) = MOVES[m];
+            let (dc, dr, _) = MOVES[m];
             (k, at) = (j, Cell::new(at.col - dc, at.row - dr));
             cells.push(at);
         }
@@ -181,9 +182,6 @@ impl DistanceField {
         Some(Path { cells, length_m })
     }
 }
-
-/// (dcol, drow) of the moves in [`Window::offsets`]' order.
-const MOVES: [(i32, i32); 8] = [(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1)];
 
 /// Runs Dijkstra from `start` over every passable cell (same moves as [`super::astar`]).
 pub fn dijkstra(grid: &OccupancyGrid, start: Cell, allow_unknown: bool) -> Result<DistanceField, PathError> {
@@ -230,16 +228,11 @@ impl BlockOrder {
         if bucket.len() < 64 {
             return;
         }
-        // `counts` is all zeros between calls; only the blocks this bucket touches are summed
-        // and cleared again.
-        let (mut lo, mut hi) = (usize::MAX, 0);
+        self.counts.fill(0);
         for &p in bucket.iter() {
-            let b = (p >> Self::BLOCK_SHIFT) as usize;
-            self.counts[b + 1] += 1;
-            lo = lo.min(b);
-            hi = hi.max(b);
+            self.counts[(p >> Self::BLOCK_SHIFT) as usize + 1] += 1;
         }
-        for b in lo + 1..=hi + 1 {
+        for b in 1..self.counts.len() {
             self.counts[b] += self.counts[b - 1];
         }
         self.scratch.clear();
@@ -249,7 +242,6 @@ impl BlockOrder {
             self.scratch[*slot as usize] = p;
             *slot += 1;
         }
-        self.counts[lo..=hi + 1].fill(0);
         std::mem::swap(bucket, &mut self.scratch);
     }
 }
@@ -390,16 +382,7 @@ fn search(
 
 #[cfg(test)]
 mod scale_tests {
-    use super::{MOVES, Scale, Window};
-
-    #[test]
-    fn moves_match_the_window_offsets() {
-        let win = Window { col0: 3, row0: 4, width: 17, height: 9 };
-        let pw = win.padded_width() as isize;
-        for (d, (dc, dr)) in win.offsets().iter().zip(MOVES) {
-            assert_eq!(*d, dr as isize * pw + dc as isize);
-        }
-    }
+    use super::Scale;
 
     #[test]
     fn the_scale_is_the_finest_that_cannot_overflow() {
