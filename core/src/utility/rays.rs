@@ -106,42 +106,40 @@ impl RayFan {
         let (w, h) = (g.width as i64, g.height as i64);
         let table = self.gains.as_slice();
         let (oc, or) = (i64::from(origin.col), i64::from(origin.row));
-        let reach = i64::from(self.reach_cells);
         if !g.contains(origin) {
             gains_bits.resize(self.len(), 0.0);
-        } else if oc >= reach && or >= reach && oc + reach < w && or + reach < h {
-            // Every ray stays on the grid: flat indices, no edge tests.
-            let base = (or * w + oc) as isize;
-            for k in 0..self.len() {
-                let mut sum = 0.0;
-                for (n, off) in self.ray_offsets(k).iter().enumerate() {
-                    let i = base + off[1] as isize * w as isize + off[0] as isize;
-                    match CellClass::of(grid.data[i as usize]) {
-                        CellClass::Lethal => break,
-                        CellClass::Unknown => sum += table[n],
-                        CellClass::Free => {}
-                    }
-                }
-                gains_bits.push(sum);
-            }
-        } else {
-            for k in 0..self.len() {
-                let mut sum = 0.0;
-                for (n, off) in self.ray_offsets(k).iter().enumerate() {
-                    let (c, r) = (oc + i64::from(off[0]), or + i64::from(off[1]));
-                    if c < 0 || r < 0 || c >= w || r >= h {
-                        break;
-                    }
-                    match CellClass::of(grid.data[r as usize * g.width + c as usize]) {
-                        CellClass::Lethal => break,
-                        CellClass::Unknown => sum += table[n],
-                        CellClass::Free => {}
-                    }
-                }
-                gains_bits.push(sum);
-            }
+            return;
+        }
+        // From an origin at least the fan's reach inside every edge no ray can leave the grid:
+        // the edge test is compiled out.
+        let reach = i64::from(self.reach_cells);
+        let interior = oc >= reach && or >= reach && oc + reach < w && or + reach < h;
+        for k in 0..self.len() {
+            let ray = self.ray_offsets(k);
+            let sum = if interior { ray_gain::<false>(grid, oc, or, ray, table) } else { ray_gain::<true>(grid, oc, or, ray, table) };
+            gains_bits.push(sum);
         }
     }
+}
+
+/// `ΔE^θ` of one ray from cell (`oc`, `or`) (see the module doc); `EDGE_TESTS` stops the ray at
+/// the map's edge, and may be false only when no offset can leave the grid.
+#[inline]
+fn ray_gain<const EDGE_TESTS: bool>(grid: &OccupancyGrid, oc: i64, or: i64, ray: &[[i32; 2]], table: &[f64]) -> f64 {
+    let (w, h) = (grid.geometry.width as i64, grid.geometry.height as i64);
+    let mut sum = 0.0;
+    for (n, off) in ray.iter().enumerate() {
+        let (c, r) = (oc + i64::from(off[0]), or + i64::from(off[1]));
+        if EDGE_TESTS && (c < 0 || r < 0 || c >= w || r >= h) {
+            break;
+        }
+        match CellClass::of(grid.data[(r * w + c) as usize]) {
+            CellClass::Lethal => break,
+            CellClass::Unknown => sum += table[n],
+            CellClass::Free => {}
+        }
+    }
+    sum
 }
 
 /// Amanatides–Woo traversal from the centre of cell (0, 0), in cell units, of the ray at `theta`
