@@ -52,7 +52,7 @@ pub struct StudioApp {
     pub mission: MissionView,
     inbox: Inbox,
     browser: FileBrowser,
-    /// Map YAMLs waiting for their image: (yaml name, yaml bytes, image base name).
+    /// Map YAMLs waiting for their image, and the last bare image (for a YAML that comes later).
     pairing: loader::Pairing,
     /// A cloud dropped without intent, waiting for the user's choice.
     ask_cloud: Option<IncomingFile>,
