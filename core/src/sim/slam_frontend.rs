@@ -692,7 +692,8 @@ mod tests {
         let angle = so3_log(&fe.keyframe_from_current().rotation);
         assert!((angle - Vector3::new(0.0, 0.0, 0.2)).norm() < 1e-12, "{angle}");
         assert!((fe.relative_cov[(3, 3)] - 4.0 * 4e-8).abs() < 1e-18, "four ticks of roll noise");
-        // Turning in place: no translation noise, still an invertible factor thanks to the floor.
+        // The factor's covariance is invertible; standing still (no noise at all) only the floor
+        // keeps it so.
         assert!(with_floor(&fe.relative_cov).cholesky().is_some());
         assert!(with_floor(&Matrix6::zeros()).cholesky().is_some());
     }
