@@ -7,7 +7,7 @@
 
 use fitslam_core::Params;
 use fitslam_core::select::DecisionInput;
-use fitslam_core::select::candidates::{PlanBuffers, distances, frontier_clusters, prepare, score_u1, score_u2};
+use fitslam_core::select::candidates::{PlanBuffers, frontiers_and_distances, prepare, score_u1, score_u2};
 use fitslam_core::traversability::to_occupancy;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_studio::pipeline::{Pipeline, Revisions};
@@ -59,11 +59,8 @@ fn main() {
         let prepared = prepare(&input, &params, &mut buffers).unwrap();
         let t_prep = t.elapsed();
         let t = Instant::now();
-        let clusters = frontier_clusters(&input, &prepared, &params, &mut buffers).unwrap();
-        let t_front = t.elapsed();
-        let t = Instant::now();
-        let field = distances(&prepared, &clusters, &params, &mut buffers).unwrap();
-        let t_dij = t.elapsed();
+        let (clusters, field) = frontiers_and_distances(&input, &prepared, &params, &mut buffers).unwrap();
+        let t_flood = t.elapsed();
         let t = Instant::now();
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, params.selector.strategy).unwrap();
         let t_u1 = t.elapsed();
@@ -72,11 +69,10 @@ fn main() {
         let t_u2 = t.elapsed();
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
         println!(
-            "{:<10} stages: inflate+locate {:.2} ms, frontiers {:.2} ms, dijkstra {:.2} ms, u1 {:.2} ms, u2 {:.2} ms",
+            "{:<10} stages: inflate+locate {:.2} ms, frontiers + dijkstra {:.2} ms, u1 {:.2} ms, u2 {:.2} ms",
             "",
             ms(t_prep),
-            ms(t_front),
-            ms(t_dij),
+            ms(t_flood),
             ms(t_u1),
             ms(t_u2)
         );

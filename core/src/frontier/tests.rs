@@ -230,6 +230,30 @@ proptest! {
         prop_assert_eq!(&got, &listed);
     }
 
+    /// The planner's one flood (`dijkstra_with_frontiers`) finds WFD's frontier cells, and
+    /// clustering them gives exactly `detect_frontiers`' clusters; its distances are the plain
+    /// Dijkstra's. The cost and state buffers are reused dirty (a first flood, a clustering).
+    #[test]
+    fn one_flood_gives_wfd_clusters_and_dijkstra_distances((g, robot, boundary, min, max) in arb_case()) {
+        let p = params(min, max);
+        let mut state = vec![7u8; 5];
+        let (warm, _) = crate::path::dijkstra_with_frontiers(&g, robot, Vec::new()).unwrap();
+        let (field, frontier) = crate::path::dijkstra_with_frontiers(&g, robot, warm.into_buffer()).unwrap();
+        let listed: Vec<usize> = frontier_cells(&g, robot, None).unwrap().iter().map(|&c| g.geometry.index(c).unwrap()).collect();
+        prop_assert_eq!(&frontier, &listed);
+        let clusters = cluster_frontier_cells(&g.geometry, &frontier, boundary.as_ref(), &p, &mut state).unwrap();
+        prop_assert_eq!(clusters, detect_frontiers(&g, robot, boundary.as_ref(), &p).unwrap());
+        let again = cluster_frontier_cells(&g.geometry, &frontier, boundary.as_ref(), &p, &mut state).unwrap();
+        prop_assert_eq!(again, detect_frontiers(&g, robot, boundary.as_ref(), &p).unwrap());
+        let full = dijkstra(&g, robot, false).unwrap();
+        prop_assert!(field.is_complete());
+        for i in 0..g.geometry.len() {
+            let c = g.geometry.cell_at(i);
+            prop_assert_eq!(field.distance_m(c), full.distance_m(c));
+            prop_assert_eq!(field.path_to(c).map(|p| p.cells), full.path_to(c).map(|p| p.cells));
+        }
+    }
+
     #[test]
     fn split_lengths_cover_and_respect_the_max(n in 0usize..500, max in 1usize..60) {
         let l = split_lengths(n, max);

@@ -15,7 +15,7 @@
 
 use super::cluster::cluster_frontier;
 use super::{Boundary, FrontierCluster, FrontierError};
-use crate::grid::{Cell, CellClass, OccupancyGrid};
+use crate::grid::{Cell, CellClass, GridGeometry, OccupancyGrid};
 use crate::params::FrontierParams;
 
 /// State layer values shared with the clustering step.
@@ -131,4 +131,35 @@ pub fn detect_frontiers_with(
     }
     let frontier = wavefront(grid, robot, boundary, state)?;
     Ok(cluster_frontier(&grid.geometry, state, &frontier, params))
+}
+
+/// Step 2 of [`detect_frontiers_with`] on frontier cells found by another flood of the same
+/// reachable set (the planner's [`crate::path::dijkstra_with_frontiers`], which saves the WFD
+/// flood): cells whose centre is outside `boundary` are dropped, the rest clustered exactly as
+/// [`detect_frontiers`] does. `frontier`: flat indices in increasing order (others are ignored);
+/// `state` is reused storage.
+pub fn cluster_frontier_cells(
+    geometry: &GridGeometry,
+    frontier: &[usize],
+    boundary: Option<&Boundary>,
+    params: &FrontierParams,
+    state: &mut Vec<u8>,
+) -> Result<Vec<FrontierCluster>, FrontierError> {
+    if params.max_cluster_cells == 0 {
+        return Err(FrontierError::ZeroMaxClusterCells);
+    }
+    let inside = |&i: &usize| {
+        i < geometry.len()
+            && boundary.is_none_or(|b| {
+                let (x_m, y_m) = geometry.center_of(geometry.cell_at(i));
+                b.contains(x_m, y_m)
+            })
+    };
+    let frontier: Vec<usize> = frontier.iter().copied().filter(inside).collect();
+    state.clear();
+    state.resize(geometry.len(), UNREACHED);
+    for &i in &frontier {
+        state[i] = FRONTIER;
+    }
+    Ok(cluster_frontier(geometry, state, &frontier, params))
 }

@@ -7,7 +7,7 @@
 //! nodes may be settled in any order, three rotating buckets suffice, and everything in bucket k
 //! is final when k is reached.
 //!
-//! Costs are **fixed-point integers**: `1 + cells · 2^shift`, with the largest shift (≤ 52) for
+//! Costs are **fixed-point integers**: `2 + cells · 2^shift`, with the largest shift (≤ 52) for
 //! which no path in the window (fewer moves than cells, each ≤ 2 cells) can overflow a u64. Sums
 //! of 1s are exact and each √2 is rounded to within 2^-(shift+1) cells, so two paths of at most
 //! L moves compare with an error below 2L · 2^-(shift+1) cells. Distinct real lengths a + b√2 with
@@ -17,24 +17,28 @@
 //! costs also make the bucket index a shift, with no float conversion in the inner loop.
 //!
 //! Memory is what costs here, so the search works on a **window**: the bounding box of the
-//! passable cells (no path can leave it), padded with a border of impassable cells so no move
-//! leaves the arrays. Per window cell it keeps only the cost (0 = impassable, so one comparison
-//! tests both passability and improvement): 8 bytes, against 4 million × 17 bytes for a
-//! whole-grid layout with f64 costs and u32 parents on a 2000 × 2000 map. Parents are not stored;
-//! exact integer costs let [`DistanceField::path_to`] recover them. Each bucket is put into
-//! block-wise memory order before it is settled ([`BlockOrder`]). With targets ([`dijkstra_to`])
-//! the search stops as soon as all of them are settled.
+//! passable cells (no path can leave it), padded with the grid's cells around it (impassable) so
+//! no move leaves the arrays. Per window cell it keeps only the cost (0 = lethal, 1 = unknown and
+//! impassable, both below every cost, so one comparison tests both passability and improvement):
+//! 8 bytes, against 4 million × 17 bytes for a whole-grid layout with f64 costs and u32 parents
+//! on a 2000 × 2000 map. Parents are not stored; exact integer costs let
+//! [`DistanceField::path_to`] recover them. Buckets are settled in the order they were filled
+//! (putting them into memory order first was measured at no gain once the window is reused,
+//! BENCHMARKS.md). With targets ([`dijkstra_to`]) the search stops as soon as all of them are
+//! settled; [`dijkstra_with_frontiers`] also collects the frontier cells as it settles.
 //!
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
 
 use super::{MOVES, Path, PathError, check_start};
 use crate::grid::{Cell, GridGeometry, OccupancyGrid};
 
-/// Cost of an impassable (or border) cell: below every real cost, which is ≥ 1.
+/// Code of a lethal or off-grid cell: below every real cost.
 const BLOCKED: u64 = 0;
+/// Code of an unknown cell that may not be entered: below every real cost too.
+const UNKNOWN: u64 = 1;
 const UNREACHED: u64 = u64::MAX;
-/// Cost of the start: zero path length.
-const START: u64 = 1;
+/// Cost of the start: zero path length. Real costs are ≥ this.
+const START: u64 = 2;
 
 /// The fixed-point cost scale: one cell is `2^shift`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,7 +62,7 @@ impl Scale {
     }
 
     fn cells(&self, cost: u64) -> f64 {
-        (cost - 1) as f64 / self.orth as f64
+        (cost - START) as f64 / self.orth as f64
     }
 }
 
@@ -103,8 +107,8 @@ pub struct DistanceField {
     pub start: Cell,
     window: Window,
     scale: Scale,
-    /// Fixed-point path cost from the start (padded window layout): [`BLOCKED`] where
-    /// impassable, [`UNREACHED`] where not reached, final where settled.
+    /// Fixed-point path cost from the start (padded window layout): [`BLOCKED`] or [`UNKNOWN`]
+    /// where impassable, [`UNREACHED`] where not reached, final where settled.
     cost: Vec<u64>,
     /// Reached cells cheaper than this are settled ([`UNREACHED`]: every reachable cell is).
     settled_below: u64,
@@ -120,7 +124,7 @@ impl DistanceField {
 
     #[inline]
     fn is_settled(&self, cost: u64) -> bool {
-        cost != BLOCKED && cost < self.settled_below
+        cost >= START && cost < self.settled_below
     }
 
     /// Path length from the start to `cell` in metres, if it was reached. After an early stop
@@ -156,7 +160,7 @@ impl DistanceField {
         let mut k = self.settled_index(cell)?;
         let length_m = self.scale.cells(self.cost[k]) * self.geometry.resolution_m;
         let offsets = self.window.offsets();
-        let open = |p: isize| self.cost[p as usize] != BLOCKED;
+        let open = |p: isize| self.cost[p as usize] >= START;
         let mut cells = vec![cell];
         let mut at = cell;
         while self.cost[k] != START {
@@ -185,13 +189,13 @@ impl DistanceField {
 
 /// Runs Dijkstra from `start` over every passable cell (same moves as [`super::astar`]).
 pub fn dijkstra(grid: &OccupancyGrid, start: Cell, allow_unknown: bool) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, None, Vec::new())
+    search(grid, start, allow_unknown, Goals { targets: None, frontier: None }, Vec::new())
 }
 
 /// Runs Dijkstra from `start` until every passable cell of `targets` is settled (or nothing is
 /// left to settle): their distances and paths are exactly [`dijkstra`]'s.
 pub fn dijkstra_to(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: &[Cell]) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, Some(targets), Vec::new())
+    search(grid, start, allow_unknown, Goals { targets: Some(targets), frontier: None }, Vec::new())
 }
 
 /// [`dijkstra_to`] with the cost window in `buffer`, whose storage is reused (take it back with
@@ -204,7 +208,23 @@ pub fn dijkstra_to_reusing(
     targets: &[Cell],
     buffer: Vec<u64>,
 ) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, Some(targets), buffer)
+    search(grid, start, allow_unknown, Goals { targets: Some(targets), frontier: None }, buffer)
+}
+
+/// Runs Dijkstra from `start` over every cell reachable with unknown space impassable, and
+/// returns with it the **WFD frontier cells** (notes §3; [`crate::frontier`]) found by the same
+/// flood: reached cells with an unknown 4-neighbour inside the grid, as flat grid indices in
+/// increasing order. WFD's 4-connected flood over free cells reaches exactly the cells this
+/// 8-connected, no-corner-cutting search settles (a legal diagonal is two orthogonal moves), so
+/// one flood gives both the frontiers and every distance. `buffer` as in [`dijkstra_to_reusing`].
+pub fn dijkstra_with_frontiers(grid: &OccupancyGrid, start: Cell, buffer: Vec<u64>) -> Result<(DistanceField, Vec<usize>), PathError> {
+    let mut frontier = Vec::new();
+    let field = search(grid, start, false, Goals { targets: None, frontier: Some(&mut frontier) }, buffer)?;
+    let (win, w) = (field.window, grid.geometry.width);
+    let pw = win.padded_width();
+    let mut flat: Vec<usize> = frontier.into_iter().map(|p| (win.row0 + p / pw - 1) * w + win.col0 + p % pw - 1).collect();
+    flat.sort_unstable();
+    Ok((field, flat))
 }
 
 /// Puts a bucket into memory order block by block (a counting sort on `index >> BLOCK_SHIFT`), so
@@ -273,39 +293,77 @@ fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Wi
     Window { col0: c0, row0: r0, width: c1 - c0 + 1, height: r1 - r0 + 1 }
 }
 
-fn search(
-    grid: &OccupancyGrid,
-    start: Cell,
-    allow_unknown: bool,
-    targets: Option<&[Cell]>,
-    mut cost: Vec<u64>,
-) -> Result<DistanceField, PathError> {
+/// What a search collects besides costs.
+struct Goals<'a> {
+    /// Stop once all of these are settled (`None`: settle every reachable cell).
+    targets: Option<&'a [Cell]>,
+    /// Collect the settled cells with an unknown 4-neighbour (window indices, settling order).
+    frontier: Option<&'a mut Vec<usize>>,
+}
+
+/// The window's code for a grid value: passable cells start [`UNREACHED`], impassable unknown
+/// cells are [`UNKNOWN`] (for frontiers), the rest [`BLOCKED`]. Branch-free, so the fill
+/// vectorises.
+#[inline]
+fn code(v: i8, allow_unknown: bool) -> u64 {
+    let passable = u64::from(super::passable(v, allow_unknown));
+    let unknown = u64::from(v < 0);
+    passable.wrapping_neg() | (unknown & (passable ^ 1))
+}
+
+/// Fills `cost` with the padded window's codes: the border holds the grid's cells around the
+/// window (never passable, as the window bounds the passable cells), off-grid cells `BLOCKED`.
+fn fill_window(grid: &OccupancyGrid, win: &Window, allow_unknown: bool, cost: &mut Vec<u64>) {
+    let g = grid.geometry;
+    let (pw, n) = (win.padded_width(), win.padded_width() * (win.height + 2));
+    // The rows in one writing pass (border cells first written BLOCKED)...
+    cost.clear();
+    cost.reserve(n);
+    cost.resize(pw + 1, BLOCKED);
+    for r in 0..win.height {
+        let src = (win.row0 + r) * g.width + win.col0;
+        cost.extend(grid.data[src..src + win.width].iter().map(|&v| code(v, allow_unknown)));
+        cost.extend_from_slice(&[BLOCKED, BLOCKED]);
+    }
+    cost.resize(n, BLOCKED);
+    // ...then the border cells that are grid cells get their codes.
+    let mut border = |c: usize, r: usize| {
+        // Padded (c, r) is grid (col0 + c − 1, row0 + r − 1).
+        if let (Some(col), Some(row)) = ((win.col0 + c).checked_sub(1), (win.row0 + r).checked_sub(1))
+            && col < g.width
+            && row < g.height
+        {
+            cost[r * pw + c] = code(grid.data[row * g.width + col], allow_unknown);
+        }
+    };
+    for c in 0..pw {
+        border(c, 0);
+        border(c, win.height + 1);
+    }
+    for r in 1..=win.height {
+        border(0, r);
+        border(pw - 1, r);
+    }
+}
+
+fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, goals: Goals, mut cost: Vec<u64>) -> Result<DistanceField, PathError> {
+    let Goals { targets, mut frontier } = goals;
     let g = grid.geometry;
     check_start(grid, start, allow_unknown)?;
     let win = passable_window(grid, allow_unknown, start);
     let pw = win.padded_width();
     let n = pw * (win.height + 2);
     let scale = Scale::for_cells(n);
-    // One writing pass: a border row, then per window row a border cell, the row, a border cell.
-    cost.clear();
-    cost.reserve(n);
-    cost.resize(pw + 1, BLOCKED);
-    for r in 0..win.height {
-        let src = (win.row0 + r) * g.width + win.col0;
-        let row = &grid.data[src..src + win.width];
-        cost.extend(row.iter().map(|&v| if super::passable(v, allow_unknown) { UNREACHED } else { BLOCKED }));
-        cost.extend_from_slice(&[BLOCKED, BLOCKED]);
-    }
-    cost.resize(n, BLOCKED);
+    fill_window(grid, &win, allow_unknown, &mut cost);
     // Target marks, one bit per window cell (read once per settled cell).
-    let mut is_target = vec![0u64; n.div_ceil(64)];
+    let mut is_target = vec![0u64; if targets.is_some() { n.div_ceil(64) } else { 0 }];
     let bit = |p: usize| (p / 64, 1u64 << (p % 64));
     let mut targets_left = usize::MAX;
     if let Some(targets) = targets {
         targets_left = 0;
         for &t in targets {
             if let Some(p) = win.index(t).filter(|_| g.index(t).is_some())
-                && cost[p] != BLOCKED
+                && cost[p] == UNREACHED
                 && is_target[bit(p).0] & bit(p).1 == 0
             {
                 is_target[bit(p).0] |= bit(p).1;
@@ -320,7 +378,7 @@ fn search(
     let mut blocks = BlockOrder::new(n);
     let (mut k, mut empty) = (0u64, 0);
     // Targets given but none passable: nothing to search for.
-    let mut settled_below = if targets_left == 0 { 1 } else { UNREACHED };
+    let mut settled_below = if targets_left == 0 { START } else { UNREACHED };
     if targets_left == 0 {
         empty = 3;
     }
@@ -341,7 +399,7 @@ fn search(
             if scale.bucket(ci) != k {
                 continue;
             }
-            if is_target[bit(i).0] & bit(i).1 != 0 {
+            if targets.is_some() && is_target[bit(i).0] & bit(i).1 != 0 {
                 targets_left -= 1;
                 if targets_left == 0 {
                     settled_below = (k + 1) << scale.shift;
@@ -349,8 +407,13 @@ fn search(
                 }
             }
             let (east, west, north, south) = (i + 1, i - 1, i + pw, i - pw);
-            let open = |j: usize| cost[j] != BLOCKED;
-            let (e, w, n, s) = (open(east), open(west), open(north), open(south));
+            let (ce, cw, cn, cs) = (cost[east], cost[west], cost[north], cost[south]);
+            if ((ce == UNKNOWN) | (cw == UNKNOWN) | (cn == UNKNOWN) | (cs == UNKNOWN))
+                && let Some(f) = frontier.as_deref_mut()
+            {
+                f.push(i);
+            }
+            let (e, w, n, s) = (ce >= START, cw >= START, cn >= START, cs >= START);
             // Relaxations land in bucket k + 1 or k + 2, never in the one being settled.
             let mut relax = |j: usize, c: u64| {
                 let cj = cost[j];
@@ -393,6 +456,6 @@ mod scale_tests {
         assert!((2 * n as u128 + 2) << (s.shift + 1) > u64::MAX as u128);
         assert!((s.diag as f64 - std::f64::consts::SQRT_2 * 2f64.powi(41)).abs() <= 0.5);
         assert_eq!(Scale::for_cells(100).shift, 52);
-        assert_eq!(s.cells(1 + 3 * s.orth), 3.0);
+        assert_eq!(s.cells(super::START + 3 * s.orth), 3.0);
     }
 }

@@ -5,26 +5,27 @@
 //!    (error if the pose is non-finite or outside the map); if that cell is not free on the
 //!    inflated grid, snap to the nearest free cell within `radius_m` + one cell (centre to centre,
 //!    ties by flat index) and record it, else error.
-//! 2. [`frontier_clusters`]: WFD frontiers and clusters on the inflated grid, sorted by the
-//!    candidate's flat cell index.
-//! 3. [`distances`]: ONE Dijkstra from the robot's cell on the inflated grid gives every ρ_i and
-//!    path (notes §4).
+//! 2–3. [`frontiers_and_distances`]: WFD frontiers and clusters on the inflated grid, sorted by
+//!    the candidate's flat cell index, and ONE Dijkstra from the robot's cell on the inflated
+//!    grid for every ρ_i and path (notes §4) — one flood for both when unknown space is
+//!    impassable.
 //! 4. [`score_u1`]: per candidate — blacklisted (dropped), no path (dropped; the caller
 //!    blacklists it), else path, rays on the *un-inflated* grid, Θ*, ΔE; then u1 over all
 //!    scored candidates.
 //! 5. [`score_u2`] (FIT-SLAM): u2 on the N best by u1.
 //!
-//! Cost: inflation O(B r²), WFD O(cells), Dijkstra O(n) over the cells settled, u1 O(C·R·L)
-//! for C candidates, R rays of L cells, u2 O(N·K·V) (see [`crate::utility::u2`]). The three
+//! Cost: inflation O(B r²), the flood O(n) over the n reachable cells (plus WFD's O(n) with
+//! `allow_unknown`), u1 O(C·R·L) for C candidates, R rays of L cells, u2 O(N·K·V) (see
+//! [`crate::utility::u2`]). The three
 //! grid-sized buffers (inflated grid, flood state, cost window: ≈ 20 MB on a 2000 × 2000 map)
 //! live in the selector's [`PlanBuffers`] and are reused from one decision to the next.
 
 use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
-use crate::frontier::{FrontierCluster, detect_frontiers_with};
+use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
 use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal_into};
 use crate::params::{Params, Strategy};
-use crate::path::{DistanceField, dijkstra_to_reusing};
+use crate::path::{DistanceField, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
@@ -100,30 +101,31 @@ pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers
     }
 }
 
-/// Step 2: frontier clusters on the inflated grid, sorted by the candidate's flat index.
-pub fn frontier_clusters(
+/// Steps 2–3: the frontier clusters on the inflated grid (sorted by the candidate's flat index)
+/// and the distance field from the robot's cell. With unknown space impassable (the default),
+/// ONE flood gives both ([`dijkstra_with_frontiers`]: WFD's reached set is the planner's). With
+/// `planner.allow_unknown` the planner reaches more than WFD does, so WFD runs first and the
+/// Dijkstra stops once every candidate is settled.
+pub fn frontiers_and_distances(
     input: &DecisionInput,
     prepared: &Prepared,
     params: &Params,
     buffers: &mut PlanBuffers,
-) -> Result<Vec<FrontierCluster>, SelectError> {
-    let state = &mut buffers.frontier_state;
-    let mut clusters = detect_frontiers_with(&prepared.inflated, prepared.robot_cell, input.boundary, &params.frontier, state)?;
-    let g = prepared.inflated.geometry;
-    clusters.sort_by_key(|c| g.index(c.candidate).unwrap_or(usize::MAX));
-    Ok(clusters)
-}
-
-/// Step 3: one Dijkstra from the robot's cell, stopped once every candidate is settled.
-pub fn distances(
-    prepared: &Prepared,
-    clusters: &[FrontierCluster],
-    params: &Params,
-    buffers: &mut PlanBuffers,
-) -> Result<DistanceField, SelectError> {
-    let targets: Vec<Cell> = clusters.iter().map(|c| c.candidate).collect();
+) -> Result<(Vec<FrontierCluster>, DistanceField), SelectError> {
+    let (grid, start) = (&prepared.inflated, prepared.robot_cell);
     let buffer = std::mem::take(&mut buffers.cost);
-    Ok(dijkstra_to_reusing(&prepared.inflated, prepared.robot_cell, params.planner.allow_unknown, &targets, buffer)?)
+    let state = &mut buffers.frontier_state;
+    let (mut clusters, field) = if params.planner.allow_unknown {
+        let clusters = detect_frontiers_with(grid, start, input.boundary, &params.frontier, state)?;
+        let targets: Vec<Cell> = clusters.iter().map(|c| c.candidate).collect();
+        (clusters, dijkstra_to_reusing(grid, start, true, &targets, buffer)?)
+    } else {
+        let (field, frontier) = dijkstra_with_frontiers(grid, start, buffer)?;
+        (cluster_frontier_cells(&grid.geometry, &frontier, input.boundary, &params.frontier, state)?, field)
+    };
+    let g = grid.geometry;
+    clusters.sort_by_key(|c| g.index(c.candidate).unwrap_or(usize::MAX));
+    Ok((clusters, field))
 }
 
 /// Step 4: the candidate reports with ρ, path, rays, Θ*, ΔE and u1 (see the module doc).
@@ -227,8 +229,7 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
 /// Steps 1–4: everything but u2, with the grid-sized storage in `buffers`.
 pub fn plan(input: &DecisionInput, params: &Params, strategy: Strategy, buffers: &mut PlanBuffers) -> Result<Decision, SelectError> {
     let prepared = prepare(input, params, buffers)?;
-    let clusters = frontier_clusters(input, &prepared, params, buffers)?;
-    let field = distances(&prepared, &clusters, params, buffers)?;
+    let (clusters, field) = frontiers_and_distances(input, &prepared, params, buffers)?;
     let decision = score_u1(input, &prepared, clusters, &field, params, strategy);
     buffers.recycle(prepared, field);
     decision

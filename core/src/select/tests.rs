@@ -1,4 +1,4 @@
-use super::candidates::{PlanBuffers, distances, frontier_clusters, prepare, score_u1};
+use super::candidates::{PlanBuffers, frontiers_and_distances, prepare, score_u1};
 use super::*;
 use crate::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use crate::frontier::{BlacklistReason, FrontierCluster};
@@ -134,10 +134,9 @@ fn unreachable_candidates_are_reported_for_the_blacklist() {
     let input = DecisionInput::new(&grid, &lv, w.robot, &bl);
     let mut buffers = PlanBuffers::default();
     let prepared = prepare(&input, &p, &mut buffers).unwrap();
-    let mut clusters = frontier_clusters(&input, &prepared, &p, &mut buffers).unwrap();
+    let (mut clusters, field) = frontiers_and_distances(&input, &prepared, &p, &mut buffers).unwrap();
     assert_eq!(clusters.len(), 2);
     clusters.insert(0, FrontierCluster::from_ordered_cells(vec![Cell::new(10, 20)]).unwrap());
-    let field = distances(&prepared, &clusters, &p, &mut buffers).unwrap();
     let d = score_u1(&input, &prepared, clusters, &field, &p, Strategy::Fit).unwrap();
     assert_eq!(d.candidates[0].dropped, Some(DropReason::NoPath));
     assert_eq!(d.candidates[0].rho_m, None);
