@@ -5,10 +5,10 @@
 //!    (error if the pose is non-finite or outside the map); if that cell is not free on the
 //!    inflated grid, snap to the nearest free cell within `radius_m` + one cell (centre to centre,
 //!    ties by flat index) and record it, else error.
-//! 2–3. [`frontiers_and_distances`]: WFD frontiers and clusters on the inflated grid, sorted by
-//!    the candidate's flat cell index, and ONE Dijkstra from the robot's cell on the inflated
-//!    grid for every ρ_i and path (notes §4) — one flood for both when unknown space is
-//!    impassable.
+//! 2. [`frontiers_and_distances`]: WFD frontiers and clusters on the inflated grid, sorted by
+//!    the candidate's flat cell index;
+//! 3. in the same call, ONE Dijkstra from the robot's cell on the inflated grid for every ρ_i and
+//!    path (notes §4) — one flood does both when unknown space is impassable.
 //! 4. [`score_u1`]: per candidate — blacklisted (dropped), no path (dropped; the caller
 //!    blacklists it), else path, rays on the *un-inflated* grid, Θ*, ΔE; then u1 over all
 //!    scored candidates.
