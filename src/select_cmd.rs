@@ -178,8 +178,8 @@ fn print_table(d: &Decision) {
         d.candidates.len()
     );
     println!(
-        "{:>4} {:>4} {:>8} {:>8} {:>7} {:>8} {:>7} {:>6} {:>6} {:>6}  {}",
-        "rank", "idx", "x_m", "y_m", "rho_m", "dE_bits", "theta*", "u1", "I_p", "u2", "note"
+        "{:>4} {:>4} {:>8} {:>8} {:>7} {:>8} {:>7} {:>6} {:>6} {:>6}  note",
+        "rank", "idx", "x_m", "y_m", "rho_m", "dE_bits", "theta*", "u1", "I_p", "u2"
     );
     let mut order = d.ranking();
     order.extend((0..d.candidates.len()).filter(|&i| d.candidates[i].rank.is_none()));

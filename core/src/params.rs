@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// All planner parameters. `Params::default()` holds the paper's values (notes §8).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
     pub grid: GridParams,
@@ -20,22 +20,6 @@ pub struct Params {
     pub u1: U1Params,
     pub u2: U2Params,
     pub selector: SelectorParams,
-}
-
-impl Default for Params {
-    fn default() -> Self {
-        Self {
-            grid: GridParams::default(),
-            robot: RobotParams::default(),
-            camera: CameraParams::default(),
-            traversability: TraversabilityParams::default(),
-            frontier: FrontierParams::default(),
-            planner: PlannerParams::default(),
-            u1: U1Params::default(),
-            u2: U2Params::default(),
-            selector: SelectorParams::default(),
-        }
-    }
 }
 
 /// Map geometry.
@@ -164,17 +148,11 @@ impl Default for FrontierParams {
 }
 
 /// Path planning (notes §4).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlannerParams {
     /// Whether unknown cells may be crossed. Default false (paper).
     pub allow_unknown: bool,
-}
-
-impl Default for PlannerParams {
-    fn default() -> Self {
-        Self { allow_unknown: false }
-    }
 }
 
 /// First-level utility u1 (notes §5).

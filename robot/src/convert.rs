@@ -60,7 +60,8 @@ pub fn unit_quaternion(q: &msgs::Quaternion) -> Result<UnitQuaternion<f64>, Conv
         return Err(ConvertError::NonFinite("quaternion"));
     }
     let raw = Quaternion::new(q.w, q.x, q.y, q.z);
-    if !(raw.norm() > 1e-9) {
+    let norm = raw.norm();
+    if norm.is_nan() || norm <= 1e-9 {
         return Err(ConvertError::ZeroQuaternion);
     }
     Ok(UnitQuaternion::from_quaternion(raw))
@@ -196,7 +197,7 @@ pub fn points_of_cloud(cloud: &PointCloud2) -> Result<(Vec<Point3<f64>>, CloudSt
     let readers = [field_reader(cloud, "x")?, field_reader(cloud, "y")?, field_reader(cloud, "z")?];
     let (width, height) = (cloud.width as usize, cloud.height as usize);
     let (point_step, row_step) = (cloud.point_step as usize, cloud.row_step as usize);
-    let records = width.checked_mul(height).unwrap_or(usize::MAX);
+    let records = width.saturating_mul(height);
     if records == 0 {
         return Ok((Vec::new(), CloudStats::default()));
     }

@@ -48,7 +48,7 @@ fn mission(faults: bool, limit_s: f64) -> Outcome {
         if !pose_paused {
             e.handle_tf(&tf(sim.pose(), t), false, t);
         }
-        if (t * 50.0).round() as u64 % 25 == 0 {
+        if ((t * 50.0).round() as u64).is_multiple_of(25) {
             maps_sent += 1;
             let header = Header::new(Time::from_secs_f64(1.0 + t), "map");
             let mut m = msg_of_occupancy(sim.map(), header.clone());
@@ -58,7 +58,7 @@ fn mission(faults: bool, limit_s: f64) -> Outcome {
             if faults && maps_sent % 7 == 5 {
                 m.header.stamp = Time::from_secs_f64(0.5); // late
             }
-            if !(faults && maps_sent % 5 == 0) {
+            if !(faults && maps_sent.is_multiple_of(5)) {
                 // (every 5th map dropped)
                 e.handle_map(&m, t);
             }

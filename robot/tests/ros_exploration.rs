@@ -192,10 +192,11 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
             let _ =
                 server.send_cancel_response(rid, CancelGoalResponse { return_code: CancelGoalResponseEnum::None, goals_canceling: vec![] });
         }
-        if running.as_ref().is_some_and(|r| r.outcome.is_none()) && sim.advance(dt) {
-            if let Some(r) = &mut running {
-                r.outcome = Some((GoalStatusEnum::Succeeded, NavigateToPoseResult::default()));
-            }
+        if running.as_ref().is_some_and(|r| r.outcome.is_none())
+            && sim.advance(dt)
+            && let Some(r) = &mut running
+        {
+            r.outcome = Some((GoalStatusEnum::Succeeded, NavigateToPoseResult::default()));
         }
         if let Some(r) = running.take() {
             match (r.result_req, r.outcome.clone()) {

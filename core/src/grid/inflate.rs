@@ -25,7 +25,7 @@ pub fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut Occupa
     out.data.clear();
     out.data.extend_from_slice(&grid.data);
     let g = grid.geometry;
-    if !(radius_m > 0.0) || g.is_empty() {
+    if radius_m.is_nan() || radius_m <= 0.0 || g.is_empty() {
         return;
     }
     let r_cells = (radius_m / g.resolution_m).floor() as i32;

@@ -123,6 +123,34 @@ pub fn observe_landmarks(
     }
 }
 
+/// The depth camera's ground hits: a `rays[0]` × `rays[1]` (columns × rows) grid of rays spread
+/// evenly over the field of view from `camera_m`, looking along the body's +x; calls
+/// `on_hit(direction_in_world, depth_m)` for each ray that hits within the depth range, row by
+/// row. O(rays × ray march).
+#[allow(clippy::too_many_arguments)]
+pub fn depth_ground_hits(
+    field: &Heightfield,
+    caster: &RayCaster,
+    camera_m: Point3<f64>,
+    world_from_body: &Rotation3<f64>,
+    params: &CameraParams,
+    rays: [usize; 2],
+    mut on_hit: impl FnMut(Vector3<f64>, f64),
+) {
+    let [nc, nr] = rays;
+    let (hf, vf) = (params.hfov_rad, params.vfov_rad);
+    for r in 0..nr {
+        let el = -vf / 2.0 + vf * (r as f64 + 0.5) / nr as f64;
+        for c in 0..nc {
+            let az = -hf / 2.0 + hf * (c as f64 + 0.5) / nc as f64;
+            let dir = world_from_body * Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+            if let Some(d) = caster.cast(field, camera_m, dir, params.max_depth_m).filter(|&d| d >= params.min_depth_m) {
+                on_hit(dir, d);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,33 +224,5 @@ mod tests {
         // σ_d(1 m) = 5 mm, σ_d(2 m) = 20 mm: ratio 4 (sampling error ~2 % each).
         assert!((s1 - 0.005).abs() < 0.0005, "{s1}");
         assert!((s2 / s1 - 4.0).abs() < 0.4, "{}", s2 / s1);
-    }
-}
-
-/// The depth camera's ground hits: a `rays[0]` × `rays[1]` (columns × rows) grid of rays spread
-/// evenly over the field of view from `camera_m`, looking along the body's +x; calls
-/// `on_hit(direction_in_world, depth_m)` for each ray that hits within the depth range, row by
-/// row. O(rays × ray march).
-#[allow(clippy::too_many_arguments)]
-pub fn depth_ground_hits(
-    field: &Heightfield,
-    caster: &RayCaster,
-    camera_m: Point3<f64>,
-    world_from_body: &Rotation3<f64>,
-    params: &CameraParams,
-    rays: [usize; 2],
-    mut on_hit: impl FnMut(Vector3<f64>, f64),
-) {
-    let [nc, nr] = rays;
-    let (hf, vf) = (params.hfov_rad, params.vfov_rad);
-    for r in 0..nr {
-        let el = -vf / 2.0 + vf * (r as f64 + 0.5) / nr as f64;
-        for c in 0..nc {
-            let az = -hf / 2.0 + hf * (c as f64 + 0.5) / nc as f64;
-            let dir = world_from_body * Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-            if let Some(d) = caster.cast(field, camera_m, dir, params.max_depth_m).filter(|&d| d >= params.min_depth_m) {
-                on_hit(dir, d);
-            }
-        }
     }
 }

@@ -84,8 +84,12 @@ impl Heightfield {
     pub fn from_dem_png(bytes: &[u8], name: &str, scaling: DemScaling) -> Result<Self, HeightfieldError> {
         let invalid = |message: String| HeightfieldError::Invalid { name: name.into(), message };
         let s = scaling;
-        if !(s.pixel_x_m > 0.0 && s.pixel_y_m > 0.0 && s.world_size_m > 0.0 && s.cell_m > 0.0)
-            || !(s.crop_fraction > 0.0 && s.crop_fraction <= 1.0)
+        if !(s.pixel_x_m > 0.0
+            && s.pixel_y_m > 0.0
+            && s.world_size_m > 0.0
+            && s.cell_m > 0.0
+            && s.crop_fraction > 0.0
+            && s.crop_fraction <= 1.0)
         {
             return Err(invalid("DEM scaling parameters must be positive (crop fraction in (0, 1])".into()));
         }

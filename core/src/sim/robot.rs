@@ -159,6 +159,29 @@ pub fn body_on_terrain(field: &Heightfield, pose: Pose2, body_half_m: f64) -> (P
     (Point3::new(pose.x_m, pose.y_m, z), Rotation3::from_euler_angles(roll, pitch, pose.yaw_rad))
 }
 
+/// The ground under the body (proprioceptive: where the wheels are, the terrain is known), every
+/// `spacing_m` over the `body_half_m` square footprint at `body_m` with attitude
+/// `world_from_body`, appended to `out`. O((body_half_m / spacing_m)²).
+pub fn footprint_points(
+    field: &Heightfield,
+    body_m: Point3<f64>,
+    world_from_body: &Rotation3<f64>,
+    body_half_m: f64,
+    spacing_m: f64,
+    out: &mut Vec<Point3<f64>>,
+) {
+    let n = (body_half_m / spacing_m).round() as i32;
+    for i in -n..=n {
+        for j in -n..=n {
+            let local = nalgebra::Vector3::new(i as f64 * spacing_m, j as f64 * spacing_m, 0.0);
+            let w = world_from_body * local + body_m.coords;
+            if let Some(z) = field.height_at(w.x, w.y) {
+                out.push(Point3::new(w.x, w.y, z));
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -209,28 +232,5 @@ mod tests {
         let (_, r) = body_on_terrain(&f, Pose2 { x_m: 2.5, y_m: 2.5, yaw_rad: std::f64::consts::FRAC_PI_2 }, 0.2);
         let (roll, pitch, _) = r.euler_angles();
         assert!((roll + 0.5f64.atan()).abs() < 1e-9 && pitch.abs() < 1e-9);
-    }
-}
-
-/// The ground under the body (proprioceptive: where the wheels are, the terrain is known), every
-/// `spacing_m` over the `body_half_m` square footprint at `body_m` with attitude
-/// `world_from_body`, appended to `out`. O((body_half_m / spacing_m)²).
-pub fn footprint_points(
-    field: &Heightfield,
-    body_m: Point3<f64>,
-    world_from_body: &Rotation3<f64>,
-    body_half_m: f64,
-    spacing_m: f64,
-    out: &mut Vec<Point3<f64>>,
-) {
-    let n = (body_half_m / spacing_m).round() as i32;
-    for i in -n..=n {
-        for j in -n..=n {
-            let local = nalgebra::Vector3::new(i as f64 * spacing_m, j as f64 * spacing_m, 0.0);
-            let w = world_from_body * local + body_m.coords;
-            if let Some(z) = field.height_at(w.x, w.y) {
-                out.push(Point3::new(w.x, w.y, z));
-            }
-        }
     }
 }

@@ -38,8 +38,8 @@ impl DiscSum {
     fn add_moments(&mut self, count: u64, mean: [f64; 3], scatter: &[f64; 6], var_sum_m2: f64) {
         let n = count as f64;
         self.var_sum_m2 += var_sum_m2;
-        for k in 0..3 {
-            self.sum[k] += n * mean[k];
+        for (s, m) in self.sum.iter_mut().zip(mean) {
+            *s += n * m;
         }
         let s = &mut self.sum_sq;
         s[0] += scatter[0] + n * mean[0] * mean[0];
@@ -55,8 +55,8 @@ impl DiscSum {
     #[inline]
     fn add_point(&mut self, d: [f64; 3], var_m2: f64) {
         self.var_sum_m2 += var_m2;
-        for k in 0..3 {
-            self.sum[k] += d[k];
+        for (s, v) in self.sum.iter_mut().zip(d) {
+            *s += v;
         }
         add_outer(&mut self.sum_sq, d, 1.0);
         self.count += 1;

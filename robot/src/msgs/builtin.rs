@@ -14,7 +14,7 @@ super::ros_message!(Time, "builtin_interfaces", "Time");
 impl Time {
     /// From seconds (saturating at the i32 range; negative and NaN give zero).
     pub fn from_secs_f64(t_s: f64) -> Self {
-        if !(t_s > 0.0) {
+        if t_s.is_nan() || t_s <= 0.0 {
             return Self::default();
         }
         let sec = t_s.floor().min(i32::MAX as f64);
