@@ -284,23 +284,28 @@ fn decision_json_has_the_keys() {
 
 #[test]
 fn a_selector_reusing_its_buffers_decides_as_a_fresh_one() {
-    // Maps of different sizes and contents, in turn: the buffers carry capacity over, never
-    // content, so every decision equals a fresh selector's.
+    // Maps of different sizes and contents, in turn, with unknown space impassable (one flood)
+    // and passable (WFD, then Dijkstra): the buffers carry capacity over, never content, so every
+    // decision equals a fresh selector's.
     let p = params();
+    let mut p_unknown = p.clone();
+    p_unknown.planner.allow_unknown = true;
     let corridor = corridor_two_frontiers(true);
     let worlds = [synthetic_world(&SyntheticWorldSpec::small(5)), corridor, synthetic_world(&SyntheticWorldSpec::small(6))];
     let bl = Blacklist::new(0.5);
-    let mut reused: Vec<Box<dyn GoalSelector>> =
-        vec![Box::new(FitSlam::default()), Box::new(Greedy::default()), Box::new(U1Only::default())];
+    let all =
+        || -> Vec<Box<dyn GoalSelector>> { vec![Box::new(FitSlam::default()), Box::new(Greedy::default()), Box::new(U1Only::default())] };
+    let mut reused = all();
     for w in worlds.iter().chain(worlds.iter().rev()) {
         let lv = voxels(w, &p);
         let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-        let fresh: Vec<Box<dyn GoalSelector>> =
-            vec![Box::new(FitSlam::default()), Box::new(Greedy::default()), Box::new(U1Only::default())];
-        for (a, mut b) in reused.iter_mut().zip(fresh) {
-            let d = a.select(&input, &p).unwrap();
-            assert!(d.candidates.len() >= 2);
-            assert_eq!(d, b.select(&input, &p).unwrap(), "{:?} on a {:?} map", a.strategy(), w.grid.geometry);
+        for p in [&p, &p_unknown, &p] {
+            for (a, mut b) in reused.iter_mut().zip(all()) {
+                let d = a.select(&input, p).unwrap();
+                assert!(d.candidates.len() >= 2);
+                let allow = p.planner.allow_unknown;
+                assert_eq!(d, b.select(&input, p).unwrap(), "{:?} on a {:?} map, allow_unknown {allow}", a.strategy(), w.grid.geometry);
+            }
         }
     }
 }
