@@ -139,7 +139,9 @@ impl MissionView {
         }
     }
 
-    /// State for page scripts and tests (JSON).
+    /// State for page scripts and tests (JSON). While paused, each lane also carries its
+    /// `metrics.csv` text, which the browser test compares with the native CLI's for the same
+    /// world, strategy and seed (same seed, same run, native and wasm).
     pub fn stats(&self) -> serde_json::Value {
         let Some(r) = &self.runner else {
             return serde_json::json!({ "world": self.config.world, "error": self.error, "lanes": [] });
@@ -151,6 +153,7 @@ impl MissionView {
                 let last = l.mission.rows.last();
                 serde_json::json!({
                     "strategy": strategy_label(l.strategy),
+                    "strategy_id": l.strategy,
                     "time_s": l.mission.time_s,
                     "rows": l.mission.rows.len(),
                     "unexplored_pct": last.map(|r| r.unexplored_pct),
@@ -158,6 +161,7 @@ impl MissionView {
                     "cov_trace": last.map(|r| r.cov_trace),
                     "decisions": l.decisions,
                     "end": l.end.map(|e| format!("{e:?}")),
+                    "metrics_csv": (r.state == RunState::Paused).then(|| l.mission.metrics_csv()),
                 })
             })
             .collect();
@@ -165,6 +169,7 @@ impl MissionView {
             "world": r.config.world,
             "seed": r.config.seed,
             "localisation": sim_runner::localisation_label(r.config.localisation),
+            "localisation_id": r.config.localisation,
             "state": format!("{:?}", r.state),
             "time_s": r.time_s(),
             "speed": if r.speed.is_finite() { Some(r.speed) } else { None },
@@ -237,11 +242,15 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
         let l = ui.label("seed");
         ui.add(egui::DragValue::new(&mut m.config.seed)).labelled_by(l.id);
     });
-    egui::ComboBox::from_label("localisation").selected_text(sim_runner::localisation_label(m.config.localisation)).show_ui(ui, |ui| {
-        for l in LOCALISATIONS {
-            ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
-        }
-    });
+    let combo =
+        egui::ComboBox::from_label("localisation").selected_text(sim_runner::localisation_label(m.config.localisation)).show_ui(ui, |ui| {
+            const NAMES: [&str; 3] = ["localisation_ground_truth", "localisation_odometry", "localisation_slam"];
+            for (k, l) in LOCALISATIONS.into_iter().enumerate() {
+                let r = ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
+                rects.push((NAMES[k], r.rect));
+            }
+        });
+    rects.push(("mission_localisation", combo.response.rect));
     let pending = m.runner.as_ref().is_none_or(|r| r.config != m.config);
     if pending {
         ui.colored_label(Color32::from_rgb(255, 200, 120), "settings changed: press Reset to apply");

@@ -9,7 +9,10 @@
 //   6. reloads without a query: the default built-in scene shows with a decision made;
 //   7. opens the Mission mode, plays fit / greedy / random side by side on the paper world until
 //      time advances and every lane explores, then measures the simulated seconds per real second
-//      as fast as the frame budget allows (three lanes, then one): mission_speed.json.
+//      as fast as the frame budget allows (three lanes, then one): mission_speed.json. On the way
+//      it pauses and checks every lane's metrics.csv against the native CLI (target/debug/fitslam,
+//      built by `cargo test`) for the same world, strategy and seed: same seed, same run, in both;
+//      then once more with graph SLAM (one fit lane, 20 s).
 // The canvas has no DOM, so the app publishes its state: document.title (a digest of the
 // ranking) and window.fitslam.{ranking, stats, widgets} (JSON; widget rectangles in CSS px).
 // Screenshots go to target/studio-web-test/, with timing.json. Prints "N passed, N failed".
@@ -22,6 +25,7 @@ import fs from "node:fs";
 import path from "node:path";
 import os from "node:os";
 import { fileURLToPath } from "node:url";
+import { execFileSync } from "node:child_process";
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const repo = path.resolve(here, "../..");
@@ -121,6 +125,40 @@ async function shot(name) {
   }, png.toString("base64"));
   return { file, ...m };
 }
+// Pauses the missions and compares every lane's metrics.csv so far with the native CLI's
+// (target/debug/fitslam, built by `cargo test`) for the same world, strategy, seed and
+// localisation. Returns the paused state.
+async function sameRunAsNative() {
+  let s = await state();
+  await page.mouse.click(...center(rect(s, "mission_pause")));
+  s = await waitFor("mission paused with its metrics published",
+    (s) => s.stats.mission.state === "Paused" && s.stats.mission.lanes.every((l) => typeof l.metrics_csv === "string"), 60000);
+  if (!s) return s;
+  const m = s.stats.mission;
+  const cli = path.join(targetDir, "debug", process.platform === "win32" ? "fitslam.exe" : "fitslam");
+  for (const lane of m.lanes) {
+    const wasmLines = lane.metrics_csv.split("\n").filter((l) => l.length > 0);
+    let detail;
+    let same = false;
+    try {
+      const dir = fs.mkdtempSync(path.join(os.tmpdir(), "fitslam-native-"));
+      execFileSync(cli, ["explore", "--world", path.join(repo, "assets/worlds", `${m.world}.toml`), "--strategy", lane.strategy_id,
+        "--seed", String(m.seed), "--localisation", m.localisation_id.replaceAll("_", "-"),
+        "--time-limit-s", String(Math.ceil(lane.time_s) + 3), "--out", dir], { stdio: "pipe" });
+      const nativeLines = fs.readFileSync(path.join(dir, "metrics.csv"), "utf8").split("\n").filter((l) => l.length > 0);
+      fs.rmSync(dir, { recursive: true, force: true });
+      const k = wasmLines.findIndex((l, i) => l !== nativeLines[i]);
+      same = wasmLines.length >= 2 && k === -1;
+      detail = same ? `${wasmLines.length - 1} rows to t = ${lane.time_s.toFixed(1)} s identical`
+        : `first difference at line ${k + 1}: wasm "${wasmLines[k]}" vs native "${nativeLines[k]}"`;
+    } catch (e) {
+      detail = `native run failed (${cli}): ${String(e.message ?? e).split("\n")[0]}`;
+    }
+    check(`${lane.strategy} lane, ${m.localisation}: the same metrics as the native CLI (seed ${m.seed})`, same, detail);
+  }
+  return s;
+}
+
 function notBlank(name, m) {
   return check(`${name} is not blank`, m.colours >= 50 && m.nonBackground >= 0.2, `${m.colours} colours, ${(100 * m.nonBackground).toFixed(0)}% drawn (${path.relative(repo, m.file)})`);
 }
@@ -258,6 +296,10 @@ try {
     }
     notBlank("mission screenshot", await shot("07-mission.png"));
 
+    // Same seed, same run, native and wasm (ground truth here, graph SLAM below).
+    s = await sameRunAsNative();
+    if (s) await page.mouse.click(...center(rect(s, "mission_play")));
+
     // Speed in the browser: as fast as the per-frame budget allows, three lanes then one.
     const measure = async (label, seconds) => {
       await page.waitForTimeout(1000);
@@ -295,6 +337,25 @@ try {
         `${v.sim_s_per_s_per_lane.toFixed(1)} simulated s per real s per lane (${v.lanes} lane(s), budget ${v.budget_ms} ms/frame; meter ${v.achieved_speed_reported?.toFixed(1)}; load ${v.load_average.map((x) => x.toFixed(1)).join(" ")})`);
     }
     notBlank("mission (one lane) screenshot", await shot("08-mission-one-lane.png"));
+
+    // Graph SLAM, one lane (fit): choose it, Reset, play 20 s, compare with the native CLI.
+    s = await state();
+    await page.mouse.click(...center(rect(s, "mission_pause")));
+    await page.mouse.click(...center(rect(s, "mission_localisation")));
+    s = await waitFor("localisation menu open", (s) => rect(s, "localisation_slam"), 10000);
+    if (s) {
+      await page.mouse.click(...center(rect(s, "localisation_slam")));
+      await page.waitForTimeout(300);
+      s = await state();
+      await page.mouse.click(...center(rect(s, "mission_reset")));
+      s = await waitFor("graph SLAM lane after Reset",
+        (s) => s.stats.mission.localisation_id === "slam" && s.stats.mission.lanes.length === 1 && s.stats.mission.time_s === 0, 60000);
+    }
+    if (s) {
+      await page.mouse.click(...center(rect(s, "mission_play")));
+      s = await waitFor("graph SLAM mission plays", (s) => s.stats.mission.time_s > 20, 120000);
+      if (s) s = await sameRunAsNative();
+    }
     s = await state();
   }
 
