@@ -23,6 +23,23 @@ pub(super) const UNREACHED: u8 = 0;
 pub(super) const REACHED: u8 = 1;
 pub(super) const FRONTIER: u8 = 2;
 
+/// Whether flat cell `i`'s centre lies inside `boundary` (no boundary: everywhere).
+#[inline]
+fn inside(g: &GridGeometry, boundary: Option<&Boundary>, i: usize) -> bool {
+    boundary.is_none_or(|b| {
+        let (x_m, y_m) = g.center_of(g.cell_at(i));
+        b.contains(x_m, y_m)
+    })
+}
+
+/// Rejects parameters clustering cannot use.
+fn check(params: &FrontierParams) -> Result<(), FrontierError> {
+    if params.max_cluster_cells == 0 {
+        return Err(FrontierError::ZeroMaxClusterCells);
+    }
+    Ok(())
+}
+
 /// The BFS: fills `state` (every reachable free cell `REACHED` or `FRONTIER`, the rest
 /// `UNREACHED`; its storage is reused) and returns the frontier cells' flat indices in
 /// increasing order.
@@ -76,12 +93,7 @@ pub(super) fn wavefront(
         if r + 1 < h {
             visit(c, r + 1);
         }
-        if touches_unknown
-            && boundary.is_none_or(|b| {
-                let (x_m, y_m) = g.center_of(g.cell_at(i));
-                b.contains(x_m, y_m)
-            })
-        {
+        if touches_unknown && inside(&g, boundary, i) {
             state[i] = FRONTIER;
             frontier.push(i);
         }
@@ -126,9 +138,7 @@ pub fn detect_frontiers_with(
     params: &FrontierParams,
     state: &mut Vec<u8>,
 ) -> Result<Vec<FrontierCluster>, FrontierError> {
-    if params.max_cluster_cells == 0 {
-        return Err(FrontierError::ZeroMaxClusterCells);
-    }
+    check(params)?;
     let frontier = wavefront(grid, robot, boundary, state)?;
     Ok(cluster_frontier(&grid.geometry, state, &frontier, params))
 }
@@ -145,17 +155,8 @@ pub fn cluster_frontier_cells(
     params: &FrontierParams,
     state: &mut Vec<u8>,
 ) -> Result<Vec<FrontierCluster>, FrontierError> {
-    if params.max_cluster_cells == 0 {
-        return Err(FrontierError::ZeroMaxClusterCells);
-    }
-    let inside = |&i: &usize| {
-        i < geometry.len()
-            && boundary.is_none_or(|b| {
-                let (x_m, y_m) = geometry.center_of(geometry.cell_at(i));
-                b.contains(x_m, y_m)
-            })
-    };
-    let frontier: Vec<usize> = frontier.iter().copied().filter(inside).collect();
+    check(params)?;
+    let frontier: Vec<usize> = frontier.iter().copied().filter(|&i| i < geometry.len() && inside(geometry, boundary, i)).collect();
     state.clear();
     state.resize(geometry.len(), UNREACHED);
     for &i in &frontier {
