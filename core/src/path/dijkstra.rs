@@ -22,9 +22,8 @@
 //! impassable, both below every cost, so one comparison tests both passability and improvement):
 //! 8 bytes, against 4 million × 17 bytes for a whole-grid layout with f64 costs and u32 parents
 //! on a 2000 × 2000 map. Parents are not stored; exact integer costs let
-//! [`DistanceField::path_to`] recover them. Buckets are settled in the order they were filled
-//! (putting them into memory order first was measured at no gain once the window is reused,
-//! BENCHMARKS.md). With targets ([`dijkstra_to`]) the search stops as soon as all of them are
+//! [`DistanceField::path_to`] recover them. Each bucket is put into block-wise memory order before
+//! it is settled ([`BlockOrder`]). With targets ([`dijkstra_to`]) the search stops as soon as all of them are
 //! settled; [`dijkstra_with_frontiers`] also collects the frontier cells as it settles.
 //!
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
@@ -302,8 +301,7 @@ struct Goals<'a> {
 }
 
 /// The window's code for a grid value: passable cells start [`UNREACHED`], impassable unknown
-/// cells are [`UNKNOWN`] (for frontiers), the rest [`BLOCKED`]. Branch-free, so the fill
-/// vectorises.
+/// cells are [`UNKNOWN`] (for frontiers), the rest [`BLOCKED`]. Branch-free.
 #[inline]
 fn code(v: i8, allow_unknown: bool) -> u64 {
     let passable = u64::from(super::passable(v, allow_unknown));

@@ -16,9 +16,9 @@
 //!
 //! Cost: inflation O(B r²), the flood O(n) over the n reachable cells (plus WFD's O(n) with
 //! `allow_unknown`), u1 O(C·R·L) for C candidates, R rays of L cells, u2 O(N·K·V) (see
-//! [`crate::utility::u2`]). The three
-//! grid-sized buffers (inflated grid, flood state, cost window: ≈ 20 MB on a 2000 × 2000 map)
-//! live in the selector's [`PlanBuffers`] and are reused from one decision to the next.
+//! [`crate::utility::u2`]). The three grid-sized buffers (inflated grid, frontier state layer,
+//! cost window: ≈ 20 MB on a 2000 × 2000 map) live in the selector's [`PlanBuffers`] and are
+//! reused from one decision to the next.
 
 use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
