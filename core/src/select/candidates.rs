@@ -138,7 +138,7 @@ pub fn score_u1(
     strategy: Strategy,
 ) -> Result<Decision, SelectError> {
     let g = input.grid.geometry;
-    let fan = RayFan::new(params.u1.delta_theta_rad, params.camera.max_depth_m, g.resolution_m, params.u1.gamma)?;
+    let fan = RayFan::new(params.u1.delta_theta_rad, params.camera.max_depth_m, g.resolution_m, params.u1.gamma)?.for_width(g.width);
     let windows = FovWindows::new(fan.angles_rad(), params.camera.hfov_rad);
     let mut candidates = Vec::with_capacity(clusters.len());
     let mut gains = Vec::with_capacity(fan.len());
