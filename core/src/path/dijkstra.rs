@@ -16,7 +16,7 @@
 //! million cells, and paths of up to ~940,000 moves in a 2000 × 2000 window (shift 41). Integer
 //! costs also make the bucket index a shift, with no float conversion in the inner loop.
 //!
-//! Memory is what costs here, so the search works on a **window**: the bounding box of the
+//! The search works on a **window**, to keep its memory small: the bounding box of the
 //! passable cells (no path can leave it), padded with the grid's cells around it (impassable) so
 //! no move leaves the arrays. Per window cell it keeps only the cost (0 = lethal, 1 = unknown and
 //! impassable, both below every cost, so one comparison tests both passability and improvement):
