@@ -1,15 +1,19 @@
 //! One full FIT-SLAM decision on the synthetic 100 m × 100 m world at 0.05 m (2000 × 2000 cells,
 //! partially explored with a ragged frontier, obstacles, 50,000 landmarks): median of several
 //! runs (and the minimum, less sensitive to other processes on the machine), single-threaded,
-//! with a per-stage breakdown. The stages and the selector keep their grid-sized buffers from run
+//! with a per-stage breakdown (the one flood also split into its Dijkstra, which fills the cost
+//! window and searches, and the clustering of the frontier cells it found, timed apart after the
+//! decisions). The stages and the selector keep their grid-sized buffers from run
 //! to run, as a selector does from decision to decision in a mission.
 //!
 //! `cargo bench --bench decision` (optionally `-- RUNS`).
 
 use fitslam_core::fixtures::{SyntheticWorldSpec, synthetic_world};
 use fitslam_core::frontier::Blacklist;
+use fitslam_core::frontier::cluster_frontier_cells;
 use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
 use fitslam_core::params::{Params, Strategy};
+use fitslam_core::path::dijkstra_with_frontiers;
 use fitslam_core::select::candidates::{PlanBuffers, frontiers_and_distances, prepare, rank_and_choose, score_u1, score_u2};
 use fitslam_core::select::{DecisionInput, FitSlam, GoalSelector};
 use fitslam_core::utility::LandmarkVoxels;
@@ -99,10 +103,29 @@ fn main() {
         }
         buffers.recycle(prepared, field);
     }
+    // The one flood's two parts, timed apart after the decisions (same inputs, reused buffers).
+    let prepared = prepare(&input, &params, &mut buffers).expect("prepare");
+    let (mut cost, mut state) = (Vec::new(), Vec::new());
+    let mut parts: Vec<Vec<f64>> = vec![Vec::new(); 2];
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        let (field, frontier) = dijkstra_with_frontiers(&prepared.inflated, prepared.robot_cell, cost).expect("flood");
+        let t1 = Instant::now();
+        let clusters = cluster_frontier_cells(&g, &frontier, input.boundary, &params.frontier, &mut state).expect("clusters");
+        let t2 = Instant::now();
+        std::hint::black_box(clusters);
+        cost = field.into_buffer();
+        parts[0].push(1e3 * (t1 - t0).as_secs_f64());
+        parts[1].push(1e3 * (t2 - t1).as_secs_f64());
+    }
+    times.extend(parts);
     println!("{summary}");
     println!("{runs} runs, one thread:               median        min");
-    for (name, v) in names.iter().zip(times.iter_mut()) {
+    let names: Vec<&str> = names.iter().copied().chain(["  Dijkstra, fill + search", "  clustering"]).collect();
+    // The flood's parts right under it.
+    for k in [0, 1, 6, 7, 2, 3, 4, 5] {
+        let v = &mut times[k];
         let min = v.iter().cloned().fold(f64::INFINITY, f64::min);
-        println!("  {name:<30} {:>9.2} ms {:>8.2} ms", median(v), min);
+        println!("  {:<30} {:>9.2} ms {:>8.2} ms", names[k], median(v), min);
     }
 }
