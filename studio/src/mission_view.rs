@@ -252,8 +252,11 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
         });
     rects.push(("mission_localisation", combo.response.rect));
     let pending = m.runner.as_ref().is_none_or(|r| r.config != m.config);
+    // Always one line, so that the buttons below do not move when a setting changes.
     if pending {
         ui.colored_label(Color32::from_rgb(255, 200, 120), "settings changed: press Reset to apply");
+    } else {
+        ui.weak("settings in use");
     }
     ui.label("Planner parameters: the Planner mode's, taken at Reset.")
         .on_hover_text("Tune α, β, τ … in the Planner mode, then Reset here to run missions with them.");

@@ -100,6 +100,22 @@ async function waitFor(name, pred, timeoutMs = 30000) {
   return null;
 }
 
+// The state once the widget rectangles have settled (two reads 150 ms apart agree). A click that
+// changes the layout (Reset hides the "press Reset" line; a menu closes) moves the buttons in the
+// frame *after* the one that handled it, and a state read in between carries the old rectangles:
+// a click there can land on another button.
+async function settledState(timeoutMs = 5000) {
+  const t0 = Date.now();
+  let a = await state();
+  while (Date.now() - t0 < timeoutMs) {
+    await page.waitForTimeout(150);
+    const b = await state();
+    if (a && b && JSON.stringify(a.widgets) === JSON.stringify(b.widgets)) return b;
+    a = b;
+  }
+  return a;
+}
+
 // Screenshot and a measure of how much is drawn: distinct colours (quantised) and the share of
 // pixels that differ from the most common colour.
 async function shot(name) {
@@ -322,11 +338,10 @@ try {
     await page.mouse.click(...center(rect(s, "mission_pause")));
     await page.mouse.click(...center(rect(s, "strategy_greedy")));
     await page.mouse.click(...center(rect(s, "strategy_random")));
-    s = await state();
+    s = await settledState();
     await page.mouse.click(...center(rect(s, "mission_reset")));
     s = await waitFor("one lane after Reset", (s) => s.stats.mission.lanes.length === 1 && s.stats.mission.time_s === 0, 60000);
-    await page.waitForTimeout(300);
-    s = await state();
+    if (s) s = await settledState();
     if (s) {
       await page.mouse.click(...center(rect(s, "mission_play")));
       speeds.push(await measure("fit alone, as fast as possible", 8));
@@ -345,11 +360,11 @@ try {
     s = await waitFor("localisation menu open", (s) => rect(s, "localisation_slam"), 10000);
     if (s) {
       await page.mouse.click(...center(rect(s, "localisation_slam")));
-      await page.waitForTimeout(300);
-      s = await state();
+      s = await settledState();
       await page.mouse.click(...center(rect(s, "mission_reset")));
       s = await waitFor("graph SLAM lane after Reset",
         (s) => s.stats.mission.localisation_id === "slam" && s.stats.mission.lanes.length === 1 && s.stats.mission.time_s === 0, 60000);
+      if (s) s = await settledState();
     }
     if (s) {
       await page.mouse.click(...center(rect(s, "mission_play")));
