@@ -101,9 +101,9 @@ async function waitFor(name, pred, timeoutMs = 30000) {
 }
 
 // The state once the widget rectangles have settled (two reads 150 ms apart agree). A click that
-// changes the layout (Reset hides the "press Reset" line; a menu closes) moves the buttons in the
-// frame *after* the one that handled it, and a state read in between carries the old rectangles:
-// a click there can land on another button.
+// changes the layout (a menu closes, a checkbox changes a label) moves widgets in the frame
+// *after* the one that handled it, and a state read in between carries the old rectangles: a
+// click there can land on another button (it once hit "Step decision" instead of "Play").
 async function settledState(timeoutMs = 5000) {
   const t0 = Date.now();
   let a = await state();

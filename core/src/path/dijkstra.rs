@@ -24,8 +24,9 @@
 //! on a 2000 × 2000 map. Parents are not stored; exact integer costs let
 //! [`DistanceField::path_to`] recover them. Each bucket is put into block-wise memory order before
 //! it is settled ([`BlockOrder`]), and the cost rows of the cell 16 entries ahead are prefetched
-//! ([`prefetch_rows`], x86-64 only). With targets ([`dijkstra_to`]) the search stops as soon as all of them are
-//! settled; [`dijkstra_with_frontiers`] also collects the frontier cells as it settles.
+//! ([`prefetch_rows`], x86-64 only). With targets ([`dijkstra_to`]) the search stops as soon as
+//! all of them are settled; [`dijkstra_with_frontiers`] also collects the frontier cells as it
+//! settles.
 //!
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
 
@@ -348,8 +349,9 @@ fn fill_window(grid: &OccupancyGrid, win: &Window, allow_unknown: bool, cost: &m
 /// How many queue entries ahead [`prefetch_rows`] looks.
 const PREFETCH_AHEAD: usize = 16;
 
-/// Asks for the three cost rows around `p` ahead of use: the search waits on memory, not
-/// arithmetic, and a bucket's cells are scattered around the wavefront.
+/// Asks for the three cost rows around `p` ahead of use: a bucket's cells are scattered around
+/// the wavefront, so their rows are often not in L1 (the search is mostly bound by its own work,
+/// but this hides some of the misses: 0.3–1.5 ms on the decision bench, BENCHMARKS.md).
 #[inline(always)]
 fn prefetch_rows(cost: &[u64], p: usize, pw: usize) {
     #[cfg(target_arch = "x86_64")]

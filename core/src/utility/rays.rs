@@ -124,51 +124,33 @@ impl RayFan {
             return;
         }
         // From an origin at least the fan's reach inside every edge no ray can leave the grid:
-        // the edge test is compiled out.
+        // with flat offsets for this width, one add per cell and no edge test.
         let reach = i64::from(self.reach_cells);
         let interior = oc >= reach && or >= reach && oc + reach < w && or + reach < h;
-        if interior && self.flat_width == g.width {
-            let origin = (or * w + oc) as usize;
-            for k in 0..self.len() {
-                let ray = &self.flat[self.ray_start[k]..self.ray_start[k + 1]];
-                gains_bits.push(ray_gain_flat(&grid.data, origin, ray, table));
-            }
-            return;
-        }
         for k in 0..self.len() {
-            let ray = self.ray_offsets(k);
-            let sum = if interior { ray_gain::<false>(grid, oc, or, ray, table) } else { ray_gain::<true>(grid, oc, or, ray, table) };
+            let cells = self.ray_start[k]..self.ray_start[k + 1];
+            let sum = if interior && self.flat_width == g.width {
+                let origin = (or * w + oc) as usize;
+                ray_gain(self.flat[cells].iter().map(|&off| grid.data[origin.wrapping_add_signed(off)]), table)
+            } else {
+                // Stops at the map's edge.
+                let inside = self.offsets[cells].iter().map_while(|off| {
+                    let (c, r) = (oc + i64::from(off[0]), or + i64::from(off[1]));
+                    (c >= 0 && r >= 0 && c < w && r < h).then(|| grid.data[(r * w + c) as usize])
+                });
+                ray_gain(inside, table)
+            };
             gains_bits.push(sum);
         }
     }
 }
 
-/// `ΔE^θ` of one ray from cell (`oc`, `or`) (see the module doc); `EDGE_TESTS` stops the ray at
-/// the map's edge, and may be false only when no offset can leave the grid.
+/// `ΔE^θ` of one ray given the values of the cells it crosses, in order (see the module doc).
 #[inline]
-fn ray_gain<const EDGE_TESTS: bool>(grid: &OccupancyGrid, oc: i64, or: i64, ray: &[[i32; 2]], table: &[f64]) -> f64 {
-    let (w, h) = (grid.geometry.width as i64, grid.geometry.height as i64);
+fn ray_gain(values: impl Iterator<Item = i8>, table: &[f64]) -> f64 {
     let mut sum = 0.0;
-    for (n, off) in ray.iter().enumerate() {
-        let (c, r) = (oc + i64::from(off[0]), or + i64::from(off[1]));
-        if EDGE_TESTS && (c < 0 || r < 0 || c >= w || r >= h) {
-            break;
-        }
-        match CellClass::of(grid.data[(r * w + c) as usize]) {
-            CellClass::Lethal => break,
-            CellClass::Unknown => sum += table[n],
-            CellClass::Free => {}
-        }
-    }
-    sum
-}
-
-/// [`ray_gain`] from an interior origin (flat index) along flat offsets.
-#[inline]
-fn ray_gain_flat(data: &[i8], origin: usize, ray: &[isize], table: &[f64]) -> f64 {
-    let mut sum = 0.0;
-    for (n, &off) in ray.iter().enumerate() {
-        match CellClass::of(data[origin.wrapping_add_signed(off)]) {
+    for (n, v) in values.enumerate() {
+        match CellClass::of(v) {
             CellClass::Lethal => break,
             CellClass::Unknown => sum += table[n],
             CellClass::Free => {}
