@@ -1,7 +1,8 @@
 //! `fitslam optimize`: optimise a real pose graph with the core's SLAM backend and report χ²,
 //! iterations, time and the marginal covariance of the last pose.
 //!
-//! Input: a g2o file (`VERTEX_SE2`/`EDGE_SE2`, `VERTEX_SE3:QUAT`/`EDGE_SE3:QUAT`) or the
+//! Input: a g2o file (2D or 3D poses, optionally with point landmarks: see
+//! [`fitslam_core::slam::g2o`]) or the
 //! Victoria Park text format (`ODOMETRY`/`LANDMARK`, read with GTSAM's `load2D` semantics),
 //! told apart by the first tag. Gauge: the first pose is fixed (g2o), or anchored by a prior
 //! (`--prior-sigma`, GTSAM). `time_ms` covers the optimisation only (not reading, not the
@@ -44,7 +45,8 @@ pub enum Residual2d {
 
 #[derive(clap::Args, Debug)]
 pub struct OptimizeArgs {
-    /// Pose graph to optimise: g2o 2D/3D, or Victoria Park (ODOMETRY/LANDMARK) text.
+    /// Graph to optimise: g2o 2D/3D (poses, optional point landmarks), or Victoria Park
+    /// (ODOMETRY/LANDMARK) text.
     #[arg(long)]
     pub g2o: PathBuf,
     /// Write the optimised graph here as g2o (g2o inputs only).
@@ -97,11 +99,11 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
         .unwrap_or_default();
     let (input, mut problem): (Input, Problem) = if first_tag == "ODOMETRY" || first_tag == "LANDMARK" {
         let vp = read_victoria(&bytes).with_context(|| format!("{}", args.g2o.display()))?;
-        let p = vp.to_problem(gauge, residual)?;
+        let p = vp.to_problem(gauge, residual).with_context(|| format!("{}", args.g2o.display()))?;
         (Input::Victoria, p)
     } else {
         let file = read_g2o(&bytes).with_context(|| format!("{}", args.g2o.display()))?;
-        let p = file.to_problem(gauge, residual)?;
+        let p = file.to_problem(gauge, residual).with_context(|| format!("{}", args.g2o.display()))?;
         (Input::G2o(file), p)
     };
     let Some(last) = problem.last_pose() else { bail!("{} has no pose", args.g2o.display()) };

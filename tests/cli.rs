@@ -165,3 +165,42 @@ fn traversability_writes_a_map_server_map_that_select_can_read() {
     assert!(yaml.contains("image: plane.pgm") && yaml.contains("resolution: 0.05"), "{yaml}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
+    let out = run(&["optimize", "--g2o", &asset("data/slam/intel.g2o"), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    let (initial, last) = (v["initial_chi2"].as_f64().unwrap(), v["final_chi2"].as_f64().unwrap());
+    assert!(last < initial, "{v}");
+    assert!(v["iterations"].as_u64().unwrap() > 0 && v["time_ms"].as_f64().unwrap() >= 0.0);
+    assert_eq!(v["last_marginal"].as_array().unwrap().len(), 9, "SE(2): 3 × 3");
+
+    // A 2D landmark graph (two poses, one landmark seen from both, consistent): χ² reaches 0 and
+    // the optimised landmark is written back.
+    let dir = scratch("optimize");
+    let input = dir.join("landmarks.g2o");
+    std::fs::write(
+        &input,
+        "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 2 0 1.5707963267948966\nVERTEX_XY 5 2.5 2.5\n\
+         EDGE_SE2 0 1 2 0 1.5707963267948966 100 0 0 100 0 100\nEDGE_SE2_XY 0 5 2 3 4 0 25\nEDGE_SE2_XY 1 5 3 0 9 1 16\n",
+    )
+    .unwrap();
+    let output = dir.join("out.g2o");
+    let out = run(&["optimize", "--g2o", input.to_str().unwrap(), "--out", output.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("valid JSON");
+    assert!((v["initial_chi2"].as_f64().unwrap() - 14.0).abs() < 1e-9, "{v}");
+    assert!(v["final_chi2"].as_f64().unwrap() < 1e-12, "{v}");
+    let written = std::fs::read_to_string(&output).unwrap();
+    let xy: Vec<f64> =
+        written.lines().find(|l| l.starts_with("VERTEX_XY 5 ")).unwrap().split_whitespace().skip(2).map(|t| t.parse().unwrap()).collect();
+    assert!((xy[0] - 2.0).abs() < 1e-6 && (xy[1] - 3.0).abs() < 1e-6, "{written}");
+
+    // An edge onto the wrong kind of vertex: one line naming the file and the problem.
+    std::fs::write(&input, "VERTEX_SE2 0 0 0 0\nVERTEX_XY 1 2 3\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n").unwrap();
+    assert_clear_error(
+        &run(&["optimize", "--g2o", input.to_str().unwrap()]),
+        "landmarks.g2o: edge 0 (0-based): vertex 1 is a 2D point, the edge needs a SE2 pose",
+    );
+}

@@ -1,21 +1,31 @@
-//! g2o pose-graph files: `VERTEX_SE2 id x y θ`, `EDGE_SE2 i j x y θ` + 6 information entries,
-//! `VERTEX_SE3:QUAT id x y z qx qy qz qw`, `EDGE_SE3:QUAT i j x y z qx qy qz qw` + 21
-//! information entries, and `FIX id`. Information matrices are upper triangles, row by row; the
-//! 3D one is in (t, R) order, which is our tangent order (GTSAM permutes it to (R, t)).
-//! Quaternions are normalised on reading (as GTSAM does). `#` starts a comment.
+//! g2o graph files, pose graphs and landmark graphs:
+//! - 2D: `VERTEX_SE2 id x y θ`, `EDGE_SE2 i j x y θ` + 6 information entries, landmarks
+//!   `VERTEX_XY id x y` and `EDGE_SE2_XY i j x y` + 3 (the point in pose i's frame);
+//! - 3D: `VERTEX_SE3:QUAT id x y z qx qy qz qw`, `EDGE_SE3:QUAT i j x y z qx qy qz qw` + 21,
+//!   landmarks `VERTEX_TRACKXYZ id x y z` and `EDGE_SE3_TRACKXYZ i j k x y z` + 6 (the point in
+//!   the frame of sensor k, whose pose on the robot is `PARAMS_SE3OFFSET k x y z qx qy qz qw`);
+//! - `FIX id`.
+//!
+//! Information matrices are upper triangles, row by row; the SE(3) one is in (t, R) order, which
+//! is our tangent order (GTSAM permutes it to (R, t)). Quaternions are normalised on reading (as
+//! GTSAM does). `#` starts a comment. Other tags are errors (naming the tag and line), not
+//! silently skipped.
 //!
 //! Reading is one pass over the bytes, O(size); errors name the 1-based line. To a [`Problem`]:
 //! vertices become variables by increasing id; an edge whose vertices are missing initialises
 //! them as GTSAM's `load2D` does (an unknown `i` at the identity, an unknown `j` at
 //! `x_i · z_ij`), in file order, so files of bare edges (CSAIL) start from composed odometry.
+//! A sensor-frame point `z` seen through offset `o` becomes the robot-frame observation `o · z`
+//! with information `R_o Ω R_oᵀ`, which has the same residual norm: g2o's error is
+//! `(x o)⁻¹ m − z = R_oᵀ (x⁻¹ m − o · z)`.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 
-use nalgebra::{Matrix3, Matrix6, Quaternion, SMatrix, UnitQuaternion, Vector3};
+use nalgebra::{Matrix2, Matrix3, Matrix6, Quaternion, SMatrix, UnitQuaternion, Vector2, Vector3};
 use thiserror::Error;
 
-use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, NoiseError, Se2Residual};
+use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, NoiseError, PointObservation2, PointObservation3, Se2Residual};
 use super::lie::{Se2, Se3};
 use super::problem::{Gauge, GaugeError, Problem};
 use super::values::{Values, VarId, Variable};
@@ -44,39 +54,72 @@ pub enum G2oError {
     UnknownFixed(u64),
     #[error("edge {edge} (0-based): information matrix: {source}")]
     EdgeInformation { edge: usize, source: NoiseError },
+    #[error("edge {edge} (0-based): vertex {id} is a {found}, the edge needs a {expected}")]
+    VertexKind { edge: usize, id: u64, expected: &'static str, found: &'static str },
+    #[error("edge {edge} (0-based): sensor offset {id} has no PARAMS_SE3OFFSET line")]
+    UnknownOffset { edge: usize, id: u64 },
+    #[error("line {line}: PARAMS_SE3OFFSET {id} defined twice")]
+    DuplicateOffset { line: usize, id: u64 },
     #[error("gauge: {0}")]
     Gauge(#[from] GaugeError),
 }
 
-/// A vertex (initial estimate of a pose).
+/// A vertex (initial estimate of a pose or a landmark).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum G2oVertex {
     Se2 { id: u64, pose: Se2 },
     Se3 { id: u64, pose: Se3 },
+    Point2 { id: u64, point: Vector2<f64> },
+    Point3 { id: u64, point: Vector3<f64> },
 }
 
 impl G2oVertex {
     pub fn id(&self) -> u64 {
         match self {
-            G2oVertex::Se2 { id, .. } | G2oVertex::Se3 { id, .. } => *id,
+            G2oVertex::Se2 { id, .. } | G2oVertex::Se3 { id, .. } | G2oVertex::Point2 { id, .. } | G2oVertex::Point3 { id, .. } => *id,
+        }
+    }
+
+    fn variable(&self) -> Variable {
+        match *self {
+            G2oVertex::Se2 { pose, .. } => Variable::Se2(pose),
+            G2oVertex::Se3 { pose, .. } => Variable::Se3(pose),
+            G2oVertex::Point2 { point, .. } => Variable::Point2(point),
+            G2oVertex::Point3 { point, .. } => Variable::Point3(point),
         }
     }
 }
 
-/// A relative-pose edge `z ≈ x_from⁻¹ x_to` with its information matrix.
+/// An edge with its information matrix: a relative pose `z ≈ x_from⁻¹ x_to`, or a landmark `to`
+/// seen from pose `from` (in the robot frame, or in the frame of sensor `offset`).
 // Edges live in one Vec read once; boxing the 3D variant would cost an allocation per edge.
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum G2oEdge {
     Se2 { from: u64, to: u64, measurement: Se2, information: Matrix3<f64> },
     Se3 { from: u64, to: u64, measurement: Se3, information: Matrix6<f64> },
+    Se2Point2 { from: u64, to: u64, measurement: Vector2<f64>, information: Matrix2<f64> },
+    Se3Point3 { from: u64, to: u64, offset: u64, measurement: Vector3<f64>, information: Matrix3<f64> },
 }
 
 impl G2oEdge {
     pub fn ids(&self) -> (u64, u64) {
         match self {
-            G2oEdge::Se2 { from, to, .. } | G2oEdge::Se3 { from, to, .. } => (*from, *to),
+            G2oEdge::Se2 { from, to, .. }
+            | G2oEdge::Se3 { from, to, .. }
+            | G2oEdge::Se2Point2 { from, to, .. }
+            | G2oEdge::Se3Point3 { from, to, .. } => (*from, *to),
         }
+    }
+}
+
+/// The name of a variable's kind, for errors.
+fn kind(v: &Variable) -> &'static str {
+    match v {
+        Variable::Se2(_) => "SE2 pose",
+        Variable::Se3(_) => "SE3 pose",
+        Variable::Point2(_) => "2D point",
+        Variable::Point3(_) => "3D point",
     }
 }
 
@@ -87,6 +130,8 @@ pub struct G2oFile {
     pub edges: Vec<G2oEdge>,
     /// Ids named by `FIX` lines.
     pub fixed: Vec<u64>,
+    /// `PARAMS_SE3OFFSET` sensor poses on the robot, by id.
+    pub offsets: BTreeMap<u64, Se3>,
     /// Whether the file is 3D (SE3:QUAT); `None` if it has no vertex or edge.
     pub is_3d: Option<bool>,
 }
@@ -110,6 +155,24 @@ impl<'a> Fields<'a> {
 
     fn id(&self, i: usize) -> Result<u64, G2oError> {
         self.tokens[i].parse().map_err(|_| self.bad(i))
+    }
+
+    /// The id in field 0 of a vertex line, not seen before.
+    fn new_vertex(&self, seen: &mut BTreeSet<u64>) -> Result<u64, G2oError> {
+        let id = self.id(0)?;
+        if !seen.insert(id) {
+            return Err(G2oError::DuplicateVertex { line: self.line, id });
+        }
+        Ok(id)
+    }
+
+    /// The two distinct ids in fields 0 and 1 of an edge line.
+    fn edge_ends(&self) -> Result<(u64, u64), G2oError> {
+        let (from, to) = (self.id(0)?, self.id(1)?);
+        if from == to {
+            return Err(G2oError::SelfLoop { line: self.line, id: from });
+        }
+        Ok((from, to))
     }
 
     fn num(&self, i: usize) -> Result<f64, G2oError> {
@@ -158,7 +221,7 @@ fn set_dim(is_3d: &mut Option<bool>, three: bool, line: usize) -> Result<(), G2o
 /// Parses a g2o file.
 pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
     let mut file = G2oFile::default();
-    let mut seen = std::collections::BTreeSet::new();
+    let mut seen = BTreeSet::new();
     for (n, raw) in bytes.split(|&b| b == b'\n').enumerate() {
         let line = n + 1;
         let text = std::str::from_utf8(raw).map_err(|_| G2oError::NotUtf8 { line })?;
@@ -170,42 +233,65 @@ pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
             "VERTEX_SE2" => {
                 let f = Fields::new(line, "VERTEX_SE2", rest, 4)?;
                 set_dim(&mut file.is_3d, false, line)?;
-                let id = f.id(0)?;
-                if !seen.insert(id) {
-                    return Err(G2oError::DuplicateVertex { line, id });
-                }
+                let id = f.new_vertex(&mut seen)?;
                 file.vertices.push(G2oVertex::Se2 { id, pose: Se2::new(f.num(1)?, f.num(2)?, f.num(3)?) });
             }
             "VERTEX_SE3:QUAT" => {
                 let f = Fields::new(line, "VERTEX_SE3:QUAT", rest, 8)?;
                 set_dim(&mut file.is_3d, true, line)?;
-                let id = f.id(0)?;
-                if !seen.insert(id) {
-                    return Err(G2oError::DuplicateVertex { line, id });
-                }
+                let id = f.new_vertex(&mut seen)?;
                 let t = Vector3::new(f.num(1)?, f.num(2)?, f.num(3)?);
                 file.vertices.push(G2oVertex::Se3 { id, pose: Se3::new(f.quaternion(4)?, t) });
             }
             "EDGE_SE2" => {
                 let f = Fields::new(line, "EDGE_SE2", rest, 11)?;
                 set_dim(&mut file.is_3d, false, line)?;
-                let (from, to) = (f.id(0)?, f.id(1)?);
-                if from == to {
-                    return Err(G2oError::SelfLoop { line, id: from });
-                }
+                let (from, to) = f.edge_ends()?;
                 let measurement = Se2::new(f.num(2)?, f.num(3)?, f.num(4)?);
                 file.edges.push(G2oEdge::Se2 { from, to, measurement, information: f.upper::<3>(5)? });
             }
             "EDGE_SE3:QUAT" => {
                 let f = Fields::new(line, "EDGE_SE3:QUAT", rest, 30)?;
                 set_dim(&mut file.is_3d, true, line)?;
-                let (from, to) = (f.id(0)?, f.id(1)?);
-                if from == to {
-                    return Err(G2oError::SelfLoop { line, id: from });
-                }
+                let (from, to) = f.edge_ends()?;
                 let t = Vector3::new(f.num(2)?, f.num(3)?, f.num(4)?);
                 let measurement = Se3::new(f.quaternion(5)?, t);
                 file.edges.push(G2oEdge::Se3 { from, to, measurement, information: f.upper::<6>(9)? });
+            }
+            "VERTEX_XY" => {
+                let f = Fields::new(line, "VERTEX_XY", rest, 3)?;
+                set_dim(&mut file.is_3d, false, line)?;
+                let id = f.new_vertex(&mut seen)?;
+                file.vertices.push(G2oVertex::Point2 { id, point: Vector2::new(f.num(1)?, f.num(2)?) });
+            }
+            "VERTEX_TRACKXYZ" => {
+                let f = Fields::new(line, "VERTEX_TRACKXYZ", rest, 4)?;
+                set_dim(&mut file.is_3d, true, line)?;
+                let id = f.new_vertex(&mut seen)?;
+                file.vertices.push(G2oVertex::Point3 { id, point: Vector3::new(f.num(1)?, f.num(2)?, f.num(3)?) });
+            }
+            "EDGE_SE2_XY" => {
+                let f = Fields::new(line, "EDGE_SE2_XY", rest, 7)?;
+                set_dim(&mut file.is_3d, false, line)?;
+                let (from, to) = f.edge_ends()?;
+                let measurement = Vector2::new(f.num(2)?, f.num(3)?);
+                file.edges.push(G2oEdge::Se2Point2 { from, to, measurement, information: f.upper::<2>(4)? });
+            }
+            "EDGE_SE3_TRACKXYZ" => {
+                let f = Fields::new(line, "EDGE_SE3_TRACKXYZ", rest, 12)?;
+                set_dim(&mut file.is_3d, true, line)?;
+                let ((from, to), offset) = (f.edge_ends()?, f.id(2)?);
+                let measurement = Vector3::new(f.num(3)?, f.num(4)?, f.num(5)?);
+                file.edges.push(G2oEdge::Se3Point3 { from, to, offset, measurement, information: f.upper::<3>(6)? });
+            }
+            "PARAMS_SE3OFFSET" => {
+                let f = Fields::new(line, "PARAMS_SE3OFFSET", rest, 8)?;
+                set_dim(&mut file.is_3d, true, line)?;
+                let id = f.id(0)?;
+                let t = Vector3::new(f.num(1)?, f.num(2)?, f.num(3)?);
+                if file.offsets.insert(id, Se3::new(f.quaternion(4)?, t)).is_some() {
+                    return Err(G2oError::DuplicateOffset { line, id });
+                }
             }
             "FIX" => {
                 let f = Fields::new(line, "FIX", rest, 1)?;
@@ -220,14 +306,20 @@ pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
 /// Writes a g2o file (shortest round-trip decimal representation of every number).
 pub fn write_g2o(file: &G2oFile) -> String {
     let mut s = String::new();
+    // Writing to a String cannot fail.
+    for (id, o) in &file.offsets {
+        let (t, q) = (o.translation, o.rotation);
+        let _ = writeln!(s, "PARAMS_SE3OFFSET {id} {} {} {} {} {} {} {}", t.x, t.y, t.z, q.i, q.j, q.k, q.w);
+    }
     for v in &file.vertices {
-        // Writing to a String cannot fail.
         let _ = match v {
             G2oVertex::Se2 { id, pose } => writeln!(s, "VERTEX_SE2 {id} {} {} {}", pose.x_m, pose.y_m, pose.yaw_rad),
             G2oVertex::Se3 { id, pose } => {
                 let (t, q) = (pose.translation, pose.rotation);
                 writeln!(s, "VERTEX_SE3:QUAT {id} {} {} {} {} {} {} {}", t.x, t.y, t.z, q.i, q.j, q.k, q.w)
             }
+            G2oVertex::Point2 { id, point: p } => writeln!(s, "VERTEX_XY {id} {} {}", p.x, p.y),
+            G2oVertex::Point3 { id, point: p } => writeln!(s, "VERTEX_TRACKXYZ {id} {} {} {}", p.x, p.y, p.z),
         };
     }
     for e in &file.edges {
@@ -239,6 +331,14 @@ pub fn write_g2o(file: &G2oFile) -> String {
             G2oEdge::Se3 { from, to, measurement: z, information } => {
                 let (t, q) = (z.translation, z.rotation);
                 let _ = write!(s, "EDGE_SE3:QUAT {from} {to} {} {} {} {} {} {} {}", t.x, t.y, t.z, q.i, q.j, q.k, q.w);
+                write_upper(&mut s, information);
+            }
+            G2oEdge::Se2Point2 { from, to, measurement: z, information } => {
+                let _ = write!(s, "EDGE_SE2_XY {from} {to} {} {}", z.x, z.y);
+                write_upper(&mut s, information);
+            }
+            G2oEdge::Se3Point3 { from, to, offset, measurement: z, information } => {
+                let _ = write!(s, "EDGE_SE3_TRACKXYZ {from} {to} {offset} {} {} {}", z.x, z.y, z.z);
                 write_upper(&mut s, information);
             }
         }
@@ -262,54 +362,74 @@ impl G2oFile {
     /// Builds the factor graph and initial values, then applies `gauge` (and `FIX` lines).
     /// `se2_residual` chooses the 2D edge error (see [`Se2Residual`]; 3D edges use `Log`).
     pub fn to_problem(&self, gauge: Gauge, se2_residual: Se2Residual) -> Result<Problem, G2oError> {
-        // Initial poses: vertices, then GTSAM-style chaining for edges with missing vertices.
-        let mut init: BTreeMap<u64, Variable> = BTreeMap::new();
-        for v in &self.vertices {
-            match v {
-                G2oVertex::Se2 { id, pose } => init.insert(*id, Variable::Se2(*pose)),
-                G2oVertex::Se3 { id, pose } => init.insert(*id, Variable::Se3(*pose)),
+        // Initial values: vertices, then GTSAM-style chaining for edges with missing vertices.
+        let mut init: BTreeMap<u64, Variable> = self.vertices.iter().map(|v| (v.id(), v.variable())).collect();
+        for (k, e) in self.edges.iter().enumerate() {
+            let (from, to) = e.ids();
+            let at = init.get(&from).copied();
+            let se2 = match at {
+                Some(Variable::Se2(p)) => p,
+                _ => Se2::identity(),
             };
-        }
-        for e in &self.edges {
-            match e {
-                G2oEdge::Se2 { from, to, measurement, .. } => {
-                    let xi = match init.get(from) {
-                        Some(Variable::Se2(p)) => *p,
-                        _ => Se2::identity(),
-                    };
-                    init.entry(*from).or_insert(Variable::Se2(xi));
-                    init.entry(*to).or_insert(Variable::Se2(xi * *measurement));
+            let se3 = match at {
+                Some(Variable::Se3(p)) => p,
+                _ => Se3::identity(),
+            };
+            let (pose, seen) = match *e {
+                G2oEdge::Se2 { measurement, .. } => (Variable::Se2(se2), Variable::Se2(se2 * measurement)),
+                G2oEdge::Se2Point2 { measurement, .. } => (Variable::Se2(se2), Variable::Point2(se2.transform_point(&measurement))),
+                G2oEdge::Se3 { measurement, .. } => (Variable::Se3(se3), Variable::Se3(se3 * measurement)),
+                G2oEdge::Se3Point3 { offset, measurement, .. } => {
+                    let o = self.offsets.get(&offset).ok_or(G2oError::UnknownOffset { edge: k, id: offset })?;
+                    (Variable::Se3(se3), Variable::Point3(se3.transform_point(&o.transform_point(&measurement))))
                 }
-                G2oEdge::Se3 { from, to, measurement, .. } => {
-                    let xi = match init.get(from) {
-                        Some(Variable::Se3(p)) => *p,
-                        _ => Se3::identity(),
-                    };
-                    init.entry(*from).or_insert(Variable::Se3(xi));
-                    init.entry(*to).or_insert(Variable::Se3(xi * *measurement));
-                }
-            }
+            };
+            init.entry(from).or_insert(pose);
+            init.entry(to).or_insert(seen);
         }
         let mut problem = Problem::default();
         let mut var_of: BTreeMap<u64, VarId> = BTreeMap::new();
         for (id, var) in &init {
             let v = problem.values.push(*var);
             var_of.insert(*id, v);
-            problem.poses.push((*id, v));
-        }
-        let var = |id: &u64| var_of.get(id).copied().unwrap_or(VarId(usize::MAX));
-        for (k, e) in self.edges.iter().enumerate() {
-            let res = match e {
-                G2oEdge::Se2 { from, to, measurement, information } => GaussianNoise::from_information(information)
-                    .map(|n| problem.graph.add(BetweenSe2::new(var(from), var(to), *measurement, n).with_residual(se2_residual))),
-                G2oEdge::Se3 { from, to, measurement, information } => GaussianNoise::from_information(information)
-                    .map(|n| problem.graph.add(BetweenSe3::new(var(from), var(to), *measurement, n))),
-            };
-            match res {
-                Ok(Ok(_)) => {}
-                Ok(Err(g)) => return Err(G2oError::Gauge(GaugeError::Graph(g))),
-                Err(source) => return Err(G2oError::EdgeInformation { edge: k, source }),
+            match var {
+                Variable::Se2(_) | Variable::Se3(_) => problem.poses.push((*id, v)),
+                Variable::Point2(_) | Variable::Point3(_) => problem.landmarks.push((*id, v)),
             }
+        }
+        // Every id of an edge is in `init` now; its kind must be the edge's.
+        let var = |edge: usize, id: u64, expected: &'static str| {
+            let found = kind(&init[&id]);
+            if found == expected { Ok(var_of[&id]) } else { Err(G2oError::VertexKind { edge, id, expected, found }) }
+        };
+        for (k, e) in self.edges.iter().enumerate() {
+            let information = |source| G2oError::EdgeInformation { edge: k, source };
+            let added = match *e {
+                G2oEdge::Se2 { from, to, measurement, information: info } => {
+                    let (a, b) = (var(k, from, "SE2 pose")?, var(k, to, "SE2 pose")?);
+                    let noise = GaussianNoise::from_information(&info).map_err(information)?;
+                    problem.graph.add(BetweenSe2::new(a, b, measurement, noise).with_residual(se2_residual))
+                }
+                G2oEdge::Se3 { from, to, measurement, information: info } => {
+                    let (a, b) = (var(k, from, "SE3 pose")?, var(k, to, "SE3 pose")?);
+                    let noise = GaussianNoise::from_information(&info).map_err(information)?;
+                    problem.graph.add(BetweenSe3::new(a, b, measurement, noise))
+                }
+                G2oEdge::Se2Point2 { from, to, measurement, information: info } => {
+                    let (a, m) = (var(k, from, "SE2 pose")?, var(k, to, "2D point")?);
+                    let noise = GaussianNoise::from_information(&info).map_err(information)?;
+                    problem.graph.add(PointObservation2::new(a, m, measurement, noise))
+                }
+                G2oEdge::Se3Point3 { from, to, offset, measurement, information: info } => {
+                    let (a, m) = (var(k, from, "SE3 pose")?, var(k, to, "3D point")?);
+                    // Present: checked while initialising.
+                    let o = self.offsets[&offset];
+                    let r = o.rotation_matrix();
+                    let noise = GaussianNoise::from_information(&(r * info * r.transpose())).map_err(information)?;
+                    problem.graph.add(PointObservation3::new(a, m, o.transform_point(&measurement), noise))
+                }
+            };
+            added.map_err(|g| G2oError::Gauge(GaugeError::Graph(g)))?;
         }
         for id in &self.fixed {
             match var_of.get(id) {
@@ -321,24 +441,29 @@ impl G2oFile {
         Ok(problem)
     }
 
-    /// This file with its vertices replaced by the poses in `values` (for writing results).
+    /// This file with its vertices replaced by the poses and landmarks in `values` (for writing
+    /// results).
     pub fn with_poses(&self, problem: &Problem, values: &Values) -> G2oFile {
         let vertices = problem
             .poses
             .iter()
+            .chain(&problem.landmarks)
             .filter_map(|&(id, v)| match values.get(v) {
                 Some(Variable::Se2(pose)) => Some(G2oVertex::Se2 { id, pose: *pose }),
                 Some(Variable::Se3(pose)) => Some(G2oVertex::Se3 { id, pose: *pose }),
-                _ => None,
+                Some(Variable::Point2(point)) => Some(G2oVertex::Point2 { id, point: *point }),
+                Some(Variable::Point3(point)) => Some(G2oVertex::Point3 { id, point: *point }),
+                None => None,
             })
             .collect();
-        G2oFile { vertices, edges: self.edges.clone(), fixed: self.fixed.clone(), is_3d: self.is_3d }
+        G2oFile { vertices, edges: self.edges.clone(), fixed: self.fixed.clone(), offsets: self.offsets.clone(), is_3d: self.is_3d }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::slam::optimizer::{LevenbergMarquardt, Optimizer, OptimizerParams};
 
     const SMALL_2D: &str = "# two poses\nVERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.5 0.1 0.2\n\
         EDGE_SE2 0 1 1.4 0.0 0.25 100 0 0 100 0 400\nFIX 0\n";
@@ -369,13 +494,105 @@ mod tests {
             read_g2o(b"\nEDGE_SE2 0 1 0 0 0 1 0 0 1 0\n"),
             Err(G2oError::FieldCount { line: 2, tag: "EDGE_SE2", expected: 11, found: 10 })
         );
-        assert_eq!(read_g2o(b"VERTEX_XY 1 2 3\n"), Err(G2oError::UnknownTag { line: 1, tag: "VERTEX_XY".into() }));
+        assert_eq!(read_g2o(b"VERTEX_XY 1 2 3\nEDGE_PRIOR_SE2 1\n"), Err(G2oError::UnknownTag { line: 2, tag: "EDGE_PRIOR_SE2".into() }));
+        assert_eq!(read_g2o(b"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_XY 1 2 3\n"), Err(G2oError::MixedDimensions { line: 2 }));
+        let offset = b"PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n";
+        assert_eq!(read_g2o(&[&offset[..], offset].concat()), Err(G2oError::DuplicateOffset { line: 2, id: 0 }));
         assert!(matches!(read_g2o(b"EDGE_SE2 0 1 0 0 0 1 0 0 -1 0 1\n"), Err(G2oError::Information { line: 1, .. })));
         assert_eq!(read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_SE3:QUAT 1 0 0 0 0 0 0 1\n"), Err(G2oError::MixedDimensions { line: 2 }));
         assert_eq!(read_g2o(b"VERTEX_SE2 3 0 0 0\nVERTEX_SE2 3 1 0 0\n"), Err(G2oError::DuplicateVertex { line: 2, id: 3 }));
         assert_eq!(read_g2o(b"VERTEX_SE3:QUAT 1 0 0 0 0 0 0 0\n"), Err(G2oError::ZeroQuaternion { line: 1 }));
         assert!(matches!(read_g2o(b"VERTEX_SE2 0 nan 0 0\n"), Err(G2oError::BadNumber { line: 1, field: 2, .. })));
         assert!(read_g2o(&[b'V', 0xff, b'\n']).is_err());
+    }
+
+    #[test]
+    fn landmark_edges_on_the_wrong_vertex_kind_or_offset_are_errors() {
+        let f = read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_XY 1 2 3\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n").unwrap();
+        assert_eq!(
+            f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap_err(),
+            G2oError::VertexKind { edge: 0, id: 1, expected: "SE2 pose", found: "2D point" }
+        );
+        let f = read_g2o(b"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 1 7 1 2 3 1 0 0 1 0 1\n").unwrap();
+        assert_eq!(f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap_err(), G2oError::UnknownOffset { edge: 0, id: 7 });
+    }
+
+    #[test]
+    fn landmarks_2d_hand_chi2_and_optimum() {
+        // Pose 0 at the origin, pose 1 at (2, 0) facing +y; landmark 5 at (2, 3): seen at (2, 3)
+        // from pose 0 and at (3, 0) from pose 1.
+        let text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 2 0 1.5707963267948966\nVERTEX_XY 5 2.5 2.5\n\
+            EDGE_SE2 0 1 2 0 1.5707963267948966 100 0 0 100 0 100\n\
+            EDGE_SE2_XY 0 5 2 3 4 0 25\nEDGE_SE2_XY 1 5 3 0 9 1 16\n";
+        let f = read_g2o(text.as_bytes()).unwrap();
+        assert_eq!(f.is_3d, Some(false));
+        let mut p = f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
+        assert_eq!((p.poses.len(), p.landmarks.len(), p.graph.len()), (2, 1, 3));
+        // At the file's values: from pose 0, e = (0.5, −0.5), χ² = 4·0.25 + 25·0.25 = 7.25; from
+        // pose 1, p = Rᵀ(0.5, 2.5) = (2.5, −0.5), e = (−0.5, −0.5), χ² = 9·0.25 + 2·1·0.25 + 16·0.25
+        // = 6.75; the odometry edge is exact.
+        assert!((p.graph.chi2(&p.values).unwrap() - 14.0).abs() < 1e-12);
+        let s = LevenbergMarquardt::new(OptimizerParams::default()).optimize(&p.graph, &mut p.values).unwrap();
+        assert!(s.final_chi2 < 1e-16, "{s:?}");
+        let m = p.values.point2(p.landmarks[0].1).unwrap();
+        assert!((m - Vector2::new(2.0, 3.0)).norm() < 1e-8);
+        // Round trip, with the optimised landmark written back.
+        let back = read_g2o(write_g2o(&f.with_poses(&p, &p.values)).as_bytes()).unwrap();
+        assert_eq!(back.edges, f.edges);
+        assert!(matches!(back.vertices[2], G2oVertex::Point2 { id: 5, point } if (point - Vector2::new(2.0, 3.0)).norm() < 1e-8));
+    }
+
+    #[test]
+    fn landmarks_3d_through_a_sensor_offset_match_g2os_error() {
+        // Sensor 3 sits 0.2 m ahead of the robot, turned −π/2 about z (looking right).
+        let text = "PARAMS_SE3OFFSET 3 0.2 0 0 0 0 -0.7071067811865476 0.7071067811865476\n\
+            VERTEX_SE3:QUAT 0 1 2 0 0 0 0.3894183423086505 0.9210609940028851\n\
+            VERTEX_TRACKXYZ 9 4 5 1\n\
+            EDGE_SE3_TRACKXYZ 0 9 3 0.5 1.5 0.8 4 1 0 9 -2 16\n";
+        let f = read_g2o(text.as_bytes()).unwrap();
+        let p = f.to_problem(Gauge::Free, Se2Residual::Log).unwrap();
+        // g2o's error, by hand from its definition: e = (x o)⁻¹ m − z, χ² = eᵀ Ω e.
+        let x = Se3::new(
+            UnitQuaternion::from_quaternion(Quaternion::new(0.9210609940028851, 0.0, 0.0, 0.3894183423086505)),
+            Vector3::new(1.0, 2.0, 0.0),
+        );
+        let o = Se3::new(
+            UnitQuaternion::from_quaternion(Quaternion::new(std::f64::consts::FRAC_1_SQRT_2, 0.0, 0.0, -std::f64::consts::FRAC_1_SQRT_2)),
+            Vector3::new(0.2, 0.0, 0.0),
+        );
+        let e = (x * o).inverse_transform_point(&Vector3::new(4.0, 5.0, 1.0)) - Vector3::new(0.5, 1.5, 0.8);
+        let omega = Matrix3::new(4.0, 1.0, 0.0, 1.0, 9.0, -2.0, 0.0, -2.0, 16.0);
+        let expected = (e.transpose() * omega * e)[0];
+        assert!(expected > 1.0, "a test point with a real error: {expected}");
+        assert!((p.graph.chi2(&p.values).unwrap() - expected).abs() < 1e-10 * expected);
+        // A missing landmark vertex starts where the edge puts it: zero error.
+        let bare = read_g2o(text.replace("VERTEX_TRACKXYZ 9 4 5 1\n", "").as_bytes()).unwrap();
+        let q = bare.to_problem(Gauge::Free, Se2Residual::Log).unwrap();
+        assert!(q.graph.chi2(&q.values).unwrap() < 1e-20);
+        let back = read_g2o(write_g2o(&f).as_bytes()).unwrap();
+        assert_eq!((back.offsets.len(), back.edges.len()), (1, 1));
+        assert_eq!(back.edges, f.edges);
+    }
+
+    proptest::proptest! {
+        /// Mutated and truncated files give a problem or a typed error, never a panic.
+        #[test]
+        fn mutated_files_never_panic(edits in proptest::collection::vec((proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u8>()), 1..4), cut in proptest::prelude::any::<proptest::sample::Index>(), three_d in proptest::prelude::any::<bool>()) {
+            let text: &[u8] = if three_d {
+                b"PARAMS_SE3OFFSET 3 0.2 0 0 0 0 0 1\nVERTEX_SE3:QUAT 0 1 2 0 0 0 0 1\nVERTEX_TRACKXYZ 9 4 5 1\nEDGE_SE3_TRACKXYZ 0 9 3 0.5 1.5 0.8 4 1 0 9 -2 16\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nFIX 0\n"
+            } else {
+                b"VERTEX_SE2 0 0 0 0\nVERTEX_XY 5 2.5 2.5\nEDGE_SE2 0 1 2 0 1.5 100 0 0 100 0 100\nEDGE_SE2_XY 0 5 2 3 4 0 25\nFIX 1\n"
+            };
+            let mut m = text.to_vec();
+            for (pos, byte) in edits {
+                let i = pos.index(m.len());
+                m[i] = byte;
+            }
+            m.truncate(cut.index(m.len() + 1));
+            if let Ok(f) = read_g2o(&m) {
+                let _ = f.to_problem(Gauge::FixFirst, Se2Residual::Log);
+            }
+        }
     }
 
     #[test]

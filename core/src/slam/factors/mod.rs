@@ -20,7 +20,7 @@ pub use between::{BetweenSe2, BetweenSe3};
 pub use gravity::GravitySe3;
 pub use noise::{GaussianNoise, NoiseError};
 
-pub use point_observation::PointObservation3;
+pub use point_observation::{PointObservation2, PointObservation3};
 pub use prior::{PriorSe2, PriorSe3};
 
 use nalgebra::{Matrix6, Vector6};
@@ -163,7 +163,10 @@ pub(crate) mod fixtures {
         out.push((Box::new(BetweenSe2::new(a, b, z2, noise3)), v2.clone()));
         out.push((Box::new(BetweenSe2::new(a, b, z2, noise3).with_residual(Se2Residual::Vector)), v2.clone()));
         let br = GaussianNoise::from_sigmas(&[0.1, 0.5]).unwrap_or_else(|e| panic!("{e}"));
-        out.push((Box::new(BearingRange2::new(b, l, 0.3 + s, 5.0, br)), v2));
+        out.push((Box::new(BearingRange2::new(b, l, 0.3 + s, 5.0, br)), v2.clone()));
+        let info2 = nalgebra::Matrix2::new(30.0, -4.0, -4.0, 12.0);
+        let noise2 = GaussianNoise::from_information(&info2).unwrap_or_else(|e| panic!("{e}"));
+        out.push((Box::new(PointObservation2::new(a, l, Vector2::new(2.0 * s, -1.0), noise2)), v2));
 
         // SE(3)
         let mut v3 = Values::new();
@@ -192,7 +195,7 @@ mod tests {
     fn every_factor_has_correct_jacobians() {
         for seed in [0.0, 0.37, -0.81, 1.3] {
             let all = fixtures::all_factors(seed);
-            assert_eq!(all.len(), 9, "one fixture per factor type and residual kind");
+            assert_eq!(all.len(), 10, "one fixture per factor type and residual kind");
             for (factor, values) in &all {
                 let worst = check_factor_jacobians(factor.as_ref(), values, 1e-6).unwrap_or_else(|e| panic!("{factor:?}: {e}"));
                 assert!(worst < 1e-6, "{factor:?}: Jacobian off by {worst:e} at seed {seed}");
@@ -204,7 +207,7 @@ mod tests {
     fn wrong_variable_kind_is_a_typed_error() {
         let all = fixtures::all_factors(0.0);
         // The SE(3) prior evaluated on the SE(2) values: variable 0 is an SE2.
-        let (prior3, _) = &all[5];
+        let (prior3, _) = &all[6];
         let (_, values2) = &all[0];
         assert_eq!(prior3.error(values2), Err(FactorError::WrongVariableType { key: VarId(0), expected: "SE3", found: "SE2" }));
         assert_eq!(prior3.error(&Values::new()), Err(FactorError::MissingVariable(VarId(0))));
