@@ -16,12 +16,17 @@ difference (target 1e-6), the relative difference of the last pose's marginal co
 (rotation, translation); fitslam's is (translation, rotation): the GTSAM block is permuted.
 Both covariances are in the body frame (right perturbation).
 
+2D point landmarks (g2o's VERTEX_XY / EDGE_SE2_XY, which GTSAM's readG2o skips) are added to
+GTSAM's graph as CustomFactors in Python: chi2 and marginals compare as usual, but GTSAM's time
+is then dominated by Python callbacks and says nothing about GTSAM's speed.
+
 Usage (from the repository root; needs `pip install gtsam==4.3.0`):
     python3 scripts/compare_gtsam.py [FILES...]        # default: every file in assets/data/slam
 Both solvers are pinned to one core (sched_setaffinity), and fitslam is built in release.
 """
 
 import argparse
+import functools
 import json
 import os
 import subprocess
@@ -57,9 +62,45 @@ def load_gtsam(path):
     else:
         is3d = tag.startswith("VERTEX_SE3") or tag.startswith("EDGE_SE3")
         graph, initial = gtsam.readG2o(path, is3d)
+    if not is3d:
+        add_point_landmarks_2d(path, graph, initial)
     # Pose keys are plain integers; landmarks are Symbol('l', j).
     pose_keys = sorted(k for k in initial.keys() if gtsam.Symbol(k).chr() == 0)
     return graph, initial, pose_keys, is3d
+
+
+def point_in_pose_error(z, this, values, jacobians):
+    """g2o's EdgeSE2PointXY: e = x^-1 m - z (GTSAM has no such factor; readG2o skips the lines)."""
+    x = values.atPose2(this.keys()[0])
+    m = values.atPoint2(this.keys()[1])
+    hx, hm = np.zeros((2, 3), order="F"), np.zeros((2, 2), order="F")
+    p = x.transformTo(m, hx, hm)
+    if jacobians is not None:
+        jacobians[0], jacobians[1] = hx, hm
+    return p - z
+
+
+def add_point_landmarks_2d(path, graph, initial):
+    """Adds the file's VERTEX_XY / EDGE_SE2_XY as Symbol('l', id) points and CustomFactors, a
+    missing landmark initialised at its first sighting (as fitslam does)."""
+    with open(path) as f:
+        for line in f:
+            t = line.split("#")[0].split()
+            if not t:
+                continue
+            if t[0] == "VERTEX_XY":
+                key = gtsam.symbol("l", int(t[1]))
+                if not initial.exists(key):
+                    initial.insert(key, np.array([float(t[2]), float(t[3])]))
+            elif t[0] == "EDGE_SE2_XY":
+                i, key = int(t[1]), gtsam.symbol("l", int(t[2]))
+                z = np.array([float(t[3]), float(t[4])])
+                a = [float(v) for v in t[5:8]]
+                info = np.array([[a[0], a[1]], [a[1], a[2]]])
+                if not initial.exists(key):
+                    initial.insert(key, initial.atPose2(i).transformFrom(z))
+                noise = gtsam.noiseModel.Gaussian.Information(info)
+                graph.add(gtsam.CustomFactor(noise, [i, key], functools.partial(point_in_pose_error, z)))
 
 
 def run_gtsam(path, sigma, max_iterations, rel_tol):
