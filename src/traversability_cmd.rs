@@ -7,7 +7,7 @@ use clap::Args;
 use fitslam_core::{
     grid::inflate_lethal,
     io,
-    traversability::{TraversabilityMap, score_to_rgb},
+    traversability::{DiscSampling, TraversabilityMap, score_to_rgb},
 };
 use std::path::PathBuf;
 
@@ -30,6 +30,7 @@ pub struct TraversabilityArgs {
 pub fn run(args: &TraversabilityArgs) -> Result<()> {
     let params = load::params(args.params.as_deref())?;
     let cloud = load::cloud(&args.cloud)?;
+    warn_if_sparse(&args.cloud, &cloud.points, &params);
     let map = TraversabilityMap::from_cloud(&cloud, &params).with_context(|| args.cloud.display().to_string())?;
     let layers = map.compute(&params.traversability);
     let mut grid = layers.to_occupancy(params.traversability.tau);
@@ -63,4 +64,29 @@ pub fn run(args: &TraversabilityArgs) -> Result<()> {
         png_path.display()
     );
     Ok(())
+}
+
+/// One warning line when the cloud is too sparse for the disc: most cells would be unknown
+/// (an airborne cloud at the rover's defaults), with the parameters that would suit it.
+fn warn_if_sparse(path: &std::path::Path, points: &[nalgebra::Point3<f64>], params: &fitslam_core::Params) {
+    let t = &params.traversability;
+    let Some(sampling) = DiscSampling::of(points) else { return };
+    let in_disc = sampling.points_in_disc(t.disc_radius_m);
+    let needed = f64::from(t.min_points);
+    if in_disc >= 2.0 * needed {
+        return;
+    }
+    let radius_m = sampling.radius_holding(4.0 * needed);
+    eprintln!(
+        "warning: {}: the points are about {:.2} m apart in x-y, so a disc of radius {} m holds about {:.1} of them \
+         (min_points {}): most cells will be unknown. For a cloud this sparse, a --params file with [traversability] \
+         disc_radius_m = {:.2} and [grid] resolution_m = {:.2} gives each disc enough points (the slope, step and roughness limits stay the robot's).",
+        path.display(),
+        sampling.spacing_m,
+        t.disc_radius_m,
+        in_disc,
+        t.min_points,
+        radius_m,
+        radius_m / 2.0
+    );
 }

@@ -163,6 +163,29 @@ fn traversability_writes_a_map_server_map_that_select_can_read() {
     }
     let yaml = std::fs::read_to_string(&out_yaml).unwrap();
     assert!(yaml.contains("image: plane.pgm") && yaml.contains("resolution: 0.05"), "{yaml}");
+    assert!(out.stderr.is_empty(), "a dense scan gives no warning: {}", String::from_utf8_lossy(&out.stderr));
+
+    // A cloud sampled every 0.5 m (airborne-like) at the rover's defaults: the map is still
+    // written, with one warning that names the file and parameters that give the discs points.
+    let sparse = dir.join("sparse.csv");
+    let text: String =
+        (0..30).flat_map(|i| (0..30).map(move |j| format!("{},{},{}\n", 0.5 * i as f64, 0.5 * j as f64, 0.02 * i as f64))).collect();
+    std::fs::write(&sparse, text).unwrap();
+    let out = run(&["traversability", "--cloud", sparse.to_str().unwrap(), "--out", &dir.join("sparse.yaml").display().to_string()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("warning: ") && stderr.contains("sparse.csv"), "{stderr}");
+    let number_after = |key: &str| -> f64 {
+        let rest = &stderr[stderr.find(key).unwrap_or_else(|| panic!("{key:?} in {stderr}")) + key.len()..];
+        rest.split_whitespace().next().unwrap().trim_end_matches('.').parse().unwrap()
+    };
+    // Spacing 0.5 m (ρ = 4 points/m²), within the estimator's edge effects on a 30 × 30 patch;
+    // 4 × min_points = 20 points in the disc at r = √(20 / 4π) = 1.26 m, cells r / 2.
+    assert!((number_after("about ") - 0.5).abs() < 0.05, "{stderr}");
+    let radius_m = number_after("disc_radius_m = ");
+    assert!((radius_m - 1.26).abs() < 0.13, "{stderr}");
+    assert!((number_after("resolution_m = ") - radius_m / 2.0).abs() <= 0.006, "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -30,6 +30,7 @@
 //! | `disc_sums.rs` | per-cell sums of the points in its disc, kept up to date at insertion |
 //! | `estimate.rs` | disc sums → slope / step / roughness / hazard / score; lazy refresh; thresholding |
 //! | `render.rs` | score layer → RGB image |
+//! | `sampling.rs` | a cloud's horizontal density against the disc (is it too sparse for the parameters?) |
 
 mod disc_sums;
 mod estimate;
@@ -37,6 +38,7 @@ mod map;
 mod moments;
 mod plane;
 mod render;
+mod sampling;
 #[cfg(test)]
 mod tests;
 
@@ -45,6 +47,7 @@ pub use map::{InsertStats, MAX_CELLS, TraversabilityMap};
 pub use moments::CellMoments;
 pub use plane::{PlaneFit, fit_plane};
 pub use render::{UNKNOWN_RGB, score_rgb, score_to_rgb};
+pub use sampling::DiscSampling;
 
 use thiserror::Error;
 
