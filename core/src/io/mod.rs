@@ -226,6 +226,10 @@ pub(crate) struct CloudBuilder<'a> {
     name: &'a str,
     map: FieldMap,
     cloud: PointCloud,
+    /// Records seen, kept or not.
+    records: usize,
+    /// Whether a record with x, y and z all NaN is skipped (PCL's "no return" in PCD files).
+    skip_no_returns: bool,
 }
 
 impl<'a> CloudBuilder<'a> {
@@ -235,14 +239,26 @@ impl<'a> CloudBuilder<'a> {
             covariances: map.cov.map(|_| Vec::with_capacity(capacity)),
             classification: map.classification.map(|_| Vec::with_capacity(capacity)),
         };
-        Self { name, map, cloud }
+        Self { name, map, cloud, records: 0, skip_no_returns: false }
+    }
+
+    /// Skips the records whose x, y and z are all NaN instead of failing on them: PCL stores a
+    /// sensor's missing returns so (organised clouds, `is_dense` false). Partly NaN or infinite
+    /// coordinates stay errors.
+    pub(crate) fn skipping_no_returns(mut self) -> Self {
+        self.skip_no_returns = true;
+        self
     }
 
     /// Adds one record given a getter for its numeric fields by index.
     pub(crate) fn push(&mut self, field: impl Fn(usize) -> f64) -> Result<(), CloudError> {
-        let index = self.cloud.points.len();
+        let index = self.records;
+        self.records += 1;
         let [ix, iy, iz] = self.map.xyz;
         let p = nalgebra::Point3::new(field(ix), field(iy), field(iz));
+        if self.skip_no_returns && p.x.is_nan() && p.y.is_nan() && p.z.is_nan() {
+            return Ok(());
+        }
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             return Err(CloudError::NonFinitePoint { name: self.name.to_string(), index });
         }

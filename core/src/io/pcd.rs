@@ -7,6 +7,8 @@
 //! comments. Fields used: see [`crate::io`] (`x y z` required, `classification`, `cov_*`); a
 //! field with COUNT > 1 contributes its first element; other fields (`rgb`, `normal_x`, `_`
 //! padding, …) are skipped. Data is little-endian, as PCL writes it on every platform it runs on.
+//! A point whose x, y and z are all NaN is PCL's "no return" (organised clouds, `is_dense`
+//! false) and is left out; a partly NaN or infinite point is an error.
 //!
 //! `binary_compressed`: two little-endian u32 (compressed size, uncompressed size) then LZF data
 //! which decompresses to the fields stored one after the other (all x, then all y, …). The
@@ -219,7 +221,7 @@ fn read_ascii(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Result
     }
     // Every point needs at least two bytes (a digit and a line break).
     let capacity = usize::try_from(header.points).unwrap_or(usize::MAX).min(data.len() / 2 + 1);
-    let mut builder = CloudBuilder::new(name, map, capacity);
+    let mut builder = CloudBuilder::new(name, map, capacity).skipping_no_returns();
     let mut values: Vec<f64> = Vec::with_capacity(total.min(data.len()));
     let mut found = 0u64;
     for (i, raw) in data.split(|&b| b == b'\n').enumerate() {
@@ -325,7 +327,7 @@ fn read_binary(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Resul
         (&decompressed[..], offsets, header.fields.iter().map(|f| f.size * f.count).collect())
     };
     let n = declared as usize; // fits: checked against the data above
-    let mut builder = CloudBuilder::new(name, map, n);
+    let mut builder = CloudBuilder::new(name, map, n).skipping_no_returns();
     let fields = &header.fields;
     for i in 0..n {
         builder.push(|k| {
@@ -454,6 +456,27 @@ mod tests {
     }
 
     #[test]
+    fn all_nan_points_are_missing_returns_and_left_out() {
+        // An organised 2 × 2 cloud (a depth camera's) with one missing return: NaN x, y and z.
+        let h = "VERSION 0.7\nFIELDS x y z classification\nSIZE 4 4 4 1\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 2\nPOINTS 4\n";
+        let rows = [(1.0f32, 2.0f32, 3.0f32, 2u8), (f32::NAN, f32::NAN, f32::NAN, 0), (4.0, 5.0, 6.0, 6), (7.0, 8.0, 9.0, 2)];
+        let mut binary = format!("{h}DATA binary\n").into_bytes();
+        let mut ascii = format!("{h}DATA ascii\n");
+        for (x, y, z, c) in rows {
+            for v in [x, y, z] {
+                binary.extend_from_slice(&v.to_le_bytes());
+            }
+            binary.push(c);
+            ascii += &format!("{x} {y} {z} {c}\n");
+        }
+        for bytes in [binary, ascii.into_bytes()] {
+            let cloud = load_pcd(&bytes, "organised.pcd").unwrap();
+            assert_eq!(cloud.points, vec![Point3::new(1.0, 2.0, 3.0), Point3::new(4.0, 5.0, 6.0), Point3::new(7.0, 8.0, 9.0)]);
+            assert_eq!(cloud.classification, Some(vec![2, 6, 2]), "attributes stay with their points");
+        }
+    }
+
+    #[test]
     fn binary_with_count_and_signed_fields() {
         // fields: normal (F 4 ×3), x (I 2), y (U 1), z (F 8)
         let h = "VERSION .7\nFIELDS normal x y z\nSIZE 4 2 1 8\nTYPE F I U F\nCOUNT 3 1 1 1\nWIDTH 1\nHEIGHT 2\nPOINTS 2\nDATA binary\n";
@@ -514,6 +537,8 @@ mod tests {
         let t = format!("{HEAD}DATA ascii\n1 2 3 4\n1 2 3 4\n1 2 3 4\n");
         assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: header says POINTS 2 but the data holds 3 points");
         let t = format!("{HEAD}DATA ascii\n1 2 3 4\nnan 2 3 4\n");
+        assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: line 13: non-finite coordinate");
+        let t = format!("{HEAD}DATA ascii\n1 2 3 4\nnan nan inf 4\n");
         assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: line 13: non-finite coordinate");
         let t = format!("{HEAD}DATA ascii\n1 2 3\n1 2 3 4\n");
         assert_eq!(load_pcd(t.as_bytes(), "a.pcd").unwrap_err().to_string(), "a.pcd: line 12: expected 4 values, found 3");
