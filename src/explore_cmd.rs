@@ -172,7 +172,8 @@ pub fn load_setup(world: &Path, params: Option<&Path>, sim_params: Option<&Path>
     let dir = world.parent().map(Path::to_path_buf).unwrap_or_default();
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |name| {
         std::fs::read(dir.join(name)).map_err(|e| format!("cannot read {}: {e}", dir.join(name).display()))
-    })?;
+    })
+    .with_context(|| world_name.clone())?;
     if world.explorable_count == 0 {
         bail!("{world_name}: the start is not on ground-truth traversable terrain");
     }

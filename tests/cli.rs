@@ -145,6 +145,17 @@ fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
     let params = write("bad.toml", b"[u1]\nalpah = 0.3\n");
     let out = run(&["select", "--map", &good_map, "--landmarks", &good_lm, "--pose", "3,3,0", "--params", &params]);
     assert_clear_error(&out, "alpah");
+    // Values with no useful bound on their work (1e-9 rad between rays asked for 6e9 rays and
+    // aborted; a 1e-9 m waypoint spacing hung), and a waypoint spacing under this map's cells.
+    for (name, text, needle) in [
+        ("rays.toml", &b"[u1]\ndelta_theta_rad = 1e-9\n"[..], "rays.toml: u1.delta_theta_rad must be"),
+        ("waypoints.toml", b"[u2]\nwaypoint_spacing_m = 1e-9\n", "waypoints.toml: u2.waypoint_spacing_m"),
+        ("radius.toml", b"[robot]\nradius_m = 1e6\n", "radius.toml: robot.radius_m"),
+    ] {
+        let params = write(name, text);
+        let out = run(&["select", "--map", &good_map, "--landmarks", &good_lm, "--pose", "3,3,0", "--params", &params]);
+        assert_clear_error(&out, needle);
+    }
 
     // Traversability with a malformed cloud.
     let out = run(&["traversability", "--cloud", &ply, "--out", &dir.join("t.yaml").display().to_string()]);

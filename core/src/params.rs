@@ -41,7 +41,7 @@ impl Default for GridParams {
 #[serde(default, deny_unknown_fields)]
 pub struct RobotParams {
     /// Radius lethal cells are inflated by for planning, metres. Default 0.25 (LeoRover
-    /// half-width 0.22 m plus a 3 cm margin).
+    /// half-width 0.22 m plus a 3 cm margin). At most [`MAX_RADIUS_CELLS`] cells of the grid.
     pub radius_m: f64,
     /// Height of the camera's optical centre above the ground, metres. Default 0.2.
     pub camera_height_m: f64,
@@ -161,7 +161,7 @@ pub struct PlannerParams {
 pub struct U1Params {
     /// α: weight of the path-length term; 1 − α weights the entropy term. Default 0.35 (paper).
     pub alpha: f64,
-    /// Δθ: angle between rays, radians. Default 8.5° (paper).
+    /// Δθ: angle between rays, radians, in [2π / [`MAX_RAYS`], 2π]. Default 8.5° (paper).
     pub delta_theta_rad: f64,
     /// γ: per-cell visibility degradation along a ray, in (0, 1]. Default 0.99 at 0.05 m.
     pub gamma: f64,
@@ -193,7 +193,8 @@ pub struct U2Params {
     pub top_n: usize,
     /// Landmark voxel edge, metres. Default 0.25 (paper).
     pub voxel_m: f64,
-    /// Waypoint spacing along a path, metres; `None` uses the camera's max depth (paper).
+    /// Waypoint spacing along a path, metres, at least one grid cell; `None` uses the camera's
+    /// max depth (paper).
     pub waypoint_spacing_m: Option<f64>,
     /// Bearing noise σ_b, radians. Default 0.01.
     pub sigma_bearing_rad: f64,
@@ -314,6 +315,7 @@ impl Params {
         }
         pos("grid.resolution_m", self.grid.resolution_m)?;
         nonneg("robot.radius_m", self.robot.radius_m)?;
+        check_radius_cells("robot.radius_m", self.robot.radius_m, self.grid.resolution_m)?;
         if !self.robot.camera_height_m.is_finite() {
             return Err("robot.camera_height_m must be finite".into());
         }
@@ -327,6 +329,7 @@ impl Params {
             return Err("camera.min_depth_m must be in [0, camera.max_depth_m)".into());
         }
         pos("traversability.disc_radius_m", self.traversability.disc_radius_m)?;
+        check_radius_cells("traversability.disc_radius_m", self.traversability.disc_radius_m, self.grid.resolution_m)?;
         pos("traversability.max_slope_rad", self.traversability.max_slope_rad)?;
         pos("traversability.max_step_m", self.traversability.max_step_m)?;
         pos("traversability.max_roughness_m", self.traversability.max_roughness_m)?;
@@ -342,6 +345,9 @@ impl Params {
         if self.u1.delta_theta_rad > std::f64::consts::TAU {
             return Err("u1.delta_theta_rad must be ≤ 2π".into());
         }
+        if std::f64::consts::TAU / self.u1.delta_theta_rad > MAX_RAYS as f64 {
+            return Err(format!("u1.delta_theta_rad must be ≥ 2π / {MAX_RAYS} (at most {MAX_RAYS} rays; got {})", self.u1.delta_theta_rad));
+        }
         if !(self.u1.gamma > 0.0 && self.u1.gamma <= 1.0) {
             return Err(format!("u1.gamma must be in (0, 1] (got {})", self.u1.gamma));
         }
@@ -353,6 +359,7 @@ impl Params {
         if let Some(s) = self.u2.waypoint_spacing_m {
             pos("u2.waypoint_spacing_m", s)?;
         }
+        check_waypoint_spacing(self.waypoint_spacing_m(), self.grid.resolution_m)?;
         pos("u2.sigma_bearing_rad", self.u2.sigma_bearing_rad)?;
         nonneg("u2.sigma_landmark_m", self.u2.sigma_landmark_m)?;
         Ok(())
@@ -361,6 +368,34 @@ impl Params {
     /// Waypoint spacing d_max actually used by u2.
     pub fn waypoint_spacing_m(&self) -> f64 {
         self.u2.waypoint_spacing_m.unwrap_or(self.camera.max_depth_m)
+    }
+}
+
+/// Most rays a decision casts per candidate (Δθ ≥ 2π / this): far beyond any useful fan, and
+/// a bound on a fan's memory.
+pub const MAX_RAYS: usize = 4096;
+
+/// Largest radius, in grid cells, of the robot's inflation and of the traversability disc:
+/// 50 m at 0.05 m, and a bound on the kernels' work per cell.
+pub const MAX_RADIUS_CELLS: f64 = 1000.0;
+
+/// `Ok` when the radius `radius_m` is at most [`MAX_RADIUS_CELLS`] cells of `resolution_m`.
+pub fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -> Result<(), String> {
+    let cells = radius_m / resolution_m;
+    if cells <= MAX_RADIUS_CELLS {
+        Ok(())
+    } else {
+        Err(format!("{name} ({radius_m} m) is {cells:.0} cells of {resolution_m} m, over the limit of {MAX_RADIUS_CELLS}"))
+    }
+}
+
+/// `Ok` when u2's waypoints are at least a cell of `resolution_m` apart (closer ones add nothing
+/// but work: a path of L metres has L / spacing of them).
+pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), String> {
+    if spacing_m >= resolution_m {
+        Ok(())
+    } else {
+        Err(format!("u2.waypoint_spacing_m ({spacing_m} m) must be at least a grid cell ({resolution_m} m)"))
     }
 }
 
@@ -389,6 +424,28 @@ mod tests {
         assert_eq!(p.u2.voxel_m, 0.25);
         assert!((p.camera.hfov_rad.to_degrees() - 87.0).abs() < 1e-12);
         assert!(p.validate().is_ok());
+    }
+
+    /// Values whose work or memory has no useful bound are rejected (they hung or aborted a
+    /// decision: 1e-9 rad between rays asked for 6e9 rays).
+    #[test]
+    fn values_beyond_the_work_bounds_are_rejected() {
+        let check = |edit: fn(&mut Params), needle: &str| {
+            let mut p = Params::default();
+            edit(&mut p);
+            let e = p.validate().unwrap_err();
+            assert!(e.contains(needle), "{e}");
+        };
+        check(|p| p.u1.delta_theta_rad = 1e-9, "at most 4096 rays");
+        check(|p| p.robot.radius_m = 50.01, "robot.radius_m (50.01 m) is 1000 cells");
+        check(|p| p.traversability.disc_radius_m = 1e6, "traversability.disc_radius_m");
+        check(|p| p.u2.waypoint_spacing_m = Some(0.04), "at least a grid cell (0.05 m)");
+        // The bounds themselves are allowed.
+        let mut p = Params::default();
+        p.u1.delta_theta_rad = std::f64::consts::TAU / MAX_RAYS as f64;
+        p.robot.radius_m = 49.99;
+        p.u2.waypoint_spacing_m = Some(0.05);
+        assert_eq!(p.validate(), Ok(()));
     }
 
     #[test]

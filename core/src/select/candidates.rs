@@ -24,7 +24,7 @@ use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
 use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
 use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal_into};
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
@@ -69,6 +69,9 @@ pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers
     if !input.robot.is_finite() {
         return Err(SelectError::RobotPoseNotFinite);
     }
+    // The map's own resolution may differ from the parameters' grid: the kernels are sized on it.
+    check_radius_cells("robot.radius_m", params.robot.radius_m, g.resolution_m).map_err(SelectError::InvalidParams)?;
+    check_waypoint_spacing(params.waypoint_spacing_m(), g.resolution_m).map_err(SelectError::InvalidParams)?;
     let requested =
         g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
     let mut inflated = OccupancyGrid { geometry: g, data: std::mem::take(&mut buffers.inflated) };

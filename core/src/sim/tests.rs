@@ -47,6 +47,47 @@ fn unknown_keys_and_bad_values_are_rejected() {
     assert!(e.contains("size_m"), "{e}");
 }
 
+/// Worlds larger than the machine can hold are errors, found before anything that big is
+/// allocated (an allocation failure aborts the process, it cannot be caught).
+#[test]
+fn worlds_too_large_to_build_are_errors() {
+    let params = Params::default();
+    let build = |text: &str| {
+        let spec = WorldSpec::from_toml(text, "w.toml")?;
+        World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}")))
+    };
+    // 5 m at 10 µm cells: 2.5e11 heightfield cells (the limit is the traversability map's).
+    let e = build(&format!("cell_m = 0.00001\n{TINY}")).unwrap_err().to_string();
+    assert!(e.starts_with("w.toml: terrain:") && e.contains("500000 × 500000 cells, over the limit"), "{e}");
+    // One landmark site per µm²: 2.5e13 sites.
+    let e = build(&format!("{TINY}\n[landmarks]\nspacing_m = 0.000001\n")).unwrap_err().to_string();
+    assert!(e.starts_with("landmarks: spacing_m 0.000001 gives 2.500e13 sites"), "{e}");
+    let e = build(&format!("{TINY}\n[rocks]\nspacing_m = 0.000001\ndensity = 0.5\nradius_m = [0.1, 0.2]\nheight_m = [0.1, 0.2]\n"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("rocks: spacing_m 0.000001 gives"), "{e}");
+    let rocks = "[rocks]\nspacing_m = 1.0\ndensity = 1.0\nradius_m = [0.1, 0.2]\nheight_m = [0.1, 0.2]\n";
+    let e = build(&format!("{TINY}\n{rocks}[landmarks]\nrock_density_per_m2 = 1e12\n")).unwrap_err().to_string();
+    assert!(e.starts_with("landmarks: rock_density_per_m2 1000000000000 puts"), "{e}");
+    // The same world at sane values builds.
+    assert!(build(&format!("{TINY}\n{rocks}")).is_ok());
+}
+
+proptest::proptest! {
+    /// Mutated world files give a spec or a typed error, never a panic.
+    #[test]
+    fn mutated_world_files_never_panic(edits in proptest::collection::vec((proptest::prelude::any::<proptest::sample::Index>(), proptest::prelude::any::<u8>()), 1..4)) {
+        let mut bytes = include_bytes!("../../../assets/worlds/paper_unstructured_20m.toml").to_vec();
+        for (pos, byte) in edits {
+            let i = pos.index(bytes.len());
+            bytes[i] = byte;
+        }
+        if let Ok(text) = std::str::from_utf8(&bytes) {
+            let _ = WorldSpec::from_toml(text, "w.toml");
+        }
+    }
+}
+
 #[test]
 fn ground_truth_marks_boxes_lethal_and_hills_free() {
     let params = Params::default();

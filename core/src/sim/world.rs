@@ -21,7 +21,7 @@ use crate::grid::{Cell, FREE, GridGeometry, LETHAL, OccupancyGrid};
 use crate::io::MapError;
 use crate::params::TraversabilityParams;
 use crate::pose::Pose2;
-use crate::traversability::{TraversabilityError, TraversabilityMap};
+use crate::traversability::{MAX_CELLS, TraversabilityError, TraversabilityMap};
 use nalgebra::Point3;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -31,7 +31,9 @@ use thiserror::Error;
 pub enum WorldError {
     #[error("{name}: invalid TOML: {message}")]
     Toml { name: String, message: String },
-    #[error("world: {0}")]
+    /// A value out of range, or a world the machine cannot hold (named by the file when parsed
+    /// from one).
+    #[error("{0}")]
     Invalid(String),
     #[error("{name}: {message}")]
     Load { name: String, message: String },
@@ -42,6 +44,10 @@ pub enum WorldError {
     #[error(transparent)]
     Traversability(#[from] TraversabilityError),
 }
+
+/// Most rock or landmark sites a world may scatter (spacing against the terrain's area), so that
+/// a tiny spacing is an error rather than an allocation the machine cannot make.
+pub const MAX_SCATTER_SITES: f64 = (1u64 << 22) as f64;
 
 /// A world file: everything the simulator needs to build the ground truth.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -240,8 +246,27 @@ impl WorldSpec {
             };
             WorldError::Toml { name: name.into(), message }
         })?;
-        spec.validate()?;
+        spec.validate().map_err(|e| match e {
+            WorldError::Invalid(m) => WorldError::Invalid(format!("{name}: {m}")),
+            other => other,
+        })?;
         Ok(spec)
+    }
+
+    /// Rock and landmark sites on a terrain of this geometry: at most [`MAX_SCATTER_SITES`] each.
+    fn check_scatter_sites(&self, geometry: &GridGeometry) -> Result<(), WorldError> {
+        let (min_x, min_y, max_x, max_y) = geometry.bounds_m();
+        let sites = |spacing_m: f64| ((max_x - min_x) / spacing_m).floor() * ((max_y - min_y) / spacing_m).floor();
+        let spacings = self.rocks.iter().map(|r| ("rocks", r.spacing_m)).chain([("landmarks", self.landmarks.spacing_m)]);
+        for (what, spacing_m) in spacings {
+            let n = sites(spacing_m);
+            if n.is_nan() || n > MAX_SCATTER_SITES {
+                return Err(WorldError::Invalid(format!(
+                    "{what}: spacing_m {spacing_m} gives {n:.3e} sites on this terrain, over the limit of {MAX_SCATTER_SITES}"
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Checks ranges.
@@ -257,16 +282,30 @@ impl WorldSpec {
         if !self.start.iter().all(|v| v.is_finite()) {
             return bad("start must be finite".into());
         }
+        // The heightfield's cells, checked before they are allocated (the ground-truth map has as
+        // many, and its limit is the traversability map's).
+        let cells = |size_m: f64| {
+            let side = (size_m / self.cell_m).round().max(2.0);
+            if side * side > MAX_CELLS as f64 {
+                return bad(format!(
+                    "terrain: size_m {size_m} at cell_m {} is {side} × {side} cells, over the limit of {MAX_CELLS} (coarser cell_m?)",
+                    self.cell_m
+                ));
+            }
+            Ok(())
+        };
         match &self.terrain {
             TerrainSpec::Procedural { size_m, hill_wavelength_m, ridge_wavelength_m, .. } => {
                 if !pos(*size_m) || *size_m > 500.0 || !pos(*hill_wavelength_m) || !pos(*ridge_wavelength_m) {
                     return bad("terrain: size_m in (0, 500] and wavelengths > 0".into());
                 }
+                cells(*size_m)?;
             }
             TerrainSpec::Dem { size_m, relief_scale, .. } => {
                 if !pos(*size_m) || *size_m > 500.0 || !(relief_scale.is_finite() && *relief_scale >= 0.0) {
                     return bad("terrain: size_m in (0, 500] and relief_scale ≥ 0".into());
                 }
+                cells(*size_m)?;
             }
             TerrainSpec::MapServer { wall_height_m, .. } => {
                 if !pos(*wall_height_m) {
@@ -290,6 +329,11 @@ impl WorldSpec {
         }
         if !pos(self.landmarks.spacing_m) || !pos(self.landmarks.texture_wavelength_m) {
             return bad("landmarks: spacing_m and texture_wavelength_m must be > 0".into());
+        }
+        let l = &self.landmarks;
+        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        if !(nonneg(l.rock_density_per_m2) && nonneg(l.max_height_m) && (0.0..=1.0).contains(&l.max_probability) && l.contrast.is_finite()) {
+            return bad("landmarks: rock_density_per_m2 and max_height_m ≥ 0, max_probability in [0, 1], contrast finite".into());
         }
         if let Some(b) = self.boundary {
             if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
@@ -377,6 +421,7 @@ impl World {
         if field.geometry.cell_of(start_xy.0, start_xy.1).is_none() {
             return Err(WorldError::Invalid(format!("start ({}, {}) is outside the terrain", start_xy.0, start_xy.1)));
         }
+        spec.check_scatter_sites(&field.geometry)?;
         for b in &spec.boxes {
             stamp_box(&mut field, b);
         }
@@ -396,6 +441,14 @@ impl World {
             ),
             None => Vec::new(),
         };
+        let rock_side_landmarks: f64 =
+            rocks.iter().map(|r| (std::f64::consts::TAU * r.radius_m * r.height_m * spec.landmarks.rock_density_per_m2).round()).sum();
+        if rock_side_landmarks > MAX_SCATTER_SITES {
+            return Err(WorldError::Invalid(format!(
+                "landmarks: rock_density_per_m2 {} puts {rock_side_landmarks:.3e} landmarks on the rocks, over the limit of {MAX_SCATTER_SITES}",
+                spec.landmarks.rock_density_per_m2
+            )));
+        }
         // Map frame: z = 0 on the ground under the start.
         let z0 = field.height_at(start_xy.0, start_xy.1).unwrap_or(0.0);
         field.heights_m.iter_mut().for_each(|z| *z -= z0);
