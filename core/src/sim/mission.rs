@@ -112,6 +112,11 @@ pub struct MissionParams {
     pub slam: SlamParams,
 }
 
+/// Smallest simulation step, seconds: a finer one only multiplies the steps of a mission.
+pub const MIN_DT_S: f64 = 1e-3;
+/// Most rays in one LiDAR scan or one depth frame (a VLP-16 at 0.2° casts 28,800).
+pub const MAX_RAYS_PER_SENSING: usize = 1 << 20;
+
 impl Default for MissionParams {
     fn default() -> Self {
         Self {
@@ -164,6 +169,22 @@ impl MissionParams {
         pos("metrics_period_s", self.metrics_period_s)?;
         if self.lidar.rings == 0 || self.lidar.rings > 256 {
             return Err("lidar.rings must be in 1..=256".into());
+        }
+        // Bounds on the work of one step, scan and frame (far beyond any useful setting).
+        if self.dt_s < MIN_DT_S {
+            return Err(format!("dt_s must be ≥ {MIN_DT_S} s (got {})", self.dt_s));
+        }
+        let scan_rays = self.lidar.rings as f64 * (std::f64::consts::TAU / self.lidar.azimuth_step_rad).ceil();
+        if scan_rays > MAX_RAYS_PER_SENSING as f64 {
+            return Err(format!(
+                "lidar: {scan_rays:.3e} rays per scan (rings × 2π / azimuth_step_rad), over the limit of {MAX_RAYS_PER_SENSING}"
+            ));
+        }
+        if self.depth_rays[0].saturating_mul(self.depth_rays[1]) > MAX_RAYS_PER_SENSING {
+            return Err(format!(
+                "depth_rays: {} × {} rays per frame, over the limit of {MAX_RAYS_PER_SENSING}",
+                self.depth_rays[0], self.depth_rays[1]
+            ));
         }
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;

@@ -73,6 +73,19 @@ fn worlds_too_large_to_build_are_errors() {
     assert!(build(&format!("{TINY}\n{rocks}")).is_ok());
 }
 
+#[test]
+fn simulator_settings_beyond_the_work_bounds_are_rejected() {
+    for (text, needle) in [
+        ("dt_s = 1e-9", "dt_s must be ≥ 0.001 s"),
+        ("[lidar]\nazimuth_step_rad = 1e-9", "rays per scan"),
+        ("depth_rays = [100000, 100000]", "depth_rays: 100000 × 100000 rays per frame"),
+    ] {
+        let e = MissionParams::from_toml(text, "sim.toml").unwrap_err();
+        assert!(e.starts_with("sim.toml: ") && e.contains(needle), "{e}");
+    }
+    assert!(MissionParams::from_toml("dt_s = 0.001\n[lidar]\nazimuth_step_rad = 0.0035", "sim.toml").is_ok());
+}
+
 proptest::proptest! {
     /// Mutated world files give a spec or a typed error, never a panic.
     #[test]

@@ -332,7 +332,8 @@ impl WorldSpec {
         }
         let l = &self.landmarks;
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        if !(nonneg(l.rock_density_per_m2) && nonneg(l.max_height_m) && (0.0..=1.0).contains(&l.max_probability) && l.contrast.is_finite()) {
+        if !(nonneg(l.rock_density_per_m2) && nonneg(l.max_height_m) && (0.0..=1.0).contains(&l.max_probability) && l.contrast.is_finite())
+        {
             return bad("landmarks: rock_density_per_m2 and max_height_m ≥ 0, max_probability in [0, 1], contrast finite".into());
         }
         if let Some(b) = self.boundary {
