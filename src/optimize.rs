@@ -138,8 +138,19 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
     let marginal: Vec<f64> = if args.no_marginal {
         Vec::new()
     } else {
-        let m = Marginals::new(&problem.graph, &problem.values).context("marginal covariance")?;
-        let cov = m.covariance(last).context("marginal covariance")?;
+        // A graph whose gauge is not fixed everywhere (two disconnected parts, one anchored)
+        // still optimises under LM's damping, but has no marginal: say what was reached.
+        let reached = || {
+            format!(
+                "{}: marginal covariance of the last pose, after optimising χ² {} -> {} in {} iterations (--no-marginal skips it)",
+                args.g2o.display(),
+                summary.initial_chi2,
+                summary.final_chi2,
+                summary.iterations
+            )
+        };
+        let m = Marginals::new(&problem.graph, &problem.values).with_context(reached)?;
+        let cov = m.covariance(last).with_context(reached)?;
         // Row-major.
         (0..cov.nrows()).flat_map(|r| (0..cov.ncols()).map(move |c| (r, c))).map(|(r, c)| cov[(r, c)]).collect()
     };

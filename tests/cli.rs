@@ -237,4 +237,11 @@ fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
         &run(&["optimize", "--g2o", input.to_str().unwrap()]),
         "landmarks.g2o: edge 0 (0-based): vertex 1 is a 2D point, the edge needs a SE2 pose",
     );
+
+    // Two disconnected parts, one anchored: the optimisation runs, the marginal cannot exist;
+    // the one line says what was reached and how to skip the marginal.
+    std::fs::write(&input, "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 5 0 0\nVERTEX_SE2 3 6 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0.1 0 1 0 0 1 0 1\n").unwrap();
+    assert_clear_error(&run(&["optimize", "--g2o", input.to_str().unwrap()]), "after optimising χ² 0.01");
+    let out = run(&["optimize", "--g2o", input.to_str().unwrap(), "--no-marginal", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
