@@ -16,9 +16,10 @@ difference (target 1e-6), the relative difference of the last pose's marginal co
 (rotation, translation); fitslam's is (translation, rotation): the GTSAM block is permuted.
 Both covariances are in the body frame (right perturbation).
 
-2D point landmarks (g2o's VERTEX_XY / EDGE_SE2_XY, which GTSAM's readG2o skips) are added to
-GTSAM's graph as CustomFactors in Python: chi2 and marginals compare as usual, but GTSAM's time
-is then dominated by Python callbacks and says nothing about GTSAM's speed.
+Point landmarks (g2o's VERTEX_XY / EDGE_SE2_XY, and VERTEX_TRACKXYZ / EDGE_SE3_TRACKXYZ with
+PARAMS_SE3OFFSET, which GTSAM's readG2o skips) are added to GTSAM's graph as CustomFactors in
+Python: chi2 and marginals compare as usual, but GTSAM's time is then dominated by Python
+callbacks and says nothing about GTSAM's speed.
 
 Usage (from the repository root; needs `pip install gtsam==4.3.0`):
     python3 scripts/compare_gtsam.py [FILES...]        # default: every file in assets/data/slam
@@ -31,6 +32,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -60,13 +62,74 @@ def load_gtsam(path):
         graph, initial = gtsam.load2D(path)  # NoiseFormatAUTO, as fitslam's victoria reader
         is3d = False
     else:
-        is3d = tag.startswith("VERTEX_SE3") or tag.startswith("EDGE_SE3")
-        graph, initial = gtsam.readG2o(path, is3d)
-    if not is3d:
+        is3d = tag.startswith("VERTEX_SE3") or tag.startswith("EDGE_SE3") or tag == "PARAMS_SE3OFFSET"
+        graph, initial = gtsam.readG2o(without_point_landmarks(path), is3d)
+    if is3d:
+        add_point_landmarks_3d(path, graph, initial)
+    else:
         add_point_landmarks_2d(path, graph, initial)
     # Pose keys are plain integers; landmarks are Symbol('l', j).
     pose_keys = sorted(k for k in initial.keys() if gtsam.Symbol(k).chr() == 0)
     return graph, initial, pose_keys, is3d
+
+
+POINT_LANDMARK_TAGS = ("VERTEX_XY", "EDGE_SE2_XY", "VERTEX_TRACKXYZ", "EDGE_SE3_TRACKXYZ", "PARAMS_SE3OFFSET")
+
+
+def without_point_landmarks(path):
+    """`path`, or a temporary copy without the point-landmark lines, which are added apart
+    (readG2o skips the 2D ones and refuses EDGE_SE3_TRACKXYZ with a non-identity offset)."""
+    with open(path) as f:
+        lines = f.readlines()
+    kept = [l for l in lines if not l.split() or l.split()[0] not in POINT_LANDMARK_TAGS]
+    if len(kept) == len(lines):
+        return path
+    out = tempfile.NamedTemporaryFile("w", suffix=".g2o", delete=False)
+    out.writelines(kept)
+    out.close()
+    return out.name
+
+
+def point_in_sensor_error(offset, z, this, values, jacobians):
+    """g2o's EdgeSE3PointXYZ: e = (x o)^-1 m - z, o the sensor's PARAMS_SE3OFFSET pose."""
+    x = values.atPose3(this.keys()[0])
+    m = values.atPoint3(this.keys()[1])
+    hc = np.zeros((6, 6), order="F")
+    sensor = x.compose(offset, hc, None)
+    hp, hm = np.zeros((3, 6), order="F"), np.zeros((3, 3), order="F")
+    p = sensor.transformTo(m, hp, hm)
+    if jacobians is not None:
+        jacobians[0], jacobians[1] = hp @ hc, hm
+    return p - z
+
+
+def add_point_landmarks_3d(path, graph, initial):
+    """Adds the file's VERTEX_TRACKXYZ / EDGE_SE3_TRACKXYZ (with their PARAMS_SE3OFFSET) as
+    Symbol('l', id) points and CustomFactors, a missing landmark initialised at its first
+    sighting (as fitslam does); GTSAM's readG2o reads none of the three."""
+    offsets, lines = {}, []
+    with open(path) as f:
+        for line in f:
+            t = line.split("#")[0].split()
+            if t and t[0] == "PARAMS_SE3OFFSET":
+                x, y, z, qx, qy, qz, qw = (float(v) for v in t[2:9])
+                offsets[int(t[1])] = gtsam.Pose3(gtsam.Rot3.Quaternion(qw, qx, qy, qz), np.array([x, y, z]))
+            elif t:
+                lines.append(t)
+    for t in lines:
+        if t[0] == "VERTEX_TRACKXYZ":
+            key = gtsam.symbol("l", int(t[1]))
+            if not initial.exists(key):
+                initial.insert(key, np.array([float(v) for v in t[2:5]]))
+        elif t[0] == "EDGE_SE3_TRACKXYZ":
+            i, key, offset = int(t[1]), gtsam.symbol("l", int(t[2])), offsets[int(t[3])]
+            z = np.array([float(v) for v in t[4:7]])
+            a = [float(v) for v in t[7:13]]
+            info = np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]])
+            if not initial.exists(key):
+                initial.insert(key, initial.atPose3(i).compose(offset).transformFrom(z))
+            noise = gtsam.noiseModel.Gaussian.Information(info)
+            graph.add(gtsam.CustomFactor(noise, [i, key], functools.partial(point_in_sensor_error, offset, z)))
 
 
 def point_in_pose_error(z, this, values, jacobians):
