@@ -66,20 +66,21 @@ pub fn run(args: &TraversabilityArgs) -> Result<()> {
     Ok(())
 }
 
-/// One warning line when the cloud is too sparse for the disc: most cells would be unknown
-/// (an airborne cloud at the rover's defaults), with the parameters that would suit it.
+/// One warning line when the cloud is too sparse for the disc — a disc holds fewer than
+/// `min_points` of its points on average, so most cells will be unknown (an airborne cloud at
+/// the rover's defaults) — with a disc radius that holds 4 × `min_points`.
 fn warn_if_sparse(path: &std::path::Path, points: &[nalgebra::Point3<f64>], params: &fitslam_core::Params) {
     let t = &params.traversability;
     let Some(sampling) = DiscSampling::of(points) else { return };
     let in_disc = sampling.points_in_disc(t.disc_radius_m);
     let needed = f64::from(t.min_points);
-    if in_disc >= 2.0 * needed {
+    if in_disc >= needed {
         return;
     }
     let radius_m = sampling.radius_holding(4.0 * needed);
     eprintln!(
-        "warning: {}: the points are about {:.2} m apart in x-y, so a disc of radius {} m holds about {:.1} of them \
-         (min_points {}): most cells will be unknown. For a cloud this sparse, a --params file with [traversability] \
+        "warning: {}: the points are about {:.2} m apart in x-y, so a disc of radius {} m holds about {:.1} of them, \
+         fewer than min_points ({}): most cells will be unknown. For a cloud this sparse, a --params file with [traversability] \
          disc_radius_m = {:.2} and [grid] resolution_m = {:.2} gives each disc enough points (the slope, step and roughness limits stay the robot's).",
         path.display(),
         sampling.spacing_m,

@@ -197,6 +197,13 @@ fn traversability_writes_a_map_server_map_that_select_can_read() {
     let radius_m = number_after("disc_radius_m = ");
     assert!((radius_m - 1.26).abs() < 0.13, "{stderr}");
     assert!((number_after("resolution_m = ") - radius_m / 2.0).abs() <= 0.006, "{stderr}");
+
+    // Points every 9 cm: about 8.7 in a 0.15 m disc, more than min_points (5): no warning.
+    let fair = dir.join("fair.csv");
+    let text: String = (0..34).flat_map(|i| (0..34).map(move |j| format!("{},{},0\n", 0.09 * i as f64, 0.09 * j as f64))).collect();
+    std::fs::write(&fair, text).unwrap();
+    let out = run(&["traversability", "--cloud", fair.to_str().unwrap(), "--out", &dir.join("fair.yaml").display().to_string()]);
+    assert!(out.status.success() && out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
