@@ -182,6 +182,16 @@ impl<'a> Fields<'a> {
         }
     }
 
+    /// The three numbers from field `i`.
+    fn vector3(&self, i: usize) -> Result<Vector3<f64>, G2oError> {
+        Ok(Vector3::new(self.num(i)?, self.num(i + 1)?, self.num(i + 2)?))
+    }
+
+    /// `x y z qx qy qz qw` from field `i`.
+    fn se3(&self, i: usize) -> Result<Se3, G2oError> {
+        Ok(Se3::new(self.quaternion(i + 3)?, self.vector3(i)?))
+    }
+
     fn quaternion(&self, i: usize) -> Result<UnitQuaternion<f64>, G2oError> {
         let q = Quaternion::new(self.num(i + 3)?, self.num(i)?, self.num(i + 1)?, self.num(i + 2)?);
         if q.norm() == 0.0 {
@@ -218,6 +228,20 @@ fn set_dim(is_3d: &mut Option<bool>, three: bool, line: usize) -> Result<(), G2o
     }
 }
 
+/// The tags read: (tag, fields after it, whether it is 3D; `None`: either).
+const TAGS: [(&str, usize, Option<bool>); 10] = [
+    ("VERTEX_SE2", 4, Some(false)),
+    ("VERTEX_SE3:QUAT", 8, Some(true)),
+    ("VERTEX_XY", 3, Some(false)),
+    ("VERTEX_TRACKXYZ", 4, Some(true)),
+    ("EDGE_SE2", 11, Some(false)),
+    ("EDGE_SE3:QUAT", 30, Some(true)),
+    ("EDGE_SE2_XY", 7, Some(false)),
+    ("EDGE_SE3_TRACKXYZ", 12, Some(true)),
+    ("PARAMS_SE3OFFSET", 8, Some(true)),
+    ("FIX", 1, None),
+];
+
 /// Parses a g2o file.
 pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
     let mut file = G2oFile::default();
@@ -229,74 +253,56 @@ pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
         let mut tokens = text.split_ascii_whitespace();
         let Some(tag) = tokens.next() else { continue };
         let rest: Vec<&str> = tokens.collect();
+        let Some(&(tag, fields, three_d)) = TAGS.iter().find(|t| t.0 == tag) else {
+            return Err(G2oError::UnknownTag { line, tag: tag.to_string() });
+        };
+        let f = Fields::new(line, tag, rest, fields)?;
+        if let Some(three) = three_d {
+            set_dim(&mut file.is_3d, three, line)?;
+        }
         match tag {
             "VERTEX_SE2" => {
-                let f = Fields::new(line, "VERTEX_SE2", rest, 4)?;
-                set_dim(&mut file.is_3d, false, line)?;
                 let id = f.new_vertex(&mut seen)?;
                 file.vertices.push(G2oVertex::Se2 { id, pose: Se2::new(f.num(1)?, f.num(2)?, f.num(3)?) });
             }
             "VERTEX_SE3:QUAT" => {
-                let f = Fields::new(line, "VERTEX_SE3:QUAT", rest, 8)?;
-                set_dim(&mut file.is_3d, true, line)?;
                 let id = f.new_vertex(&mut seen)?;
-                let t = Vector3::new(f.num(1)?, f.num(2)?, f.num(3)?);
-                file.vertices.push(G2oVertex::Se3 { id, pose: Se3::new(f.quaternion(4)?, t) });
+                file.vertices.push(G2oVertex::Se3 { id, pose: f.se3(1)? });
+            }
+            "VERTEX_XY" => {
+                let id = f.new_vertex(&mut seen)?;
+                file.vertices.push(G2oVertex::Point2 { id, point: Vector2::new(f.num(1)?, f.num(2)?) });
+            }
+            "VERTEX_TRACKXYZ" => {
+                let id = f.new_vertex(&mut seen)?;
+                file.vertices.push(G2oVertex::Point3 { id, point: f.vector3(1)? });
             }
             "EDGE_SE2" => {
-                let f = Fields::new(line, "EDGE_SE2", rest, 11)?;
-                set_dim(&mut file.is_3d, false, line)?;
                 let (from, to) = f.edge_ends()?;
                 let measurement = Se2::new(f.num(2)?, f.num(3)?, f.num(4)?);
                 file.edges.push(G2oEdge::Se2 { from, to, measurement, information: f.upper::<3>(5)? });
             }
             "EDGE_SE3:QUAT" => {
-                let f = Fields::new(line, "EDGE_SE3:QUAT", rest, 30)?;
-                set_dim(&mut file.is_3d, true, line)?;
                 let (from, to) = f.edge_ends()?;
-                let t = Vector3::new(f.num(2)?, f.num(3)?, f.num(4)?);
-                let measurement = Se3::new(f.quaternion(5)?, t);
-                file.edges.push(G2oEdge::Se3 { from, to, measurement, information: f.upper::<6>(9)? });
-            }
-            "VERTEX_XY" => {
-                let f = Fields::new(line, "VERTEX_XY", rest, 3)?;
-                set_dim(&mut file.is_3d, false, line)?;
-                let id = f.new_vertex(&mut seen)?;
-                file.vertices.push(G2oVertex::Point2 { id, point: Vector2::new(f.num(1)?, f.num(2)?) });
-            }
-            "VERTEX_TRACKXYZ" => {
-                let f = Fields::new(line, "VERTEX_TRACKXYZ", rest, 4)?;
-                set_dim(&mut file.is_3d, true, line)?;
-                let id = f.new_vertex(&mut seen)?;
-                file.vertices.push(G2oVertex::Point3 { id, point: Vector3::new(f.num(1)?, f.num(2)?, f.num(3)?) });
+                file.edges.push(G2oEdge::Se3 { from, to, measurement: f.se3(2)?, information: f.upper::<6>(9)? });
             }
             "EDGE_SE2_XY" => {
-                let f = Fields::new(line, "EDGE_SE2_XY", rest, 7)?;
-                set_dim(&mut file.is_3d, false, line)?;
                 let (from, to) = f.edge_ends()?;
                 let measurement = Vector2::new(f.num(2)?, f.num(3)?);
                 file.edges.push(G2oEdge::Se2Point2 { from, to, measurement, information: f.upper::<2>(4)? });
             }
             "EDGE_SE3_TRACKXYZ" => {
-                let f = Fields::new(line, "EDGE_SE3_TRACKXYZ", rest, 12)?;
-                set_dim(&mut file.is_3d, true, line)?;
                 let ((from, to), offset) = (f.edge_ends()?, f.id(2)?);
-                let measurement = Vector3::new(f.num(3)?, f.num(4)?, f.num(5)?);
-                file.edges.push(G2oEdge::Se3Point3 { from, to, offset, measurement, information: f.upper::<3>(6)? });
+                file.edges.push(G2oEdge::Se3Point3 { from, to, offset, measurement: f.vector3(3)?, information: f.upper::<3>(6)? });
             }
             "PARAMS_SE3OFFSET" => {
-                let f = Fields::new(line, "PARAMS_SE3OFFSET", rest, 8)?;
-                set_dim(&mut file.is_3d, true, line)?;
                 let id = f.id(0)?;
-                let t = Vector3::new(f.num(1)?, f.num(2)?, f.num(3)?);
-                if file.offsets.insert(id, Se3::new(f.quaternion(4)?, t)).is_some() {
+                if file.offsets.insert(id, f.se3(1)?).is_some() {
                     return Err(G2oError::DuplicateOffset { line, id });
                 }
             }
-            "FIX" => {
-                let f = Fields::new(line, "FIX", rest, 1)?;
-                file.fixed.push(f.id(0)?);
-            }
+            "FIX" => file.fixed.push(f.id(0)?),
+            // Every tag of `TAGS` has its arm above.
             other => return Err(G2oError::UnknownTag { line, tag: other.to_string() }),
         }
     }
