@@ -127,10 +127,10 @@ impl RayFan {
         // with flat offsets for this width, one add per cell and no edge test.
         let reach = i64::from(self.reach_cells);
         let interior = oc >= reach && or >= reach && oc + reach < w && or + reach < h;
+        let flat_origin = (interior && self.flat_width == g.width).then_some((or * w + oc) as usize);
         for k in 0..self.len() {
             let cells = self.ray_start[k]..self.ray_start[k + 1];
-            let sum = if interior && self.flat_width == g.width {
-                let origin = (or * w + oc) as usize;
+            let sum = if let Some(origin) = flat_origin {
                 ray_gain(self.flat[cells].iter().map(|&off| grid.data[origin.wrapping_add_signed(off)]), table)
             } else {
                 // Stops at the map's edge.
