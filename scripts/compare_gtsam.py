@@ -64,10 +64,7 @@ def load_gtsam(path):
     else:
         is3d = tag.startswith("VERTEX_SE3") or tag.startswith("EDGE_SE3") or tag == "PARAMS_SE3OFFSET"
         graph, initial = gtsam.readG2o(without_point_landmarks(path), is3d)
-    if is3d:
-        add_point_landmarks_3d(path, graph, initial)
-    else:
-        add_point_landmarks_2d(path, graph, initial)
+    add_point_landmarks(path, graph, initial)
     # Pose keys are plain integers; landmarks are Symbol('l', j).
     pose_keys = sorted(k for k in initial.keys() if gtsam.Symbol(k).chr() == 0)
     return graph, initial, pose_keys, is3d
@@ -103,37 +100,8 @@ def point_in_sensor_error(offset, z, this, values, jacobians):
     return p - z
 
 
-def add_point_landmarks_3d(path, graph, initial):
-    """Adds the file's VERTEX_TRACKXYZ / EDGE_SE3_TRACKXYZ (with their PARAMS_SE3OFFSET) as
-    Symbol('l', id) points and CustomFactors, a missing landmark initialised at its first
-    sighting (as fitslam does); GTSAM's readG2o reads none of the three."""
-    offsets, lines = {}, []
-    with open(path) as f:
-        for line in f:
-            t = line.split("#")[0].split()
-            if t and t[0] == "PARAMS_SE3OFFSET":
-                x, y, z, qx, qy, qz, qw = (float(v) for v in t[2:9])
-                offsets[int(t[1])] = gtsam.Pose3(gtsam.Rot3.Quaternion(qw, qx, qy, qz), np.array([x, y, z]))
-            elif t:
-                lines.append(t)
-    for t in lines:
-        if t[0] == "VERTEX_TRACKXYZ":
-            key = gtsam.symbol("l", int(t[1]))
-            if not initial.exists(key):
-                initial.insert(key, np.array([float(v) for v in t[2:5]]))
-        elif t[0] == "EDGE_SE3_TRACKXYZ":
-            i, key, offset = int(t[1]), gtsam.symbol("l", int(t[2])), offsets[int(t[3])]
-            z = np.array([float(v) for v in t[4:7]])
-            a = [float(v) for v in t[7:13]]
-            info = np.array([[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]])
-            if not initial.exists(key):
-                initial.insert(key, initial.atPose3(i).compose(offset).transformFrom(z))
-            noise = gtsam.noiseModel.Gaussian.Information(info)
-            graph.add(gtsam.CustomFactor(noise, [i, key], functools.partial(point_in_sensor_error, offset, z)))
-
-
 def point_in_pose_error(z, this, values, jacobians):
-    """g2o's EdgeSE2PointXY: e = x^-1 m - z (GTSAM has no such factor; readG2o skips the lines)."""
+    """g2o's EdgeSE2PointXY: e = x^-1 m - z."""
     x = values.atPose2(this.keys()[0])
     m = values.atPoint2(this.keys()[1])
     hx, hm = np.zeros((2, 3), order="F"), np.zeros((2, 2), order="F")
@@ -143,27 +111,45 @@ def point_in_pose_error(z, this, values, jacobians):
     return p - z
 
 
-def add_point_landmarks_2d(path, graph, initial):
-    """Adds the file's VERTEX_XY / EDGE_SE2_XY as Symbol('l', id) points and CustomFactors, a
+def symmetric(upper, d):
+    """The d x d symmetric matrix of an upper triangle given row by row."""
+    m, k = np.zeros((d, d)), 0
+    for r in range(d):
+        for c in range(r, d):
+            m[r, c] = m[c, r] = upper[k]
+            k += 1
+    return m
+
+
+def add_point_landmarks(path, graph, initial):
+    """Adds the file's point landmarks (VERTEX_XY / EDGE_SE2_XY, VERTEX_TRACKXYZ /
+    EDGE_SE3_TRACKXYZ through PARAMS_SE3OFFSET) as Symbol('l', id) points and CustomFactors, a
     missing landmark initialised at its first sighting (as fitslam does)."""
     with open(path) as f:
-        for line in f:
-            t = line.split("#")[0].split()
-            if not t:
-                continue
-            if t[0] == "VERTEX_XY":
-                key = gtsam.symbol("l", int(t[1]))
-                if not initial.exists(key):
-                    initial.insert(key, np.array([float(t[2]), float(t[3])]))
-            elif t[0] == "EDGE_SE2_XY":
-                i, key = int(t[1]), gtsam.symbol("l", int(t[2]))
-                z = np.array([float(t[3]), float(t[4])])
-                a = [float(v) for v in t[5:8]]
-                info = np.array([[a[0], a[1]], [a[1], a[2]]])
-                if not initial.exists(key):
-                    initial.insert(key, initial.atPose2(i).transformFrom(z))
-                noise = gtsam.noiseModel.Gaussian.Information(info)
-                graph.add(gtsam.CustomFactor(noise, [i, key], functools.partial(point_in_pose_error, z)))
+        rows = [t for t in (line.split("#")[0].split() for line in f) if t]
+    offsets = {}
+    for t in rows:
+        if t[0] == "PARAMS_SE3OFFSET":
+            x, y, z, qx, qy, qz, qw = (float(v) for v in t[2:9])
+            offsets[int(t[1])] = gtsam.Pose3(gtsam.Rot3.Quaternion(qw, qx, qy, qz), np.array([x, y, z]))
+    for t in rows:
+        if t[0] in ("VERTEX_XY", "VERTEX_TRACKXYZ"):
+            key = gtsam.symbol("l", int(t[1]))
+            if not initial.exists(key):
+                initial.insert(key, np.array([float(v) for v in t[2:]]))
+        elif t[0] in ("EDGE_SE2_XY", "EDGE_SE3_TRACKXYZ"):
+            i, key = int(t[1]), gtsam.symbol("l", int(t[2]))
+            if t[0] == "EDGE_SE2_XY":
+                d, z = 2, np.array([float(v) for v in t[3:5]])
+                sensor, error = initial.atPose2(i), functools.partial(point_in_pose_error, z)
+            else:
+                offset = offsets[int(t[3])]
+                d, z = 3, np.array([float(v) for v in t[4:7]])
+                sensor, error = initial.atPose3(i).compose(offset), functools.partial(point_in_sensor_error, offset, z)
+            info = symmetric([float(v) for v in t[len(t) - d * (d + 1) // 2:]], d)
+            if not initial.exists(key):
+                initial.insert(key, sensor.transformFrom(z))
+            graph.add(gtsam.CustomFactor(gtsam.noiseModel.Gaussian.Information(info), [i, key], error))
 
 
 def run_gtsam(path, sigma, max_iterations, rel_tol):
