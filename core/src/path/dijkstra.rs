@@ -31,7 +31,7 @@
 //! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
 
 use super::{MOVES, Path, PathError, check_start};
-use crate::grid::{Cell, GridGeometry, OccupancyGrid};
+use crate::grid::{self, Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
 
 /// Code of a lethal or off-grid cell: below every real cost.
 const BLOCKED: u64 = 0;
@@ -245,40 +245,57 @@ impl BlockOrder {
         Self { counts: vec![0; (cells >> Self::BLOCK_SHIFT) + 2], scratch: Vec::new() }
     }
 
+    /// A stable counting sort. Consecutive entries mostly share a block (a bucket is filled in
+    /// the previous one's block order), so each pass keeps the current block's counter in a
+    /// register and writes it back only when the block changes: a counter in memory, incremented
+    /// entry after entry, would make every entry wait for the previous one's store.
     fn order(&mut self, bucket: &mut Vec<u32>) {
         if bucket.len() < 64 {
             return;
         }
+        let block = |p: u32| (p >> Self::BLOCK_SHIFT) as usize;
         self.counts.fill(0);
+        let (mut current, mut run) = (block(bucket[0]), 0u32);
         for &p in bucket.iter() {
-            self.counts[(p >> Self::BLOCK_SHIFT) as usize + 1] += 1;
+            if block(p) != current {
+                self.counts[current + 1] += run;
+                (current, run) = (block(p), 0);
+            }
+            run += 1;
         }
+        self.counts[current + 1] += run;
         for b in 1..self.counts.len() {
             self.counts[b] += self.counts[b - 1];
         }
         self.scratch.clear();
         self.scratch.resize(bucket.len(), 0);
+        let (mut current, mut slot) = (block(bucket[0]), self.counts[block(bucket[0])]);
         for &p in bucket.iter() {
-            let slot = &mut self.counts[(p >> Self::BLOCK_SHIFT) as usize];
-            self.scratch[*slot as usize] = p;
-            *slot += 1;
+            if block(p) != current {
+                self.counts[current] = slot;
+                current = block(p);
+                slot = self.counts[current];
+            }
+            self.scratch[slot as usize] = p;
+            slot += 1;
         }
         std::mem::swap(bucket, &mut self.scratch);
     }
 }
 
 /// Bounding box of the passable cells (non-empty: the start is passable). Rows are scanned in
-/// chunks with a branch-free test, which the compiler vectorises.
+/// chunks with a branch-free minimum, which the compiler vectorises.
 fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Window {
     const CHUNK: usize = 64;
     let g = grid.geometry;
-    let passable = |v: &i8| super::passable(*v, allow_unknown);
     // Passable is "below the lethal threshold", signed (unknown allowed) or unsigned (unknown,
-    // being negative, is then large): a chunk has a passable cell iff its minimum does.
-    let any = |chunk: &[i8]| match allow_unknown {
-        true => chunk.iter().copied().min().is_some_and(|v| passable(&v)),
-        false => chunk.iter().map(|&v| v as u8).min().is_some_and(|v| passable(&(v as i8))),
-    };
+    // being negative, is then large). Flipping the sign bit maps signed order to unsigned, so in
+    // both cases passable ⇔ key(v) < key(threshold), and a chunk has a passable cell iff the
+    // minimum of its keys does.
+    let key = |v: i8| passability_key(v, allow_unknown);
+    let threshold = key(LETHAL_THRESHOLD);
+    let passable = |v: &i8| key(*v) < threshold;
+    let any = |chunk: &[i8]| chunk.iter().fold(u8::MAX, |m, &v| m.min(key(v))) < threshold;
     let (mut c0, mut c1, mut r0, mut r1) = (start.col as usize, start.col as usize, start.row as usize, start.row as usize);
     for (r, row) in grid.data.chunks_exact(g.width).enumerate() {
         let Some(first) = row.chunks(CHUNK).position(any) else { continue };
@@ -292,6 +309,13 @@ fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Wi
         r1 = r1.max(r);
     }
     Window { col0: c0, row0: r0, width: c1 - c0 + 1, height: r1 - r0 + 1 }
+}
+
+/// An order-preserving map of grid values to `u8` under which passable ⇔ below the key of
+/// [`LETHAL_THRESHOLD`] (see [`super::passable`]): the sign bit flipped when unknown is allowed.
+#[inline]
+fn passability_key(v: i8, allow_unknown: bool) -> u8 {
+    (v as u8) ^ (u8::from(allow_unknown) << 7)
 }
 
 /// What a search collects besides costs.
@@ -311,6 +335,25 @@ fn code(v: i8, allow_unknown: bool) -> u64 {
     passable.wrapping_neg() | (unknown & (passable ^ 1))
 }
 
+/// Appends the codes of `cells` to `cost`. Words of 8 equal cells of the three values a thresholded
+/// map holds (free, lethal, unknown: long runs in practice) are written whole; other words cell
+/// by cell. About twice as fast as mapping every cell on the decision bench.
+fn extend_codes(cost: &mut Vec<u64>, cells: &[i8], allow_unknown: bool) {
+    const LANES: usize = 8;
+    let uniform = |v: i8| u64::from_ne_bytes([v as u8; LANES]);
+    let runs = [grid::FREE, grid::LETHAL, grid::UNKNOWN].map(|v| (uniform(v), [code(v, allow_unknown); LANES]));
+    let mut words = cells.chunks_exact(LANES);
+    for word in &mut words {
+        let bytes: [i8; LANES] = word.try_into().expect("chunks_exact");
+        let bits = u64::from_ne_bytes(bytes.map(|v| v as u8));
+        match runs.iter().find(|(w, _)| *w == bits) {
+            Some((_, codes)) => cost.extend_from_slice(codes),
+            None => cost.extend(bytes.iter().map(|&v| code(v, allow_unknown))),
+        }
+    }
+    cost.extend(words.remainder().iter().map(|&v| code(v, allow_unknown)));
+}
+
 /// Fills `cost` with the padded window's codes: the border holds the grid's cells around the
 /// window (never passable, as the window bounds the passable cells), off-grid cells `BLOCKED`.
 fn fill_window(grid: &OccupancyGrid, win: &Window, allow_unknown: bool, cost: &mut Vec<u64>) {
@@ -322,7 +365,7 @@ fn fill_window(grid: &OccupancyGrid, win: &Window, allow_unknown: bool, cost: &m
     cost.resize(pw + 1, BLOCKED);
     for r in 0..win.height {
         let src = (win.row0 + r) * g.width + win.col0;
-        cost.extend(grid.data[src..src + win.width].iter().map(|&v| code(v, allow_unknown)));
+        extend_codes(cost, &grid.data[src..src + win.width], allow_unknown);
         cost.extend_from_slice(&[BLOCKED, BLOCKED]);
     }
     cost.resize(n, BLOCKED);
@@ -469,8 +512,51 @@ fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, goals: Goals, 
 }
 
 #[cfg(test)]
-mod scale_tests {
-    use super::Scale;
+mod unit_tests {
+    use super::{BlockOrder, LETHAL_THRESHOLD, Scale, code, extend_codes, passability_key};
+    use crate::grid::{FREE, LETHAL, UNKNOWN};
+    use proptest::prelude::*;
+
+    #[test]
+    fn the_passability_key_orders_like_passable() {
+        for allow_unknown in [false, true] {
+            let threshold = passability_key(LETHAL_THRESHOLD, allow_unknown);
+            for v in i8::MIN..=i8::MAX {
+                assert_eq!(passability_key(v, allow_unknown) < threshold, crate::path::passable(v, allow_unknown), "{v} {allow_unknown}");
+            }
+        }
+    }
+
+    proptest! {
+        /// Whole-word runs or cell by cell, the codes are each cell's: runs of the three thresholded
+        /// values (and of others) of every length, at every alignment.
+        #[test]
+        fn extend_codes_codes_every_cell(runs in prop::collection::vec((prop_oneof![Just(FREE), Just(LETHAL), Just(UNKNOWN), any::<i8>()], 1usize..20), 0..30), allow_unknown: bool) {
+            let cells: Vec<i8> = runs.iter().flat_map(|&(v, len)| std::iter::repeat_n(v, len)).collect();
+            let mut cost = vec![7];
+            extend_codes(&mut cost, &cells, allow_unknown);
+            let expected: Vec<u64> = std::iter::once(7).chain(cells.iter().map(|&v| code(v, allow_unknown))).collect();
+            prop_assert_eq!(cost, expected);
+        }
+
+        /// Block order is a stable sort on the block index, whatever the runs of equal blocks.
+        #[test]
+        fn block_order_is_a_stable_sort_by_block(runs in prop::collection::vec((0u32..8, 1usize..40), 1..60), jitter in 0u32..1024) {
+            let bucket: Vec<u32> = runs.iter().enumerate()
+                .flat_map(|(i, &(b, len))| (0..len).map(move |k| (b << BlockOrder::BLOCK_SHIFT) + (jitter + (i * 40 + k) as u32) % 1024))
+                .collect();
+            let mut expected = bucket.clone();
+            expected.sort_by_key(|&p| p >> BlockOrder::BLOCK_SHIFT);
+            let mut blocks = BlockOrder::new(8 << BlockOrder::BLOCK_SHIFT);
+            let mut sorted = bucket.clone();
+            blocks.order(&mut sorted);
+            if bucket.len() >= 64 {
+                prop_assert_eq!(sorted, expected);
+            } else {
+                prop_assert_eq!(sorted, bucket);
+            }
+        }
+    }
 
     #[test]
     fn the_scale_is_the_finest_that_cannot_overflow() {
@@ -484,3 +570,4 @@ mod scale_tests {
         assert_eq!(s.cells(super::START + 3 * s.orth), 3.0);
     }
 }
+
