@@ -7,10 +7,10 @@
 //! value array without allocating (O(Σ_k (d_k · dim)²)), and every solve is one numeric
 //! factorisation with the cached symbolic one.
 
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{MatMut, Side};
+use faer::{Conj, MatMut, Side};
 use thiserror::Error;
 
 use super::factors::{FactorError, Jacobian, MAX_FACTOR_KEYS};
@@ -48,7 +48,10 @@ pub struct LinearSystem {
     symbolic: SymbolicSparseColMat<usize>,
     /// Index of each diagonal entry in `values`.
     diag_pos: Vec<usize>,
-    llt_symbolic: SymbolicLlt<usize>,
+    /// faer's symbolic Cholesky of H (AMD ordering; simplicial or supernodal, faer's choice).
+    cholesky: SymbolicCholesky<usize>,
+    /// The numeric factor L of the last [`LinearSystem::factorize`], in `cholesky`'s layout.
+    l_values: Vec<f64>,
     /// H (upper triangle), in `symbolic`'s layout.
     h: Vec<f64>,
     /// g = Jᵀ Ω e.
@@ -147,7 +150,8 @@ impl LinearSystem {
         }
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let llt_symbolic = SymbolicLlt::try_new(symbolic.as_ref(), Side::Upper).map_err(|e| SolveError::Faer(format!("{e:?}")))?;
+        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Upper, Default::default(), Default::default())
+            .map_err(|e| SolveError::Faer(format!("{e:?}")))?;
         Ok(Self {
             generation: graph.generation(),
             fixed,
@@ -158,7 +162,8 @@ impl LinearSystem {
             block_rowoff,
             symbolic,
             diag_pos,
-            llt_symbolic,
+            l_values: vec![0.0; cholesky.len_val()],
+            cholesky,
             h: vec![0.0; nnz],
             g: vec![0.0; n],
             scratch: vec![0.0; nnz],
@@ -257,8 +262,9 @@ impl LinearSystem {
         Ok(chi2)
     }
 
-    /// Numeric Cholesky of `H + λ I` with the cached symbolic factorisation.
-    pub fn factorize(&mut self, lambda: f64) -> Result<Llt<usize, f64>, SolveError> {
+    /// Numeric Cholesky of `H + λ I` with the cached symbolic factorisation, kept for
+    /// [`LinearSystem::factor`] and the solves (the same faer calls as its high-level `Llt`).
+    pub fn factorize(&mut self, lambda: f64) -> Result<(), SolveError> {
         self.scratch.copy_from_slice(&self.h);
         if lambda != 0.0 {
             for &p in &self.diag_pos {
@@ -266,18 +272,40 @@ impl LinearSystem {
             }
         }
         let mat = SparseColMatRef::new(self.symbolic.as_ref(), &self.scratch);
-        Llt::try_new_with_symbolic(self.llt_symbolic.clone(), mat, Side::Upper).map_err(|e| match e {
-            faer::sparse::linalg::LltError::Numeric(_) => SolveError::NotPositiveDefinite,
-            other => SolveError::Faer(format!("{other:?}")),
-        })
+        let par = faer::get_global_parallelism();
+        let mut stack = MemBuffer::try_new(self.cholesky.factorize_numeric_llt_scratch::<f64>(par, Default::default()))
+            .map_err(|e| SolveError::Faer(format!("{e:?}")))?;
+        self.l_values.fill(0.0);
+        self.cholesky
+            .factorize_numeric_llt(&mut self.l_values, mat, Side::Upper, Default::default(), par, MemStack::new(&mut stack), Default::default())
+            .map(|_| ())
+            // The only error here is a non-positive pivot.
+            .map_err(|_| SolveError::NotPositiveDefinite)
+    }
+
+    /// The factor of the last successful [`LinearSystem::factorize`].
+    pub fn factor(&self) -> LltRef<'_, usize, f64> {
+        LltRef::new(&self.cholesky, &self.l_values)
+    }
+
+    /// The factor's symbolic structure and values (faer's layout for it), as [`Self::factor`].
+    pub fn factor_parts(&self) -> (&SymbolicCholesky<usize>, &[f64]) {
+        (&self.cholesky, &self.l_values)
     }
 
     /// Solves `(H + λ I) δ = −g` into `delta` (length [`LinearSystem::dim`]).
     pub fn solve_step(&mut self, lambda: f64, delta: &mut Vec<f64>) -> Result<(), SolveError> {
-        let llt = self.factorize(lambda)?;
+        self.factorize(lambda)?;
         delta.clear();
         delta.extend(self.g.iter().map(|v| -v));
-        llt.solve_in_place(MatMut::from_column_major_slice_mut(delta.as_mut_slice(), self.n, 1));
+        let par = faer::get_global_parallelism();
+        let mut stack = MemBuffer::try_new(self.cholesky.solve_in_place_scratch::<f64>(1, par)).map_err(|e| SolveError::Faer(format!("{e:?}")))?;
+        self.factor().solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(delta.as_mut_slice(), self.n, 1),
+            par,
+            MemStack::new(&mut stack),
+        );
         if delta.iter().any(|v| !v.is_finite()) {
             return Err(SolveError::NotPositiveDefinite);
         }

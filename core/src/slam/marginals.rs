@@ -1,23 +1,25 @@
 //! Marginal covariances at the current linearisation (notes §1): the block of `H⁻¹`
-//! (H = JᵀΩJ over the free variables) for a variable, obtained without a selected inverse by
-//! solving `H X = E` for the variable's unit columns `E` with the sparse Cholesky factor.
+//! (H = JᵀΩJ over the free variables) for a variable, without a selected inverse.
 //!
-//! Cost: one numeric factorisation, then O(nnz(L)) per right-hand-side column. Covariances are
-//! in the variable's tangent (poses: body frame, ξ = (δt, δφ)); fixed variables have zero
-//! covariance (they are the gauge anchor).
+//! With faer's fill-reducing permutation P and factor P H Pᵀ = L Lᵀ,
+//! `H⁻¹ = Pᵀ L⁻ᵀ L⁻¹ P`, so the block of the variable with columns c..c+d is the Gram matrix
+//! `Σ_ab = y_aᵀ y_b` of `y_a = L⁻¹ P e_(c+a)`: forward solves only. And `L⁻¹` applied to a unit
+//! vector is nonzero only on the elimination-tree path from its column to the root, so each
+//! forward solve visits only the (super)nodes of that path, not all of L (Gilbert–Peierls
+//! reach). faer's simplicial factor is the special case of one-column nodes.
+//!
+//! Cost: one numeric factorisation, then per variable O(d · Σ over its path of the nodes'
+//! entries), typically far below the O(d · nnz(L)) of a full solve. Covariances are in the
+//! variable's tangent (poses: body frame, ξ = (δt, δφ)); fixed variables have zero covariance
+//! (they are the gauge anchor). Symmetric by construction.
 
-use faer::MatMut;
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::Llt;
+use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
 use nalgebra::DMatrix;
 
 use super::factors::FactorError;
 use super::graph::FactorGraph;
 use super::linear_system::{LinearSystem, SolveError};
 use super::values::{Values, VarId};
-
-/// Right-hand sides solved at once (bounds memory at n × 64 doubles).
-const RHS_CHUNK: usize = 64;
 
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum MarginalError {
@@ -27,11 +29,26 @@ pub enum MarginalError {
     Solve(#[from] SolveError),
 }
 
+/// One node of the factor: columns `start..start + size` of L (one column when simplicial, a
+/// supernode otherwise), their rows below the node (`pattern`, in the permuted order) and the
+/// values, column-major `(size + pattern.len()) × size` (the lower-triangular top block, then the
+/// pattern rows).
+#[derive(Clone, Copy)]
+struct Node<'a> {
+    start: usize,
+    size: usize,
+    pattern: &'a [usize],
+    values: &'a [f64],
+}
+
 /// The factorised information matrix of a problem, ready for covariance queries.
 pub struct Marginals {
     system: LinearSystem,
-    llt: Llt<usize, f64>,
     dims: Vec<usize>,
+    /// Per permuted column, its node.
+    node_of: Vec<usize>,
+    /// Per node, its parent in the elimination tree (`usize::MAX` at a root).
+    parent: Vec<usize>,
 }
 
 impl core::fmt::Debug for Marginals {
@@ -45,9 +62,57 @@ impl Marginals {
     pub fn new(graph: &FactorGraph, values: &Values) -> Result<Self, MarginalError> {
         let mut system = LinearSystem::new(graph, values)?;
         system.linearize(graph, values)?;
-        let llt = system.factorize(0.0)?;
+        system.factorize(0.0)?;
         let dims = values.iter().map(|(_, v)| v.dim()).collect();
-        Ok(Self { system, llt, dims })
+        let mut m = Self { system, dims, node_of: Vec::new(), parent: Vec::new() };
+        let count = m.node_count();
+        let mut node_of = vec![0; m.system.dim()];
+        let mut parent = vec![usize::MAX; count];
+        for s in 0..count {
+            let node = m.node(s);
+            node_of[node.start..node.start + node.size].fill(s);
+        }
+        for (s, p) in parent.iter_mut().enumerate() {
+            // The parent holds the node's first pattern row (patterns list the rows above in
+            // the tree, so their smallest belongs to the parent).
+            if let Some(&row) = m.node(s).pattern.iter().min() {
+                *p = node_of[row];
+            }
+        }
+        (m.node_of, m.parent) = (node_of, parent);
+        Ok(m)
+    }
+
+    /// Whether faer chose its supernodal factor (tests cover both layouts).
+    #[cfg(test)]
+    fn is_supernodal(&self) -> bool {
+        matches!(self.system.factor_parts().0.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+
+    fn node_count(&self) -> usize {
+        match self.system.factor_parts().0.raw() {
+            SymbolicCholeskyRaw::Simplicial(s) => s.ncols(),
+            SymbolicCholeskyRaw::Supernodal(s) => s.n_supernodes(),
+        }
+    }
+
+    fn node(&self, s: usize) -> Node<'_> {
+        let (symbolic, values) = self.system.factor_parts();
+        match symbolic.raw() {
+            SymbolicCholeskyRaw::Simplicial(sym) => {
+                // Column s: the diagonal first, then the rows below it.
+                let l = sym.factor();
+                let range = l.col_ptr()[s]..l.col_ptr()[s + 1];
+                Node { start: s, size: 1, pattern: &l.row_idx()[range.start + 1..range.end], values: &values[range] }
+            }
+            SymbolicCholeskyRaw::Supernodal(sym) => {
+                let (start, end) = (sym.supernode_begin()[s], sym.supernode_end()[s]);
+                let rows = sym.col_ptr_for_row_idx()[s];
+                let pattern = &sym.row_idx()[rows..rows + sym.nnz_per_super()[s]];
+                let vals = sym.col_ptr_for_val()[s]..sym.col_ptr_for_val()[s + 1];
+                Node { start, size: end - start, pattern, values: &values[vals] }
+            }
+        }
     }
 
     /// The information matrix as dense (small problems and tests only).
@@ -63,41 +128,86 @@ impl Marginals {
     /// Marginal covariances of several variables (each its own d×d block).
     pub fn covariances(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, MarginalError> {
         let n = self.system.dim();
+        let inv = self.system.factor_parts().0.perm().map(|p| p.arrays().1);
+        let max_d = self.dims.iter().copied().max().unwrap_or(0);
+        // Workspace: max_d right-hand sides of length n, zero outside the current path.
+        let mut x = vec![0.0; n * max_d];
+        let mut on_path = vec![false; self.parent.len()];
+        let mut path = Vec::new();
         let mut out = Vec::with_capacity(ids.len());
         for id in ids {
             let d = *self.dims.get(id.0).ok_or(SolveError::UnknownVariable(*id))?;
-            out.push(DMatrix::zeros(d, d));
-        }
-        // Columns to solve: (output index, column in H, local column).
-        let mut cols: Vec<(usize, usize, usize)> = Vec::new();
-        for (k, id) in ids.iter().enumerate() {
-            if let Some(c) = self.system.column_of(*id) {
-                for j in 0..self.dims[id.0] {
-                    cols.push((k, c, j));
+            let mut cov = DMatrix::zeros(d, d);
+            let Some(c) = self.system.column_of(*id) else {
+                out.push(cov);
+                continue;
+            };
+            // y_a = L⁻¹ P e_(c+a): the unit entry sits at the permuted position of c + a.
+            path.clear();
+            for a in 0..d {
+                let k = inv.map_or(c + a, |inv| inv[c + a]);
+                x[a * n + k] = 1.0;
+                let mut s = self.node_of[k];
+                while s != usize::MAX && !on_path[s] {
+                    on_path[s] = true;
+                    path.push(s);
+                    s = self.parent[s];
                 }
             }
-        }
-        let mut rhs = Vec::new();
-        for chunk in cols.chunks(RHS_CHUNK) {
-            rhs.clear();
-            rhs.resize(n * chunk.len(), 0.0);
-            for (m, &(_, c, j)) in chunk.iter().enumerate() {
-                rhs[m * n + c + j] = 1.0;
-            }
-            self.llt.solve_in_place(MatMut::from_column_major_slice_mut(rhs.as_mut_slice(), n, chunk.len()));
-            for (m, &(k, c, j)) in chunk.iter().enumerate() {
-                let d = out[k].nrows();
-                for i in 0..d {
-                    out[k][(i, j)] = rhs[m * n + c + i];
+            // Children before parents: node indices are a topological order of the tree.
+            path.sort_unstable();
+            for &s in &path {
+                let node = self.node(s);
+                let rows = node.size + node.pattern.len();
+                for y in x.chunks_exact_mut(n).take(d) {
+                    forward_node(&node, rows, y);
                 }
             }
-        }
-        // Symmetrise (the solve is symmetric to rounding).
-        for m in &mut out {
-            let t = m.transpose();
-            *m = (&*m + t) * 0.5;
+            for &s in &path {
+                let node = self.node(s);
+                for r in node.start..node.start + node.size {
+                    for a in 0..d {
+                        let xa = x[a * n + r];
+                        if xa != 0.0 {
+                            for b in 0..=a {
+                                cov[(a, b)] += xa * x[b * n + r];
+                            }
+                        }
+                    }
+                    for a in 0..d {
+                        x[a * n + r] = 0.0;
+                    }
+                }
+                on_path[s] = false;
+            }
+            for a in 0..d {
+                for b in 0..a {
+                    cov[(b, a)] = cov[(a, b)];
+                }
+            }
+            out.push(cov);
         }
         Ok(out)
+    }
+}
+
+/// One node's part of the forward solve `L y = b`: solves the node's lower-triangular top block
+/// for its rows of `y`, then subtracts their contribution from the pattern rows.
+fn forward_node(node: &Node, rows: usize, y: &mut [f64]) {
+    let (start, size) = (node.start, node.size);
+    for j in 0..size {
+        let col = &node.values[j * rows..(j + 1) * rows];
+        let yj = y[start + j] / col[j];
+        y[start + j] = yj;
+        if yj == 0.0 {
+            continue;
+        }
+        for i in j + 1..size {
+            y[start + i] -= col[i] * yj;
+        }
+        for (p, &row) in node.pattern.iter().enumerate() {
+            y[row] -= col[size + p] * yj;
+        }
     }
 }
 
@@ -110,7 +220,8 @@ mod tests {
     use crate::slam::values::Variable;
     use nalgebra::{Matrix6, Vector3};
 
-    fn assert_matches_dense_inverse(graph: &FactorGraph, values: &Values, ids: &[VarId]) {
+    /// Checks every block against the dense inverse; returns whether the factor was supernodal.
+    fn assert_matches_dense_inverse(graph: &FactorGraph, values: &Values, ids: &[VarId]) -> bool {
         let marginals = Marginals::new(graph, values).unwrap();
         let h = marginals.dense_information();
         let inv = h.clone().try_inverse().unwrap();
@@ -133,6 +244,7 @@ mod tests {
             let rel = (cov - block).amax() / block.amax();
             assert!(rel < 1e-9, "{id:?}: relative difference {rel:e}");
         }
+        marginals.is_supernodal()
     }
 
     #[test]
@@ -149,7 +261,7 @@ mod tests {
         }
         graph.add(BetweenSe2::new(ids[0], ids[5], Se2::new(3.0, 2.0, 1.4), noise)).unwrap();
         values.set_fixed(ids[0], true);
-        assert_matches_dense_inverse(&graph, &values, &ids);
+        assert!(!assert_matches_dense_inverse(&graph, &values, &ids), "simplicial factor");
     }
 
     #[test]
@@ -174,9 +286,41 @@ mod tests {
             }
         }
         let all: Vec<VarId> = poses.iter().chain(&lms).copied().collect();
-        assert_matches_dense_inverse(&graph, &values, &all);
+        assert!(!assert_matches_dense_inverse(&graph, &values, &all), "simplicial factor");
         // Anchored instead of prior: the first pose is fixed, its covariance zero.
         values.set_fixed(poses[0], true);
-        assert_matches_dense_inverse(&graph, &values, &all);
+        assert!(!assert_matches_dense_inverse(&graph, &values, &all), "simplicial factor");
+    }
+
+    #[test]
+    fn supernodal_factor_matches_dense_inverse() {
+        // 40 SE(3) poses on a chain with a loop, 30 landmarks each seen from most poses: dense
+        // enough that faer factorises supernodally (asserted), with several supernodes.
+        let mut values = Values::new();
+        let mut graph = FactorGraph::new();
+        let a = Matrix6::from_fn(|i, j| ((i * 7 + j) as f64).cos());
+        let noise6 = GaussianNoise::from_information(&(a * a.transpose() + Matrix6::identity() * 3.0)).unwrap();
+        let noise3 = GaussianNoise::isotropic(3, 0.3).unwrap();
+        let poses: Vec<VarId> =
+            (0..40).map(|k| values.push(Variable::Se3(se3([0.3 * k as f64, (0.2 * k as f64).sin(), 0.0], [0.0, 0.05, 0.1 * k as f64])))).collect();
+        let lms: Vec<VarId> =
+            (0..30).map(|j| values.push(Variable::Point3(Vector3::new(0.4 * j as f64, 3.0 + (j % 3) as f64, 1.0)))).collect();
+        graph.add(PriorSe3::new(poses[0], se3([0.0; 3], [0.0; 3]), noise6)).unwrap();
+        for k in 0..39 {
+            graph.add(BetweenSe3::new(poses[k], poses[k + 1], se3([0.3, 0.1, 0.0], [0.0, 0.0, 0.1]), noise6)).unwrap();
+        }
+        graph.add(BetweenSe3::new(poses[0], poses[39], se3([11.0, 0.5, 0.0], [0.0, 0.0, 3.9]), noise6)).unwrap();
+        for (k, &p) in poses.iter().enumerate() {
+            for (j, &l) in lms.iter().enumerate() {
+                if (k * 7 + j * 3) % 5 != 0 {
+                    let z = Vector3::new(1.0 + 0.1 * j as f64, 2.0 - 0.05 * k as f64, 0.5);
+                    graph.add(PointObservation3::new(p, l, z, noise3)).unwrap();
+                }
+            }
+        }
+        let all: Vec<VarId> = poses.iter().chain(&lms).copied().collect();
+        assert!(assert_matches_dense_inverse(&graph, &values, &all), "supernodal factor");
+        let m = Marginals::new(&graph, &values).unwrap();
+        assert!(m.node_count() > 1, "several supernodes: {}", m.node_count());
     }
 }
