@@ -229,8 +229,8 @@ impl GraphSlam {
     }
 
     /// Landmarks last seen at keyframe `since_keyframe` or later, by increasing id, with their
-    /// exact marginal covariances (one factorisation, 3 solves per landmark: cheaper than
-    /// [`SlamBackend::landmarks`] when few landmarks are recent).
+    /// exact marginal covariances (one factorisation, then 3 sparse forward solves per landmark,
+    /// [`Marginals::covariances`]: cheaper than [`SlamBackend::landmarks`] when few are recent).
     pub fn recent_landmarks(&self, since_keyframe: usize) -> Result<Vec<LandmarkEstimate>, SlamError> {
         let recent: Vec<(u64, VarId)> =
             self.landmarks.iter().filter(|(_, s)| s.last_seen_keyframe >= since_keyframe).map(|(&id, s)| (id, s.var)).collect();
