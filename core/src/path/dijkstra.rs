@@ -570,4 +570,3 @@ mod unit_tests {
         assert_eq!(s.cells(super::START + 3 * s.orth), 3.0);
     }
 }
-

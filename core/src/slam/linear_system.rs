@@ -277,7 +277,15 @@ impl LinearSystem {
             .map_err(|e| SolveError::Faer(format!("{e:?}")))?;
         self.l_values.fill(0.0);
         self.cholesky
-            .factorize_numeric_llt(&mut self.l_values, mat, Side::Upper, Default::default(), par, MemStack::new(&mut stack), Default::default())
+            .factorize_numeric_llt(
+                &mut self.l_values,
+                mat,
+                Side::Upper,
+                Default::default(),
+                par,
+                MemStack::new(&mut stack),
+                Default::default(),
+            )
             .map(|_| ())
             // The only error here is a non-positive pivot.
             .map_err(|_| SolveError::NotPositiveDefinite)
@@ -299,7 +307,8 @@ impl LinearSystem {
         delta.clear();
         delta.extend(self.g.iter().map(|v| -v));
         let par = faer::get_global_parallelism();
-        let mut stack = MemBuffer::try_new(self.cholesky.solve_in_place_scratch::<f64>(1, par)).map_err(|e| SolveError::Faer(format!("{e:?}")))?;
+        let mut stack =
+            MemBuffer::try_new(self.cholesky.solve_in_place_scratch::<f64>(1, par)).map_err(|e| SolveError::Faer(format!("{e:?}")))?;
         self.factor().solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(delta.as_mut_slice(), self.n, 1),

@@ -301,8 +301,9 @@ mod tests {
         let a = Matrix6::from_fn(|i, j| ((i * 7 + j) as f64).cos());
         let noise6 = GaussianNoise::from_information(&(a * a.transpose() + Matrix6::identity() * 3.0)).unwrap();
         let noise3 = GaussianNoise::isotropic(3, 0.3).unwrap();
-        let poses: Vec<VarId> =
-            (0..40).map(|k| values.push(Variable::Se3(se3([0.3 * k as f64, (0.2 * k as f64).sin(), 0.0], [0.0, 0.05, 0.1 * k as f64])))).collect();
+        let poses: Vec<VarId> = (0..40)
+            .map(|k| values.push(Variable::Se3(se3([0.3 * k as f64, (0.2 * k as f64).sin(), 0.0], [0.0, 0.05, 0.1 * k as f64]))))
+            .collect();
         let lms: Vec<VarId> =
             (0..30).map(|j| values.push(Variable::Point3(Vector3::new(0.4 * j as f64, 3.0 + (j % 3) as f64, 1.0)))).collect();
         graph.add(PriorSe3::new(poses[0], se3([0.0; 3], [0.0; 3]), noise6)).unwrap();
