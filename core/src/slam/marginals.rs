@@ -216,7 +216,7 @@ mod tests {
     use super::*;
     use crate::slam::factors::fixtures::se3;
     use crate::slam::factors::{BetweenSe2, BetweenSe3, GaussianNoise, PointObservation3, PriorSe3};
-    use crate::slam::lie::Se2;
+    use crate::slam::lie::{Se2, Se3};
     use crate::slam::values::Variable;
     use nalgebra::{Matrix6, Vector3};
 
@@ -264,27 +264,44 @@ mod tests {
         assert!(!assert_matches_dense_inverse(&graph, &values, &ids), "simplicial factor");
     }
 
-    #[test]
-    fn se3_poses_and_landmarks_match_dense_inverse() {
+    /// SE(3) poses on a prior-anchored odometry chain, point landmarks, and an observation of
+    /// landmark j from pose k wherever `sees(k, j)`; `info6` is the odometry and prior information.
+    fn pose_chain_with_landmarks(
+        poses: &[Se3],
+        landmarks: &[Vector3<f64>],
+        info6: Matrix6<f64>,
+        sigma_point_m: f64,
+        sees: impl Fn(usize, usize) -> bool,
+    ) -> (FactorGraph, Values, Vec<VarId>, Vec<VarId>) {
         let mut values = Values::new();
         let mut graph = FactorGraph::new();
-        let a = Matrix6::from_fn(|i, j| ((i * 5 + j) as f64).sin());
-        let noise6 = GaussianNoise::from_information(&(a * a.transpose() + Matrix6::identity() * 5.0)).unwrap();
-        let noise3 = GaussianNoise::isotropic(3, 0.2).unwrap();
-        let poses: Vec<VarId> = (0..4).map(|k| values.push(Variable::Se3(se3([k as f64, 0.2, 0.0], [0.0, 0.1, 0.3 * k as f64])))).collect();
-        let lms: Vec<VarId> = (0..3).map(|k| values.push(Variable::Point3(Vector3::new(k as f64, 3.0, 1.0)))).collect();
-        graph.add(PriorSe3::new(poses[0], se3([0.0; 3], [0.0; 3]), noise6)).unwrap();
-        for k in 0..3 {
-            graph.add(BetweenSe3::new(poses[k], poses[k + 1], se3([1.0, 0.0, 0.1], [0.0, 0.0, 0.3]), noise6)).unwrap();
+        let noise6 = GaussianNoise::from_information(&info6).unwrap();
+        let noise3 = GaussianNoise::isotropic(3, sigma_point_m).unwrap();
+        let pose_ids: Vec<VarId> = poses.iter().map(|&p| values.push(Variable::Se3(p))).collect();
+        let lm_ids: Vec<VarId> = landmarks.iter().map(|&l| values.push(Variable::Point3(l))).collect();
+        graph.add(PriorSe3::new(pose_ids[0], se3([0.0; 3], [0.0; 3]), noise6)).unwrap();
+        for k in 1..poses.len() {
+            let step = se3([1.0, 0.1 * k as f64, 0.1], [0.0, 0.0, 0.3]);
+            graph.add(BetweenSe3::new(pose_ids[k - 1], pose_ids[k], step, noise6)).unwrap();
         }
-        for (k, &p) in poses.iter().enumerate() {
-            for (j, &l) in lms.iter().enumerate() {
-                if (k + j) % 2 == 0 || k == 3 {
-                    let z = Vector3::new(1.0 + j as f64, 2.0, 0.5 * k as f64);
+        for (k, &p) in pose_ids.iter().enumerate() {
+            for (j, &l) in lm_ids.iter().enumerate() {
+                if sees(k, j) {
+                    let z = Vector3::new(1.0 + 0.1 * j as f64, 2.0 - 0.05 * k as f64, 0.5);
                     graph.add(PointObservation3::new(p, l, z, noise3)).unwrap();
                 }
             }
         }
+        (graph, values, pose_ids, lm_ids)
+    }
+
+    #[test]
+    fn se3_poses_and_landmarks_match_dense_inverse() {
+        let a = Matrix6::from_fn(|i, j| ((i * 5 + j) as f64).sin());
+        let poses: Vec<Se3> = (0..4).map(|k| se3([k as f64, 0.2, 0.0], [0.0, 0.1, 0.3 * k as f64])).collect();
+        let lms: Vec<Vector3<f64>> = (0..3).map(|k| Vector3::new(k as f64, 3.0, 1.0)).collect();
+        let info6 = a * a.transpose() + Matrix6::identity() * 5.0;
+        let (graph, mut values, poses, lms) = pose_chain_with_landmarks(&poses, &lms, info6, 0.2, |k, j| (k + j) % 2 == 0 || k == 3);
         let all: Vec<VarId> = poses.iter().chain(&lms).copied().collect();
         assert!(!assert_matches_dense_inverse(&graph, &values, &all), "simplicial factor");
         // Anchored instead of prior: the first pose is fixed, its covariance zero.
@@ -296,29 +313,13 @@ mod tests {
     fn supernodal_factor_matches_dense_inverse() {
         // 40 SE(3) poses on a chain with a loop, 30 landmarks each seen from most poses: dense
         // enough that faer factorises supernodally (asserted), with several supernodes.
-        let mut values = Values::new();
-        let mut graph = FactorGraph::new();
         let a = Matrix6::from_fn(|i, j| ((i * 7 + j) as f64).cos());
-        let noise6 = GaussianNoise::from_information(&(a * a.transpose() + Matrix6::identity() * 3.0)).unwrap();
-        let noise3 = GaussianNoise::isotropic(3, 0.3).unwrap();
-        let poses: Vec<VarId> = (0..40)
-            .map(|k| values.push(Variable::Se3(se3([0.3 * k as f64, (0.2 * k as f64).sin(), 0.0], [0.0, 0.05, 0.1 * k as f64]))))
-            .collect();
-        let lms: Vec<VarId> =
-            (0..30).map(|j| values.push(Variable::Point3(Vector3::new(0.4 * j as f64, 3.0 + (j % 3) as f64, 1.0)))).collect();
-        graph.add(PriorSe3::new(poses[0], se3([0.0; 3], [0.0; 3]), noise6)).unwrap();
-        for k in 0..39 {
-            graph.add(BetweenSe3::new(poses[k], poses[k + 1], se3([0.3, 0.1, 0.0], [0.0, 0.0, 0.1]), noise6)).unwrap();
-        }
+        let poses: Vec<Se3> = (0..40).map(|k| se3([0.3 * k as f64, (0.2 * k as f64).sin(), 0.0], [0.0, 0.05, 0.1 * k as f64])).collect();
+        let lms: Vec<Vector3<f64>> = (0..30).map(|j| Vector3::new(0.4 * j as f64, 3.0 + (j % 3) as f64, 1.0)).collect();
+        let info6 = a * a.transpose() + Matrix6::identity() * 3.0;
+        let (mut graph, values, poses, lms) = pose_chain_with_landmarks(&poses, &lms, info6, 0.3, |k, j| (k * 7 + j * 3) % 5 != 0);
+        let noise6 = GaussianNoise::from_information(&info6).unwrap();
         graph.add(BetweenSe3::new(poses[0], poses[39], se3([11.0, 0.5, 0.0], [0.0, 0.0, 3.9]), noise6)).unwrap();
-        for (k, &p) in poses.iter().enumerate() {
-            for (j, &l) in lms.iter().enumerate() {
-                if (k * 7 + j * 3) % 5 != 0 {
-                    let z = Vector3::new(1.0 + 0.1 * j as f64, 2.0 - 0.05 * k as f64, 0.5);
-                    graph.add(PointObservation3::new(p, l, z, noise3)).unwrap();
-                }
-            }
-        }
         let all: Vec<VarId> = poses.iter().chain(&lms).copied().collect();
         assert!(assert_matches_dense_inverse(&graph, &values, &all), "supernodal factor");
         let m = Marginals::new(&graph, &values).unwrap();
