@@ -263,7 +263,7 @@ impl LinearSystem {
     }
 
     /// Numeric Cholesky of `H + λ I` with the cached symbolic factorisation, kept for
-    /// [`LinearSystem::factor`] and the solves (the same faer calls as its high-level `Llt`).
+    /// [`LinearSystem::factor_parts`] and the solves (the same faer calls as its high-level `Llt`).
     pub fn factorize(&mut self, lambda: f64) -> Result<(), SolveError> {
         self.scratch.copy_from_slice(&self.h);
         if lambda != 0.0 {
@@ -292,11 +292,12 @@ impl LinearSystem {
     }
 
     /// The factor of the last successful [`LinearSystem::factorize`].
-    pub fn factor(&self) -> LltRef<'_, usize, f64> {
+    fn factor(&self) -> LltRef<'_, usize, f64> {
         LltRef::new(&self.cholesky, &self.l_values)
     }
 
-    /// The factor's symbolic structure and values (faer's layout for it), as [`Self::factor`].
+    /// The factor of the last successful [`LinearSystem::factorize`]: faer's symbolic structure
+    /// and the numeric values in its layout.
     pub fn factor_parts(&self) -> (&SymbolicCholesky<usize>, &[f64]) {
         (&self.cholesky, &self.l_values)
     }

@@ -158,9 +158,8 @@ impl Marginals {
             path.sort_unstable();
             for &s in &path {
                 let node = self.node(s);
-                let rows = node.size + node.pattern.len();
                 for y in x.chunks_exact_mut(n).take(d) {
-                    forward_node(&node, rows, y);
+                    forward_node(&node, y);
                 }
             }
             for &s in &path {
@@ -193,8 +192,9 @@ impl Marginals {
 
 /// One node's part of the forward solve `L y = b`: solves the node's lower-triangular top block
 /// for its rows of `y`, then subtracts their contribution from the pattern rows.
-fn forward_node(node: &Node, rows: usize, y: &mut [f64]) {
+fn forward_node(node: &Node, y: &mut [f64]) {
     let (start, size) = (node.start, node.size);
+    let rows = size + node.pattern.len();
     for j in 0..size {
         let col = &node.values[j * rows..(j + 1) * rows];
         let yj = y[start + j] / col[j];
