@@ -25,11 +25,11 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
     /// Print the default parameters (or validate and print a parameter file).
     Params(params_cmd::ParamsArgs),
     /// Rank the frontier candidates of a map and pick the next goal.
     Select(select_cmd::SelectArgs),
+    /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
     Traversability(traversability_cmd::TraversabilityArgs),
     /// Build a planning scene (map + landmarks) from a real DEM scaled to rover size.
     BuildAsset(asset_cmd::BuildAssetArgs),
@@ -56,8 +56,47 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", one_line(&e));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line, `a: b: c`, leaving out a cause whose text the message
+/// before it already ends with (library errors that print their source, as many do).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.is_empty() {
+            line = text;
+        } else if !line.ends_with(&text) {
+            line = format!("{line}: {text}");
+        }
+    }
+    line
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn one_line_drops_causes_the_message_already_holds() {
+        /// An error that prints its source, as `#[error("line 3: {0}")]` with `#[from]` does.
+        #[derive(Debug)]
+        struct Outer(std::io::Error);
+        impl std::fmt::Display for Outer {
+            fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "line 3: {}", self.0)
+            }
+        }
+        impl std::error::Error for Outer {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                Some(&self.0)
+            }
+        }
+        let e = anyhow::Error::new(Outer(std::io::Error::other("noise is bad"))).context("file.g2o");
+        assert_eq!(super::one_line(&e), "file.g2o: line 3: noise is bad");
+        let plain = anyhow::Error::new(std::io::Error::other("disk")).context("reading x");
+        assert_eq!(super::one_line(&plain), "reading x: disk");
     }
 }

@@ -4,8 +4,8 @@
 //! Input: a g2o file (2D or 3D poses, optionally with point landmarks: see
 //! [`fitslam_core::slam::g2o`]) or the
 //! Victoria Park text format (`ODOMETRY`/`LANDMARK`, read with GTSAM's `load2D` semantics),
-//! told apart by the first tag. Gauge: the first pose is fixed (g2o), or anchored by a prior
-//! (`--prior-sigma`, GTSAM). `time_ms` covers the optimisation only (not reading, not the
+//! told apart by the first tag. Gauge: the first pose is fixed unless the file's `FIX` lines fix
+//! some vertex (g2o), or anchored by a prior (`--prior-sigma`, GTSAM). `time_ms` covers the optimisation only (not reading, not the
 //! marginal). `last_marginal` is the covariance of the pose with the largest id, row-major, in
 //! our tangent order ξ = (δt, δφ), body frame.
 
@@ -55,8 +55,10 @@ pub struct OptimizeArgs {
     /// Print one JSON object: initial_chi2, final_chi2, iterations, time_ms, last_marginal.
     #[arg(long)]
     pub json: bool,
+    /// Optimisation method
     #[arg(long, value_enum, default_value_t = Method::Lm)]
     pub method: Method,
+    /// Most iterations (linearisations) before the run stops
     #[arg(long, default_value_t = 100)]
     pub max_iterations: usize,
     /// Stop when the relative χ² decrease of a step falls below this.

@@ -251,4 +251,38 @@ fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
     assert_clear_error(&run(&["optimize", "--g2o", input.to_str().unwrap()]), "after optimising χ² 0.01");
     let out = run(&["optimize", "--g2o", input.to_str().unwrap(), "--no-marginal", "--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // A singular information matrix: the reason once, after the line.
+    std::fs::write(&input, "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 0 0 0 0 0 0\n").unwrap();
+    let out = run(&["optimize", "--g2o", input.to_str().unwrap()]);
+    assert_clear_error(&out, "landmarks.g2o: line 3: information matrix: noise matrix is not positive definite (pivot 0)");
+    assert_eq!(String::from_utf8_lossy(&out.stderr).matches("not positive definite").count(), 1);
+}
+
+/// `fitslam --help` describes every subcommand with its own line (a doc comment attached to the
+/// wrong variant once described `traversability` under `params` and left it blank).
+#[test]
+fn help_describes_each_subcommand() {
+    let out = run(&["--help"]);
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    let line = |cmd: &str| {
+        help.lines()
+            .find(|l| l.trim_start().split_whitespace().next() == Some(cmd))
+            .unwrap_or_else(|| panic!("{cmd} missing: {help}"))
+            .to_owned()
+    };
+    for (cmd, words) in [
+        ("params", "default parameters"),
+        ("select", "next goal"),
+        ("traversability", "traversability map"),
+        ("build-asset", "DEM"),
+        ("optimize", "pose graph"),
+        ("explore", "mission"),
+        ("compare", "strategy"),
+    ] {
+        let l = line(cmd);
+        assert!(l.contains(words), "{cmd}: {l:?}");
+    }
+    assert!(!line("params").contains("cloud"), "params describes another command: {help}");
 }

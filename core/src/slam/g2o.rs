@@ -365,7 +365,8 @@ fn write_upper<const D: usize>(s: &mut String, m: &SMatrix<f64, D, D>) {
 }
 
 impl G2oFile {
-    /// Builds the factor graph and initial values, then applies `gauge` (and `FIX` lines).
+    /// Builds the factor graph and initial values, then applies `FIX` lines and `gauge`
+    /// ([`Gauge::FixFirst`] only when no `FIX` line fixes a vertex, as g2o does).
     /// `se2_residual` chooses the 2D edge error (see [`Se2Residual`]; 3D edges use `Log`).
     pub fn to_problem(&self, gauge: Gauge, se2_residual: Se2Residual) -> Result<Problem, G2oError> {
         // Initial values: vertices, then GTSAM-style chaining for edges with missing vertices.
@@ -443,6 +444,8 @@ impl G2oFile {
                 None => return Err(G2oError::UnknownFixed(*id)),
             }
         }
+        // g2o fixes the first pose only when the file fixes nothing itself.
+        let gauge = if gauge == Gauge::FixFirst && !self.fixed.is_empty() { Gauge::Free } else { gauge };
         problem.apply_gauge(gauge)?;
         Ok(problem)
     }
@@ -491,6 +494,21 @@ mod tests {
         let expected = 100.0 * e[0] * e[0] + 100.0 * e[1] * e[1] + 400.0 * e[2] * e[2];
         assert!((p.graph.chi2(&p.values).unwrap() - expected).abs() < 1e-12);
         assert!(p.values.is_fixed(VarId(0)) && !p.values.is_fixed(VarId(1)));
+    }
+
+    #[test]
+    fn fix_lines_replace_the_first_pose_gauge() {
+        // FIX 1 anchors the graph: pose 0 stays free and moves to satisfy the edge from pose 1.
+        let text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nFIX 1\nEDGE_SE2 0 1 1.2 0 0.1 1 0 0 1 0 1\n";
+        let f = read_g2o(text.as_bytes()).unwrap();
+        let mut p = f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
+        assert!(!p.values.is_fixed(VarId(0)) && p.values.is_fixed(VarId(1)));
+        LevenbergMarquardt::new(OptimizerParams::default()).optimize(&p.graph, &mut p.values).unwrap();
+        assert!(p.graph.chi2(&p.values).unwrap() < 1e-18);
+        assert_eq!(p.values.se2(VarId(1)).unwrap(), Se2::new(1.0, 0.0, 0.0));
+        // Without FIX lines the first pose is the gauge.
+        let q = read_g2o(text.replace("FIX 1\n", "").as_bytes()).unwrap().to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
+        assert!(q.values.is_fixed(VarId(0)) && !q.values.is_fixed(VarId(1)));
     }
 
     #[test]

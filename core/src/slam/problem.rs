@@ -14,7 +14,8 @@ use super::values::{Values, VarId, Variable};
 /// How the global pose of the problem is anchored.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub enum Gauge {
-    /// Fix the pose with the smallest id at its initial value (g2o's convention; default).
+    /// Fix the pose with the smallest id at its initial value (g2o's convention; default). A g2o
+    /// file's `FIX` lines replace it ([`super::g2o::G2oFile::to_problem`]).
     #[default]
     FixFirst,
     /// Add a prior at its initial value on the pose with the smallest id, with standard deviation
