@@ -174,9 +174,7 @@ pub fn load_setup(world: &Path, params: Option<&Path>, sim_params: Option<&Path>
         std::fs::read(dir.join(name)).map_err(|e| format!("cannot read {}: {e}", dir.join(name).display()))
     })
     .with_context(|| world_name.clone())?;
-    if world.explorable_count == 0 {
-        bail!("{world_name}: the start is not on ground-truth traversable terrain");
-    }
+    world.check_start(params.robot.radius_m).map_err(|e| anyhow::anyhow!("{world_name}: {e}"))?;
     Ok(Setup { world_name, world, params, mission_params })
 }
 

@@ -268,7 +268,7 @@ fn help_describes_each_subcommand() {
     let help = String::from_utf8_lossy(&out.stdout);
     let line = |cmd: &str| {
         help.lines()
-            .find(|l| l.trim_start().split_whitespace().next() == Some(cmd))
+            .find(|l| l.split_whitespace().next() == Some(cmd))
             .unwrap_or_else(|| panic!("{cmd} missing: {help}"))
             .to_owned()
     };
@@ -285,4 +285,19 @@ fn help_describes_each_subcommand() {
         assert!(l.contains(words), "{cmd}: {l:?}");
     }
     assert!(!line("params").contains("cloud"), "params describes another command: {help}");
+}
+
+/// A world whose start the robot does not fit: one line naming the file, the start and the
+/// robot radius, before any mission runs.
+#[test]
+fn explore_refuses_a_start_the_robot_does_not_fit() {
+    let tiny = std::fs::read_to_string(asset("worlds/tiny_test.toml")).unwrap();
+    let dir = scratch("start");
+    let world = dir.join("tight.toml");
+    std::fs::write(&world, tiny.replace("start = [1.0, 1.0, 0.0]", "start = [2.3, 2.6, 0.0]")).unwrap();
+    let out_dir = dir.join("out");
+    let out = run(&["explore", "--world", world.to_str().unwrap(), "--localisation", "ground-truth", "--out", out_dir.to_str().unwrap()]);
+    assert_clear_error(&out, "tight.toml: start (2.30, 2.60): untraversable ground");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("robot radius 0.25 m"));
+    assert!(!out_dir.join("metrics.csv").exists());
 }

@@ -82,9 +82,7 @@ impl BuiltInWorld {
                 .ok_or_else(|| format!("not embedded in the studio: {name}"))
         })
         .map_err(|e| format!("{}: {e}", self.name))?;
-        if world.explorable_count == 0 {
-            return Err(format!("{}: the start is not on traversable ground", self.name));
-        }
+        world.check_start(params.robot.radius_m).map_err(|e| format!("{}: {e}", self.name))?;
         Ok(world)
     }
 }

@@ -1,7 +1,7 @@
 //! The ROS `nav_msgs/OccupancyGrid` convention: 0 free, 100 lethal, −1 unknown (values in
 //! between are occupancy probabilities in percent; at or above [`LETHAL_THRESHOLD`] is lethal).
 
-use super::Grid;
+use super::{Grid, GridGeometry};
 
 /// A traversable (free) cell.
 pub const FREE: i8 = 0;
@@ -41,27 +41,35 @@ impl CellClass {
 /// many changed. Used to clear a robot's footprint — the ground it stands on is traversable, as
 /// costmaps' footprint clearing assumes. O(radius² / resolution²).
 pub fn fill_disc(grid: &mut OccupancyGrid, x_m: f64, y_m: f64, radius_m: f64, value: i8) -> usize {
-    let g = grid.geometry;
-    if !(radius_m >= 0.0 && x_m.is_finite() && y_m.is_finite()) || g.is_empty() {
-        return 0;
-    }
-    // The cell range covering the disc, clipped to the grid (in f64: no overflow far away).
-    let span = |lo_m: f64, origin_m: f64, n: usize| ((lo_m - origin_m) / g.resolution_m).floor().clamp(0.0, n as f64) as usize;
-    let (c0, c1) = (span(x_m - radius_m, g.origin_x_m, g.width), span(x_m + radius_m, g.origin_x_m, g.width - 1));
-    let (r0, r1) = (span(y_m - radius_m, g.origin_y_m, g.height), span(y_m + radius_m, g.origin_y_m, g.height - 1));
     let mut changed = 0;
-    for row in r0..=r1.min(g.height - 1) {
-        for col in c0..=c1 {
-            let c = super::Cell::new(col as i32, row as i32);
-            let (cx, cy) = g.center_of(c);
-            let i = row * g.width + col;
-            if (cx - x_m).hypot(cy - y_m) <= radius_m && grid.data[i] != value {
-                grid.data[i] = value;
-                changed += 1;
-            }
+    for (i, _) in cells_in_disc(&grid.geometry, x_m, y_m, radius_m) {
+        if grid.data[i] != value {
+            grid.data[i] = value;
+            changed += 1;
         }
     }
     changed
+}
+
+/// The flat indices of the grid cells whose centre lies within `radius_m` of (`x_m`, `y_m`), each
+/// with that distance in metres, row by row. None for a negative or NaN radius or a non-finite
+/// centre. O(radius² / resolution²).
+pub fn cells_in_disc(g: &GridGeometry, x_m: f64, y_m: f64, radius_m: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+    let valid = radius_m >= 0.0 && x_m.is_finite() && y_m.is_finite() && !g.is_empty();
+    // The cell range covering the disc, clipped to the grid (in f64: no overflow far away).
+    let span = |lo_m: f64, origin_m: f64, n: usize| ((lo_m - origin_m) / g.resolution_m).floor().clamp(0.0, n as f64) as usize;
+    let (cols, rows) = if valid {
+        let (c0, c1) = (span(x_m - radius_m, g.origin_x_m, g.width), span(x_m + radius_m, g.origin_x_m, g.width - 1));
+        let (r0, r1) = (span(y_m - radius_m, g.origin_y_m, g.height), span(y_m + radius_m, g.origin_y_m, g.height - 1));
+        (c0..c1 + 1, r0..r1.min(g.height - 1) + 1)
+    } else {
+        (0..0, 0..0)
+    };
+    rows.flat_map(move |row| cols.clone().map(move |col| (col, row))).filter_map(move |(col, row)| {
+        let (cx, cy) = g.center_of(super::Cell::new(col as i32, row as i32));
+        let d = (cx - x_m).hypot(cy - y_m);
+        (d <= radius_m).then_some((row * g.width + col, d))
+    })
 }
 
 #[cfg(test)]

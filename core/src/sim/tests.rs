@@ -124,6 +124,22 @@ fn tiny_mission(strategy: Strategy, seed: u64, safety_stop: bool, time_limit_s: 
 }
 
 #[test]
+fn a_start_the_robot_does_not_fit_is_refused() {
+    // 0.2 m west of the box at x = 2.5, whose steps make the ground next to it untraversable:
+    // inside the robot's 0.25 m radius.
+    let params = Params::default();
+    let spec = WorldSpec::from_toml(&TINY.replace("start = [1.0, 1.0, 0.0]", "start = [2.3, 2.6, 0.0]"), "w.toml").unwrap();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
+    let d = world.nearest_gt_lethal_m(2.3, 2.6, 0.25).unwrap();
+    assert!(d > 0.0 && d <= 0.15, "{d}");
+    let e = world.check_start(0.25).unwrap_err();
+    assert!(e.contains("start (2.30, 2.60)") && e.contains("within the robot radius 0.25 m"), "{e}");
+    // A robot smaller than the gap fits; the shipped tiny world's start fits the default robot.
+    assert!(world.check_start(0.5 * d).is_ok());
+    assert_eq!(tiny_world(&params).check_start(params.robot.radius_m), Ok(()));
+}
+
+#[test]
 fn a_tiny_mission_explores_to_completion_without_entering_untraversable_terrain() {
     let mut m = tiny_mission(Strategy::Fit, 1, true, 300.0);
     let s = m.run();

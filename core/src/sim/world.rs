@@ -476,6 +476,29 @@ impl World {
         })
     }
 
+    /// Distance from (x, y) to the nearest centre of a ground-truth untraversable cell within
+    /// `radius_m`, metres, if any (cells of the map only).
+    pub fn nearest_gt_lethal_m(&self, x_m: f64, y_m: f64, radius_m: f64) -> Option<f64> {
+        let occ = &self.gt_occupancy;
+        crate::grid::cells_in_disc(&occ.geometry, x_m, y_m, radius_m).filter(|&(i, _)| occ.data[i] != FREE).map(|(_, d)| d).reduce(f64::min)
+    }
+
+    /// Whether a robot of `robot_radius_m` can start here: its whole footprint on ground-truth
+    /// traversable ground. Otherwise its planner has no free cell to leave from, and a mission
+    /// would end at once (the loaders of the tool and the studio refuse such worlds).
+    pub fn check_start(&self, robot_radius_m: f64) -> Result<(), String> {
+        let (x, y) = (self.start.x_m, self.start.y_m);
+        if self.explorable_count == 0 {
+            return Err(format!("start ({x:.2}, {y:.2}) is not on ground-truth traversable terrain"));
+        }
+        match self.nearest_gt_lethal_m(x, y, robot_radius_m) {
+            Some(d) => Err(format!(
+                "start ({x:.2}, {y:.2}): untraversable ground {d:.2} m away, within the robot radius {robot_radius_m} m; move the start"
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// Whether the ground-truth cell under (x, y) is untraversable (outside the map counts as
     /// untraversable).
     pub fn gt_lethal_at(&self, x_m: f64, y_m: f64) -> bool {
