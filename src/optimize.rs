@@ -131,10 +131,10 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
     let summary = match result {
         Ok(s) => s,
         Err(OptError::MaxIterations(s)) => {
-            eprintln!("warning: no convergence after {} iterations; reporting the best estimate", s.iterations);
+            eprintln!("warning: {}: no convergence after {} iterations; reporting the best estimate", args.g2o.display(), s.iterations);
             s
         }
-        Err(e) => return Err(e).context("optimisation failed"),
+        Err(e) => return Err(e).with_context(|| format!("{}: optimisation failed", args.g2o.display())),
     };
 
     let marginal: Vec<f64> = if args.no_marginal {

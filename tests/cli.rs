@@ -257,6 +257,13 @@ fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
     let out = run(&["optimize", "--g2o", input.to_str().unwrap()]);
     assert_clear_error(&out, "landmarks.g2o: line 3: information matrix: noise matrix is not positive definite (pivot 0)");
     assert_eq!(String::from_utf8_lossy(&out.stderr).matches("not positive definite").count(), 1);
+
+    // A measurement too large to evaluate: the file and the failure on one line.
+    std::fs::write(&input, "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1e308 0 0 1 0 0 1 0 1\n").unwrap();
+    assert_clear_error(
+        &run(&["optimize", "--g2o", input.to_str().unwrap()]),
+        "landmarks.g2o: optimisation failed: the initial χ² is not finite",
+    );
 }
 
 /// `fitslam --help` describes every subcommand with its own line (a doc comment attached to the
@@ -267,10 +274,7 @@ fn help_describes_each_subcommand() {
     assert!(out.status.success());
     let help = String::from_utf8_lossy(&out.stdout);
     let line = |cmd: &str| {
-        help.lines()
-            .find(|l| l.split_whitespace().next() == Some(cmd))
-            .unwrap_or_else(|| panic!("{cmd} missing: {help}"))
-            .to_owned()
+        help.lines().find(|l| l.split_whitespace().next() == Some(cmd)).unwrap_or_else(|| panic!("{cmd} missing: {help}")).to_owned()
     };
     for (cmd, words) in [
         ("params", "default parameters"),
