@@ -105,7 +105,7 @@ fn main() {
     }
     // The one flood's two parts, timed apart after the decisions (same inputs, reused buffers).
     let prepared = prepare(&input, &params, &mut buffers).expect("prepare");
-    let (mut cost, mut state) = (Vec::new(), Vec::new());
+    let (mut cost, mut state) = (Default::default(), Vec::new());
     let mut parts: Vec<Vec<f64>> = vec![Vec::new(); 2];
     for _ in 0..runs {
         let t0 = Instant::now();
@@ -114,7 +114,7 @@ fn main() {
         let clusters = cluster_frontier_cells(&g, &frontier, input.boundary, &params.frontier, &mut state).expect("clusters");
         let t2 = Instant::now();
         std::hint::black_box(clusters);
-        cost = field.into_buffer();
+        cost = field.into_buffers();
         parts[0].push(1e3 * (t1 - t0).as_secs_f64());
         parts[1].push(1e3 * (t2 - t1).as_secs_f64());
     }

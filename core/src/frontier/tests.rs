@@ -237,8 +237,8 @@ proptest! {
     fn one_flood_gives_wfd_clusters_and_dijkstra_distances((g, robot, boundary, min, max) in arb_case()) {
         let p = params(min, max);
         let mut state = vec![7u8; 5];
-        let (warm, _) = crate::path::dijkstra_with_frontiers(&g, robot, Vec::new()).unwrap();
-        let (field, frontier) = crate::path::dijkstra_with_frontiers(&g, robot, warm.into_buffer()).unwrap();
+        let (warm, _) = crate::path::dijkstra_with_frontiers(&g, robot, Default::default()).unwrap();
+        let (field, frontier) = crate::path::dijkstra_with_frontiers(&g, robot, warm.into_buffers()).unwrap();
         let listed: Vec<usize> = frontier_cells(&g, robot, None).unwrap().iter().map(|&c| g.geometry.index(c).unwrap()).collect();
         prop_assert_eq!(&frontier, &listed);
         let clusters = cluster_frontier_cells(&g.geometry, &frontier, boundary.as_ref(), &p, &mut state).unwrap();

@@ -28,7 +28,21 @@
 //! all of them are settled; [`dijkstra_with_frontiers`] also collects the frontier cells as it
 //! settles.
 //!
-//! O(n) in the cells settled (each once, ≤ 8 relaxations) plus O(grid) to find the window.
+//! **Canonical ordering** (jump point search's pruning without corner cutting, applied to
+//! Dijkstra): every cell has an optimal path that takes its diagonal moves first and turns only
+//! at forced neighbours, so from a cell reached by a straight move only that move is worth
+//! making (plus the side towards a blocked corner behind it), and from one reached diagonally
+//! only the diagonal and its two components ([`SUCCESSORS`]). Straight moves are therefore
+//! **scanned** cell after cell without queueing ([`Flood::scan`]); only diagonal steps and cells
+//! with a forced neighbour enter the queue, each with the moves that reached it at its cost
+//! (ties merged). The costs are the same integer sums as a plain Dijkstra's, so they and every
+//! path are identical to it (measured on the decision bench: the same cost window and frontier
+//! list, 0.53–0.59 of its time, BENCHMARKS.md). Since scans queue cells far ahead, the queue
+//! keeps one bucket per cost unit; every cost below the bucket being settled is final. Frontier
+//! cells are collected when first reached.
+//!
+//! O(n) in the cells reached (a cell is rescanned only when its cost improves) plus O(grid) to
+//! find the window.
 
 use super::{MOVES, Path, PathError, check_start};
 use crate::grid::{self, Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
@@ -113,6 +127,9 @@ pub struct DistanceField {
     cost: Vec<u64>,
     /// Reached cells cheaper than this are settled ([`UNREACHED`]: every reachable cell is).
     settled_below: u64,
+    /// The search's other storage, handed back by [`Self::into_buffers`].
+    arrivals: Vec<u16>,
+    queue: BucketQueue,
 }
 
 impl DistanceField {
@@ -144,9 +161,9 @@ impl DistanceField {
         self.settled_below == UNREACHED
     }
 
-    /// The cost storage, for the next search to reuse ([`dijkstra_to_reusing`]).
-    pub fn into_buffer(self) -> Vec<u64> {
-        self.cost
+    /// The search's storage, for the next search to reuse ([`dijkstra_to_reusing`]).
+    pub fn into_buffers(self) -> SearchBuffers {
+        SearchBuffers { cost: self.cost, arrivals: self.arrivals, queue: self.queue }
     }
 
     /// Number of cells settled.
@@ -188,28 +205,37 @@ impl DistanceField {
     }
 }
 
+/// Storage a search can reuse: the cost window, the per-cell move marks and the queue. A planner
+/// that decides again and again keeps one, so that no search allocates or page-faults a
+/// grid-sized buffer; its contents never carry over (every cell is written before it is read).
+#[derive(Clone, Debug, Default)]
+pub struct SearchBuffers {
+    cost: Vec<u64>,
+    arrivals: Vec<u16>,
+    queue: BucketQueue,
+}
+
 /// Runs Dijkstra from `start` over every passable cell (same moves as [`super::astar`]).
 pub fn dijkstra(grid: &OccupancyGrid, start: Cell, allow_unknown: bool) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, Goals { targets: None, frontier: None }, Vec::new())
+    search(grid, start, allow_unknown, Goals { targets: None, frontier: None }, SearchBuffers::default())
 }
 
 /// Runs Dijkstra from `start` until every passable cell of `targets` is settled (or nothing is
 /// left to settle): their distances and paths are exactly [`dijkstra`]'s.
 pub fn dijkstra_to(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: &[Cell]) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, Goals { targets: Some(targets), frontier: None }, Vec::new())
+    search(grid, start, allow_unknown, Goals { targets: Some(targets), frontier: None }, SearchBuffers::default())
 }
 
-/// [`dijkstra_to`] with the cost window in `buffer`, whose storage is reused (take it back with
-/// [`DistanceField::into_buffer`]): a planner that decides again and again then neither
-/// allocates nor page-faults the window each time.
+/// [`dijkstra_to`] with the storage of `buffers` reused (take it back with
+/// [`DistanceField::into_buffers`]).
 pub fn dijkstra_to_reusing(
     grid: &OccupancyGrid,
     start: Cell,
     allow_unknown: bool,
     targets: &[Cell],
-    buffer: Vec<u64>,
+    buffers: SearchBuffers,
 ) -> Result<DistanceField, PathError> {
-    search(grid, start, allow_unknown, Goals { targets: Some(targets), frontier: None }, buffer)
+    search(grid, start, allow_unknown, Goals { targets: Some(targets), frontier: None }, buffers)
 }
 
 /// Runs Dijkstra from `start` over every cell reachable with unknown space impassable, and
@@ -217,10 +243,14 @@ pub fn dijkstra_to_reusing(
 /// flood: reached cells with an unknown 4-neighbour inside the grid, as flat grid indices in
 /// increasing order. WFD's 4-connected flood over free cells reaches exactly the cells this
 /// 8-connected, no-corner-cutting search settles (a legal diagonal is two orthogonal moves), so
-/// one flood gives both the frontiers and every distance. `buffer` as in [`dijkstra_to_reusing`].
-pub fn dijkstra_with_frontiers(grid: &OccupancyGrid, start: Cell, buffer: Vec<u64>) -> Result<(DistanceField, Vec<usize>), PathError> {
+/// one flood gives both the frontiers and every distance. `buffers` as in [`dijkstra_to_reusing`].
+pub fn dijkstra_with_frontiers(
+    grid: &OccupancyGrid,
+    start: Cell,
+    buffers: SearchBuffers,
+) -> Result<(DistanceField, Vec<usize>), PathError> {
     let mut frontier = Vec::new();
-    let field = search(grid, start, false, Goals { targets: None, frontier: Some(&mut frontier) }, buffer)?;
+    let field = search(grid, start, false, Goals { targets: None, frontier: Some(&mut frontier) }, buffers)?;
     let (win, w) = (field.window, grid.geometry.width);
     let pw = win.padded_width();
     let mut flat: Vec<usize> = frontier.into_iter().map(|p| (win.row0 + p / pw - 1) * w + win.col0 + p % pw - 1).collect();
@@ -411,8 +441,243 @@ fn prefetch_rows(cost: &[u64], p: usize, pw: usize) {
     let _ = (cost, p, pw);
 }
 
-fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, goals: Goals, mut cost: Vec<u64>) -> Result<DistanceField, PathError> {
-    let Goals { targets, mut frontier } = goals;
+/// Move bits, in [`MOVES`]' order: the four straight moves, then the four diagonals.
+const E: u8 = 1;
+const W: u8 = 2;
+const N: u8 = 4;
+const S: u8 = 8;
+const NE: u8 = 16;
+const NW: u8 = 32;
+const SE: u8 = 64;
+const SW: u8 = 128;
+
+/// `SUCCESSORS[arrivals][blocked]`: the moves worth making from a cell reached at its optimal cost
+/// by the moves in `arrivals`, when its corner cells NE, NW, SE, SW (bits 0–3 of `blocked`) are
+/// impassable (canonical ordering, as in jump point search without corner cutting): after a
+/// diagonal, the diagonal and its two components; after a straight move, the same move, plus the
+/// side move and the diagonal towards a side whose corner behind is blocked (a forced neighbour).
+/// Any other neighbour is reached from the parent at most as cheaply, and then diagonal first.
+const SUCCESSORS: [[u8; 16]; 256] = {
+    let mut t = [[0u8; 16]; 256];
+    let mut a = 0;
+    while a < 256 {
+        let mut b = 0;
+        while b < 16 {
+            let (bne, bnw, bse, bsw) = (b & 1 != 0, b & 2 != 0, b & 4 != 0, b & 8 != 0);
+            let arr = a as u8;
+            let mut m = 0u8;
+            if arr & E != 0 {
+                m |= E | if bnw { N | NE } else { 0 } | if bsw { S | SE } else { 0 };
+            }
+            if arr & W != 0 {
+                m |= W | if bne { N | NW } else { 0 } | if bse { S | SW } else { 0 };
+            }
+            if arr & N != 0 {
+                m |= N | if bsw { W | NW } else { 0 } | if bse { E | NE } else { 0 };
+            }
+            if arr & S != 0 {
+                m |= S | if bnw { W | SW } else { 0 } | if bne { E | SE } else { 0 };
+            }
+            if arr & NE != 0 {
+                m |= NE | N | E;
+            }
+            if arr & NW != 0 {
+                m |= NW | N | W;
+            }
+            if arr & SE != 0 {
+                m |= SE | S | E;
+            }
+            if arr & SW != 0 {
+                m |= SW | S | W;
+            }
+            t[a][b] = m;
+            b += 1;
+        }
+        a += 1;
+    }
+    t
+};
+
+/// Buckets of queued cells, one per cost unit (a scan queues cells far ahead of the current
+/// bucket), their storage recycled.
+#[derive(Clone, Debug, Default)]
+struct BucketQueue {
+    buckets: Vec<Vec<u32>>,
+    spare: Vec<Vec<u32>>,
+    pending: usize,
+}
+
+impl BucketQueue {
+    #[inline]
+    fn push(&mut self, bucket: u64, p: usize) {
+        let b = bucket as usize;
+        if b >= self.buckets.len() {
+            self.buckets.resize_with(b + 1, Vec::new);
+        }
+        let v = &mut self.buckets[b];
+        if v.capacity() == 0
+            && let Some(s) = self.spare.pop()
+        {
+            *v = s;
+        }
+        v.push(p as u32);
+        self.pending += 1;
+    }
+
+    fn take(&mut self, bucket: u64) -> Vec<u32> {
+        let v = self.buckets.get_mut(bucket as usize).map(std::mem::take).unwrap_or_default();
+        self.pending -= v.len();
+        v
+    }
+
+    /// Empties every bucket, keeping the storage.
+    fn clear(&mut self) {
+        for mut v in self.buckets.drain(..) {
+            if v.capacity() > 0 {
+                v.clear();
+                self.spare.push(v);
+            }
+        }
+        self.pending = 0;
+    }
+
+    fn recycle(&mut self, mut v: Vec<u32>) {
+        v.clear();
+        self.spare.push(v);
+    }
+}
+
+/// The search's state over the padded window.
+struct Flood<'a> {
+    cost: Vec<u64>,
+    /// Per cell: the moves that reached it at its current cost (low byte) and those whose
+    /// successors were already made (high byte).
+    arrivals: Vec<u16>,
+    queue: BucketQueue,
+    scale: Scale,
+    pw: usize,
+    frontier: Option<&'a mut Vec<usize>>,
+    is_target: Vec<u64>,
+    targets_left: usize,
+}
+
+impl Flood<'_> {
+    fn into_field(self, geometry: GridGeometry, start: Cell, window: Window, settled_below: u64) -> DistanceField {
+        DistanceField {
+            geometry,
+            start,
+            window,
+            scale: self.scale,
+            cost: self.cost,
+            settled_below,
+            arrivals: self.arrivals,
+            queue: self.queue,
+        }
+    }
+
+    /// Bookkeeping of a cell's first cost: frontier (an unknown 4-neighbour) and targets.
+    #[inline]
+    fn first_reach(&mut self, y: usize) {
+        let c = &self.cost;
+        if (c[y + 1] == UNKNOWN) | (c[y - 1] == UNKNOWN) | (c[y + self.pw] == UNKNOWN) | (c[y - self.pw] == UNKNOWN)
+            && let Some(f) = self.frontier.as_deref_mut()
+        {
+            f.push(y);
+        }
+        if !self.is_target.is_empty() && self.is_target[y / 64] & (1 << (y % 64)) != 0 {
+            self.targets_left -= 1;
+        }
+    }
+
+    /// Straight moves from `i` along `off` (`perp` across it), one cell after another while they
+    /// improve (or tie without this move yet): such a cell's only successor is the next one,
+    /// unless a corner behind it is blocked with its side open, and then it is queued.
+    #[inline]
+    fn scan(&mut self, i: usize, off: isize, perp: isize, mv: u8) {
+        let (mut y, mut c) = (i.wrapping_add_signed(off), self.cost[i] + self.scale.orth);
+        loop {
+            let cy = self.cost[y];
+            if c < cy {
+                if cy == UNREACHED {
+                    self.first_reach(y);
+                }
+                self.cost[y] = c;
+                self.arrivals[y] = u16::from(mv);
+            } else if c == cy && self.arrivals[y] & u16::from(mv) == 0 {
+                self.arrivals[y] |= u16::from(mv);
+            } else {
+                return;
+            }
+            let at = |d: isize| self.cost[y.wrapping_add_signed(d)];
+            let forced = (at(perp - off) < START && at(perp) >= START) || (at(-perp - off) < START && at(-perp) >= START);
+            if forced {
+                self.queue.push(self.scale.bucket(c), y);
+            }
+            y = y.wrapping_add_signed(off);
+            c += self.scale.orth;
+        }
+    }
+
+    /// A diagonal move to `j` at cost `c`: queued when it improves, or ties without this move.
+    #[inline]
+    fn diagonal(&mut self, j: usize, c: u64, mv: u8) {
+        let cj = self.cost[j];
+        if c < cj {
+            if cj == UNREACHED {
+                self.first_reach(j);
+            }
+            self.cost[j] = c;
+            self.arrivals[j] = u16::from(mv);
+        } else if c == cj && self.arrivals[j] & u16::from(mv) == 0 {
+            self.arrivals[j] |= u16::from(mv);
+        } else {
+            return;
+        }
+        self.queue.push(self.scale.bucket(c), j);
+    }
+
+    /// Makes the successors of a queued cell for the arrivals not yet expanded.
+    #[inline]
+    fn expand(&mut self, i: usize) {
+        let a = self.arrivals[i];
+        let new = (a as u8) & !((a >> 8) as u8);
+        if new == 0 {
+            return;
+        }
+        self.arrivals[i] = a | (u16::from(new) << 8);
+        let pw = self.pw;
+        let open = |p: usize| self.cost[p] >= START;
+        let (e, w, n, s) = (open(i + 1), open(i - 1), open(i + pw), open(i - pw));
+        let blocked = usize::from(!open(i + pw + 1))
+            | usize::from(!open(i + pw - 1)) << 1
+            | usize::from(!open(i - pw + 1)) << 2
+            | usize::from(!open(i - pw - 1)) << 3;
+        let next = SUCCESSORS[usize::from(new)][blocked];
+        let pwi = pw as isize;
+        for (mv, off, perp) in [(E, 1, pwi), (W, -1, pwi), (N, pwi, 1), (S, -pwi, 1)] {
+            if next & mv != 0 {
+                self.scan(i, off, perp, mv);
+            }
+        }
+        // Diagonals, without cutting corners: both orthogonal neighbours must be passable.
+        let c = self.cost[i] + self.scale.diag;
+        for (mv, ok, j) in [(NE, e && n, i + pw + 1), (NW, w && n, i + pw - 1), (SE, e && s, i - pw + 1), (SW, w && s, i - pw - 1)] {
+            if ok && next & mv != 0 {
+                self.diagonal(j, c, mv);
+            }
+        }
+    }
+}
+
+fn search(
+    grid: &OccupancyGrid,
+    start: Cell,
+    allow_unknown: bool,
+    goals: Goals,
+    buffers: SearchBuffers,
+) -> Result<DistanceField, PathError> {
+    let SearchBuffers { mut cost, mut arrivals, mut queue } = buffers;
+    let Goals { targets, frontier } = goals;
     let g = grid.geometry;
     check_start(grid, start, allow_unknown)?;
     let win = passable_window(grid, allow_unknown, start);
@@ -420,95 +685,59 @@ fn search(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, goals: Goals, 
     let n = pw * (win.height + 2);
     let scale = Scale::for_cells(n);
     fill_window(grid, &win, allow_unknown, &mut cost);
-    // Target marks, one bit per window cell (read once per settled cell).
+    // Target marks, one bit per window cell.
     let mut is_target = vec![0u64; if targets.is_some() { n.div_ceil(64) } else { 0 }];
-    let bit = |p: usize| (p / 64, 1u64 << (p % 64));
-    let mut targets_left = usize::MAX;
+    let mut target_cells = Vec::new();
     if let Some(targets) = targets {
-        targets_left = 0;
         for &t in targets {
             if let Some(p) = win.index(t).filter(|_| g.index(t).is_some())
                 && cost[p] == UNREACHED
-                && is_target[bit(p).0] & bit(p).1 == 0
+                && is_target[p / 64] & (1 << (p % 64)) == 0
             {
-                is_target[bit(p).0] |= bit(p).1;
-                targets_left += 1;
+                is_target[p / 64] |= 1 << (p % 64);
+                target_cells.push(p);
             }
         }
     }
     let s = win.index(start).ok_or(PathError::StartOutsideMap)?;
-    let mut buckets: [Vec<u32>; 3] = [Vec::new(), Vec::new(), Vec::new()];
-    cost[s] = START;
-    buckets[0].push(s as u32);
-    let mut blocks = BlockOrder::new(n);
-    let (mut k, mut empty) = (0u64, 0);
+    let targets_left = if targets.is_some() { target_cells.len() } else { usize::MAX };
+    // Written before read: a cell's marks when it is first reached, the queue as it is filled.
+    arrivals.resize(n, 0);
+    queue.clear();
+    let mut flood = Flood { cost, arrivals, queue, scale, pw, frontier, is_target, targets_left };
     // Targets given but none passable: nothing to search for.
-    let mut settled_below = if targets_left == 0 { START } else { UNREACHED };
-    if targets_left == 0 {
-        empty = 3;
+    if flood.targets_left == 0 {
+        return Ok(flood.into_field(g, start, win, START));
     }
-    'search: while empty < 3 {
-        let b = (k % 3) as usize;
-        if buckets[b].is_empty() {
-            empty += 1;
-            k += 1;
-            continue;
+    flood.first_reach(s);
+    flood.cost[s] = START;
+    flood.arrivals[s] = u16::from(u8::MAX);
+    flood.queue.push(0, s);
+    let mut blocks = BlockOrder::new(n);
+    let mut settled_below = UNREACHED;
+    let mut k = 0u64;
+    while flood.queue.pending > 0 {
+        // Every cost below bucket k is final: stop once every target's is.
+        if flood.targets_left == 0 && target_cells.iter().all(|&p| flood.cost[p] < k << scale.shift) {
+            settled_below = k << scale.shift;
+            break;
         }
-        empty = 0;
-        let mut bucket = std::mem::take(&mut buckets[b]);
+        let mut bucket = flood.queue.take(k);
         blocks.order(&mut bucket);
         for (t, &iu) in bucket.iter().enumerate() {
             if let Some(&ahead) = bucket.get(t + PREFETCH_AHEAD) {
-                prefetch_rows(&cost, ahead as usize, pw);
+                prefetch_rows(&flood.cost, ahead as usize, pw);
             }
             let i = iu as usize;
-            let ci = cost[i];
             // A cell is queued in each bucket its cost passes through; only its final one counts.
-            if scale.bucket(ci) != k {
-                continue;
-            }
-            if targets.is_some() && is_target[bit(i).0] & bit(i).1 != 0 {
-                targets_left -= 1;
-                if targets_left == 0 {
-                    settled_below = (k + 1) << scale.shift;
-                    break 'search;
-                }
-            }
-            let (east, west, north, south) = (i + 1, i - 1, i + pw, i - pw);
-            let (ce, cw, cn, cs) = (cost[east], cost[west], cost[north], cost[south]);
-            if ((ce == UNKNOWN) | (cw == UNKNOWN) | (cn == UNKNOWN) | (cs == UNKNOWN))
-                && let Some(f) = frontier.as_deref_mut()
-            {
-                f.push(i);
-            }
-            let (e, w, n, s) = (ce >= START, cw >= START, cn >= START, cs >= START);
-            // Relaxations land in bucket k + 1 or k + 2, never in the one being settled.
-            let mut relax = |j: usize, c: u64| {
-                let cj = cost[j];
-                if c < cj {
-                    cost[j] = c;
-                    if scale.bucket(cj) != scale.bucket(c) {
-                        buckets[(scale.bucket(c) % 3) as usize].push(j as u32);
-                    }
-                }
-            };
-            let c = ci + scale.orth;
-            for j in [east, west, north, south] {
-                relax(j, c);
-            }
-            // Diagonals, without cutting corners: both orthogonal neighbours must be passable.
-            let c = ci + scale.diag;
-            for (ok, j) in [(e && n, north + 1), (w && n, north - 1), (e && s, south + 1), (w && s, south - 1)] {
-                if ok {
-                    relax(j, c);
-                }
+            if scale.bucket(flood.cost[i]) == k {
+                flood.expand(i);
             }
         }
-        bucket.clear();
-        buckets[b] = bucket;
+        flood.queue.recycle(bucket);
         k += 1;
     }
-    Ok(DistanceField { geometry: g, start, window: win, scale, cost, settled_below })
+    Ok(flood.into_field(g, start, win, settled_below))
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ mod astar;
 mod dijkstra;
 
 pub use astar::astar;
-pub use dijkstra::{DistanceField, dijkstra, dijkstra_to, dijkstra_to_reusing, dijkstra_with_frontiers};
+pub use dijkstra::{DistanceField, SearchBuffers, dijkstra, dijkstra_to, dijkstra_to_reusing, dijkstra_with_frontiers};
 
 use crate::grid::{Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
 use serde::{Deserialize, Serialize};

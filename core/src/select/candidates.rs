@@ -25,7 +25,7 @@ use super::{DecisionInput, SelectError};
 use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
 use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal_into};
 use crate::params::{Params, Strategy, check_radius_cells, check_waypoint_spacing};
-use crate::path::{DistanceField, dijkstra_to_reusing, dijkstra_with_frontiers};
+use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
@@ -35,14 +35,14 @@ use crate::utility::{FovWindows, RayFan, normalise_path_information, path_inform
 pub struct PlanBuffers {
     inflated: Vec<i8>,
     frontier_state: Vec<u8>,
-    cost: Vec<u64>,
+    search: SearchBuffers,
 }
 
 impl PlanBuffers {
     /// Takes the storage of a finished decision's inflated grid and distance field back.
     pub fn recycle(&mut self, prepared: Prepared, field: DistanceField) {
         self.inflated = prepared.inflated.data;
-        self.cost = field.into_buffer();
+        self.search = field.into_buffers();
     }
 }
 
@@ -116,7 +116,7 @@ pub fn frontiers_and_distances(
     buffers: &mut PlanBuffers,
 ) -> Result<(Vec<FrontierCluster>, DistanceField), SelectError> {
     let (grid, start) = (&prepared.inflated, prepared.robot_cell);
-    let buffer = std::mem::take(&mut buffers.cost);
+    let buffer = std::mem::take(&mut buffers.search);
     let state = &mut buffers.frontier_state;
     let (mut clusters, field) = if params.planner.allow_unknown {
         let clusters = detect_frontiers_with(grid, start, input.boundary, &params.frontier, state)?;
