@@ -589,6 +589,26 @@ impl Flood<'_> {
         }
     }
 
+    /// Move `mv` reaching `y` at cost `c`: true when it improves `y` (its marks then restart at
+    /// `mv`) or ties without that move yet (added); false otherwise (impassable, or not better).
+    #[inline]
+    fn arrive(&mut self, y: usize, c: u64, mv: u8) -> bool {
+        let cy = self.cost[y];
+        if c < cy {
+            if cy == UNREACHED {
+                self.first_reach(y);
+            }
+            self.cost[y] = c;
+            self.arrivals[y] = u16::from(mv);
+            true
+        } else if c == cy && self.arrivals[y] & u16::from(mv) == 0 {
+            self.arrivals[y] |= u16::from(mv);
+            true
+        } else {
+            false
+        }
+    }
+
     /// Straight moves from `i` along `off` (`perp` across it), one cell after another while they
     /// improve (or tie without this move yet): such a cell's only successor is the next one,
     /// unless a corner behind it is blocked with its side open, and then it is queued.
@@ -596,16 +616,7 @@ impl Flood<'_> {
     fn scan(&mut self, i: usize, off: isize, perp: isize, mv: u8) {
         let (mut y, mut c) = (i.wrapping_add_signed(off), self.cost[i] + self.scale.orth);
         loop {
-            let cy = self.cost[y];
-            if c < cy {
-                if cy == UNREACHED {
-                    self.first_reach(y);
-                }
-                self.cost[y] = c;
-                self.arrivals[y] = u16::from(mv);
-            } else if c == cy && self.arrivals[y] & u16::from(mv) == 0 {
-                self.arrivals[y] |= u16::from(mv);
-            } else {
+            if !self.arrive(y, c, mv) {
                 return;
             }
             let at = |d: isize| self.cost[y.wrapping_add_signed(d)];
@@ -621,19 +632,9 @@ impl Flood<'_> {
     /// A diagonal move to `j` at cost `c`: queued when it improves, or ties without this move.
     #[inline]
     fn diagonal(&mut self, j: usize, c: u64, mv: u8) {
-        let cj = self.cost[j];
-        if c < cj {
-            if cj == UNREACHED {
-                self.first_reach(j);
-            }
-            self.cost[j] = c;
-            self.arrivals[j] = u16::from(mv);
-        } else if c == cj && self.arrivals[j] & u16::from(mv) == 0 {
-            self.arrivals[j] |= u16::from(mv);
-        } else {
-            return;
+        if self.arrive(j, c, mv) {
+            self.queue.push(self.scale.bucket(c), j);
         }
-        self.queue.push(self.scale.bucket(c), j);
     }
 
     /// Makes the successors of a queued cell for the arrivals not yet expanded.
