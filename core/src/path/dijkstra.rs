@@ -2,10 +2,9 @@
 //! every candidate's ρ_i at once, with the same optimum as A*).
 //!
 //! Dial-style bucket queue, exact for these costs: edge costs are 1 or √2 (in cells), so with
-//! buckets one cell wide (bucket k holds costs in [k, k+1)) a node settled from bucket k can only
-//! relax others into buckets k+1 or k+2 — never improve a node of its own bucket — so a bucket's
-//! nodes may be settled in any order, three rotating buckets suffice, and everything in bucket k
-//! is final when k is reached.
+//! buckets one cell wide (bucket k holds costs in [k, k+1)) a cell expanded from bucket k can only
+//! improve cells of later buckets — never one of its own — so a bucket's cells may be expanded in
+//! any order, and every cost below bucket k is final when k is reached.
 //!
 //! Costs are **fixed-point integers**: `2 + cells · 2^shift`, with the largest shift (≤ 52) for
 //! which no path in the window (fewer moves than cells, each ≤ 2 cells) can overflow a u64. Sums
@@ -18,15 +17,14 @@
 //!
 //! The search works on a **window**, to keep its memory small: the bounding box of the
 //! passable cells (no path can leave it), padded with the grid's cells around it (impassable) so
-//! no move leaves the arrays. Per window cell it keeps only the cost (0 = lethal, 1 = unknown and
-//! impassable, both below every cost, so one comparison tests both passability and improvement):
-//! 8 bytes, against 4 million × 17 bytes for a whole-grid layout with f64 costs and u32 parents
-//! on a 2000 × 2000 map. Parents are not stored; exact integer costs let
+//! no move leaves the arrays. Per window cell it keeps the cost (0 = lethal, 1 = unknown and
+//! impassable, both below every cost, so one comparison tests both passability and improvement)
+//! and 2 bytes of move marks (below): 10 bytes, against 4 million × 17 bytes for a whole-grid
+//! layout with f64 costs and u32 parents on a 2000 × 2000 map. Parents are not stored; exact integer costs let
 //! [`DistanceField::path_to`] recover them. Each bucket is put into block-wise memory order before
-//! it is settled ([`BlockOrder`]), and the cost rows of the cell 16 entries ahead are prefetched
+//! it is expanded ([`BlockOrder`]), and the cost rows of the cell 16 entries ahead are prefetched
 //! ([`prefetch_rows`], x86-64 only). With targets ([`dijkstra_to`]) the search stops as soon as
-//! all of them are settled; [`dijkstra_with_frontiers`] also collects the frontier cells as it
-//! settles.
+//! all of their costs are final; [`dijkstra_with_frontiers`] also collects the frontier cells.
 //!
 //! **Canonical ordering** (jump point search's pruning without corner cutting, applied to
 //! Dijkstra): every cell has an optimal path that takes its diagonal moves first and turns only
