@@ -169,15 +169,46 @@ impl DistanceField {
         self.cost.iter().filter(|&&c| self.is_settled(c)).count()
     }
 
-    /// The shortest path from the start to `cell`, if reached. Parents are not stored: with
-    /// exact integer costs, a cell's parent is the first neighbour (in move order) whose cost
-    /// plus the legal move's cost is exactly its own.
+    /// The shortest path from the start to `cell`, if reached (parents recovered by
+    /// [`Self::walk_back`]).
     pub fn path_to(&self, cell: Cell) -> Option<Path> {
-        let mut k = self.settled_index(cell)?;
+        let k = self.settled_index(cell)?;
         let length_m = self.scale.cells(self.cost[k]) * self.geometry.resolution_m;
+        let mut cells = vec![cell];
+        self.walk_back(k, cell, |at, _| cells.push(at))?;
+        cells.reverse();
+        Some(Path { cells, length_m })
+    }
+
+    /// The corner cells of [`Self::path_to`]'s path: its first and last cells and those where
+    /// the move changes (the same polyline; what a planner draws and follows), without
+    /// building the whole path.
+    pub fn corners_to(&self, cell: Cell) -> Option<Vec<Cell>> {
+        let k = self.settled_index(cell)?;
+        let mut corners = vec![cell];
+        let mut last_move = usize::MAX;
+        let mut prev = cell;
+        self.walk_back(k, cell, |at, m| {
+            // `prev` is a corner if the move into it differs from the move out of it.
+            if last_move != usize::MAX && m != last_move {
+                corners.push(prev);
+            }
+            (last_move, prev) = (m, at);
+        })?;
+        if prev != cell {
+            corners.push(prev);
+        }
+        corners.reverse();
+        Some(corners)
+    }
+
+    /// Walks from the settled window cell `k` (grid cell `cell`) back to the start, calling
+    /// `visit(parent cell, move index into MOVES)` for each step. A cell's parent is the first
+    /// neighbour, in move order, whose cost plus the legal move's cost is exactly its own:
+    /// parents are not stored, exact integer costs make that an optimal predecessor.
+    fn walk_back(&self, mut k: usize, cell: Cell, mut visit: impl FnMut(Cell, usize)) -> Option<()> {
         let offsets = self.window.offsets();
         let open = |p: isize| self.cost[p as usize] >= START;
-        let mut cells = vec![cell];
         let mut at = cell;
         while self.cost[k] != START {
             let ck = self.cost[k];
@@ -196,10 +227,9 @@ impl DistanceField {
             let (j, m) = parent?;
             let (dc, dr, _) = MOVES[m];
             (k, at) = (j, Cell::new(at.col - dc, at.row - dr));
-            cells.push(at);
+            visit(at, m);
         }
-        cells.reverse();
-        Some(Path { cells, length_m })
+        Some(())
     }
 }
 

@@ -188,3 +188,47 @@ fn long_paths_keep_exact_octile_lengths() {
     assert_eq!(p.cells.len(), 1001);
     assert_eq!(p.length_m, knight);
 }
+
+/// The corners of a path, by definition: the first and last cells and those where the move
+/// changes.
+fn corners_of(cells: &[Cell]) -> Vec<Cell> {
+    (0..cells.len())
+        .filter(|&k| {
+            k == 0
+                || k + 1 == cells.len()
+                || (cells[k].col - cells[k - 1].col, cells[k].row - cells[k - 1].row)
+                    != (cells[k + 1].col - cells[k].col, cells[k + 1].row - cells[k].row)
+        })
+        .map(|k| cells[k])
+        .collect()
+}
+
+#[test]
+fn corners_keep_the_start_the_turns_and_the_target() {
+    // From (0, 0): to (5, 0) straight east. To (4, 2) the wall (column 2, rows 1–2) forbids
+    // cutting its corner at (2, 0)–(3, 1), so the best is 3 east, 1 north-east, 1 north
+    // (4 + √2 cells; over the top costs 4 + 2√2); walking back from (4, 2) the first exact
+    // predecessor in move order is (4, 1) (north), then (3, 0) (north-east), then east to the
+    // start. The start itself is a one-cell path, a neighbour a two-cell one; the lethal cell
+    // and the cell outside have none.
+    let g = grid_from(&["......", "..#...", "..#...", "......"]);
+    let d = dijkstra(&g, Cell::new(0, 0), false).unwrap();
+    let cells = |v: &[(i32, i32)]| v.iter().map(|&(c, r)| Cell::new(c, r)).collect::<Vec<_>>();
+    assert_eq!(d.corners_to(Cell::new(5, 0)), Some(cells(&[(0, 0), (5, 0)])));
+    assert_eq!(d.corners_to(Cell::new(4, 2)), Some(cells(&[(0, 0), (3, 0), (4, 1), (4, 2)])));
+    assert!((d.distance_m(Cell::new(4, 2)).unwrap() - 0.1 * (4.0 + std::f64::consts::SQRT_2)).abs() < 1e-12);
+    assert_eq!(d.corners_to(Cell::new(0, 0)), Some(cells(&[(0, 0)])));
+    assert_eq!(d.corners_to(Cell::new(1, 1)), Some(cells(&[(0, 0), (1, 1)])));
+    assert_eq!((d.corners_to(Cell::new(2, 2)), d.corners_to(Cell::new(9, 9))), (None, None));
+}
+
+proptest! {
+    /// The corners are exactly those of the whole path, wherever the target.
+    #[test]
+    fn corners_to_are_the_corners_of_path_to((g, s, t) in arb_grid(), extra in proptest::collection::vec((0i32..24, 0i32..24), 0..20)) {
+        let d = dijkstra(&g, s, false).unwrap();
+        for c in [t, s].into_iter().chain(extra.iter().map(|&(c, r)| Cell::new(c, r))) {
+            prop_assert_eq!(d.corners_to(c), d.path_to(c).map(|p| corners_of(&p.cells)));
+        }
+    }
+}

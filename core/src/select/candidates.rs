@@ -151,8 +151,8 @@ pub fn score_u1(
         c.rho_m = field.distance_m(c.cell);
         if let Some(reason) = input.blacklist.contains(x_m, y_m) {
             c.dropped = Some(DropReason::Blacklisted(reason));
-        } else if let Some(path) = field.path_to(c.cell) {
-            c.path_m = simplify_path(&path.cells, &g);
+        } else if let Some(corners) = field.corners_to(c.cell) {
+            c.path_m = corners.iter().map(|&cell| g.center_of(cell).into()).collect();
             fan.cast(input.grid, c.cell, &mut gains);
             if let Some(best) = windows.best(fan.angles_rad(), &gains) {
                 c.delta_e_bits = Some(best.delta_e_bits);
@@ -268,39 +268,9 @@ fn order_by(indices: &[usize], key: impl Fn(usize) -> f64) -> Vec<usize> {
     v.into_iter().map(|(_, i)| i).collect()
 }
 
-/// Cell centres of a path with the cells inside straight runs removed (the polyline is the
-/// same).
-fn simplify_path(cells: &[Cell], g: &crate::grid::GridGeometry) -> Vec<[f64; 2]> {
-    let mut out = Vec::new();
-    let pt = |c: Cell| {
-        let (x, y) = g.center_of(c);
-        [x, y]
-    };
-    for (k, &c) in cells.iter().enumerate() {
-        let keep = k == 0
-            || k + 1 == cells.len()
-            || (c.col - cells[k - 1].col, c.row - cells[k - 1].row) != (cells[k + 1].col - c.col, cells[k + 1].row - c.row);
-        if keep {
-            out.push(pt(c));
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::GridGeometry;
-
-    #[test]
-    fn simplify_keeps_corners_only() {
-        let g = GridGeometry::new(0.0, 0.0, 1.0, 10, 10);
-        let cells: Vec<Cell> = [(0, 0), (1, 0), (2, 0), (3, 1), (4, 2), (4, 3)].iter().map(|&(c, r)| Cell::new(c, r)).collect();
-        let p = simplify_path(&cells, &g);
-        assert_eq!(p, vec![[0.5, 0.5], [2.5, 0.5], [4.5, 2.5], [4.5, 3.5]]);
-        assert_eq!(simplify_path(&cells[..1], &g), vec![[0.5, 0.5]]);
-        assert!(simplify_path(&[], &g).is_empty());
-    }
 
     #[test]
     fn order_by_breaks_ties_by_index() {
