@@ -20,11 +20,12 @@
 //! no move leaves the arrays. Per window cell it keeps the cost (0 = lethal, 1 = unknown and
 //! impassable, both below every cost, so one comparison tests both passability and improvement)
 //! and 2 bytes of move marks (below): 10 bytes, against 4 million × 17 bytes for a whole-grid
-//! layout with f64 costs and u32 parents on a 2000 × 2000 map. Parents are not stored; exact integer costs let
-//! [`DistanceField::path_to`] recover them. Each bucket is put into block-wise memory order before
-//! it is expanded ([`BlockOrder`]), and the cost rows of the cell 16 entries ahead are prefetched
-//! ([`prefetch_rows`], x86-64 only). With targets ([`dijkstra_to`]) the search stops as soon as
-//! all of their costs are final; [`dijkstra_with_frontiers`] also collects the frontier cells.
+//! layout with f64 costs and u32 parents on a 2000 × 2000 map. Parents are not stored; exact
+//! integer costs let [`DistanceField::path_to`] and [`DistanceField::corners_to`] recover them.
+//! Each bucket is put into block-wise memory order before it is expanded ([`BlockOrder`]), and
+//! the cost rows of the cell 16 entries ahead are prefetched ([`prefetch_rows`], x86-64 only).
+//! With targets ([`dijkstra_to`]) the search stops as soon as all of their costs are final;
+//! [`dijkstra_with_frontiers`] also collects the frontier cells.
 //!
 //! **Canonical ordering** (jump point search's pruning without corner cutting, applied to
 //! Dijkstra): every cell has an optimal path that takes its diagonal moves first and turns only
