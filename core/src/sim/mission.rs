@@ -803,17 +803,19 @@ impl Mission {
                     continue; // under the robot: its own snapping handles it
                 }
                 let Some(c) = g.cell_of(x, y) else { return true };
-                for dr in -rc..=rc {
-                    for dc in -rc..=rc {
+                let square = (-rc..=rc).flat_map(|dr| {
+                    (-rc..=rc).filter_map(move |dc| {
                         let cell = crate::grid::Cell::new(c.col + dc, c.row + dr);
-                        let Some(i) = g.index(cell) else { continue };
-                        self.tmap.refresh_cell(i, &self.params.traversability, &mut self.layers);
-                        let s = self.layers.score.data[i];
-                        if !s.is_nan() && s < tau {
-                            let (cx, cy) = g.center_of(cell);
-                            if (cx - x).hypot(cy - y) <= r {
-                                return true;
-                            }
+                        g.index(cell).map(|i| (i, cell))
+                    })
+                });
+                self.tmap.refresh_cells(square.clone().map(|(i, _)| i), &self.params.traversability, &mut self.layers);
+                for (i, cell) in square {
+                    let s = self.layers.score.data[i];
+                    if !s.is_nan() && s < tau {
+                        let (cx, cy) = g.center_of(cell);
+                        if (cx - x).hypot(cy - y) <= r {
+                            return true;
                         }
                     }
                 }

@@ -101,22 +101,23 @@ impl Disc {
         Self { offsets, flat, r_cells }
     }
 
-    /// Calls `f` with the index of every cell of the disc around `index` that lies in the grid,
-    /// in offset order.
+    /// Calls `f(k, col, row)` for every cell k = (col, row) of the disc around `index` that lies
+    /// in the grid, in offset order (the column and row come from the offsets: no division per
+    /// cell).
     #[inline]
-    pub(super) fn for_each(&self, g: &GridGeometry, index: usize, mut f: impl FnMut(usize)) {
+    pub(super) fn for_each(&self, g: &GridGeometry, index: usize, mut f: impl FnMut(usize, i32, i32)) {
         let (w, h) = (g.width as i32, g.height as i32);
         let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
         let r = self.r_cells;
         if col >= r && row >= r && col + r < w && row + r < h {
-            for &o in &self.flat {
-                f((index as isize + o) as usize);
+            for (&o, &(dx, dy)) in self.flat.iter().zip(&self.offsets) {
+                f((index as isize + o) as usize, col + dx, row + dy);
             }
         } else {
             for &(dx, dy) in &self.offsets {
                 let (c, rr) = (col + dx, row + dy);
                 if c >= 0 && rr >= 0 && c < w && rr < h {
-                    f(rr as usize * g.width + c as usize);
+                    f(rr as usize * g.width + c as usize, c, rr);
                 }
             }
         }
@@ -138,7 +139,7 @@ impl DiscSums {
         let mut sums = vec![DiscSum::default(); g.len()];
         for (c, sum) in sums.iter_mut().enumerate() {
             let (x_c, y_c) = centre_local(g, c);
-            disc.for_each(g, c, |k| {
+            disc.for_each(g, c, |k, _, _| {
                 let m = &moments[k];
                 if m.count == 0 {
                     return;
@@ -156,9 +157,10 @@ impl DiscSums {
     /// the discs containing that cell and calls `changed` with each of their indices.
     #[inline]
     pub(super) fn add_point(&mut self, g: &GridGeometry, index: usize, p: [f64; 3], var_m2: f64, mut changed: impl FnMut(usize)) {
-        let sums = &mut self.sums;
-        self.disc.for_each(g, index, |c| {
-            let (x_c, y_c) = centre_local(g, c);
+        let (sums, res) = (&mut self.sums, g.resolution_m);
+        self.disc.for_each(g, index, |c, col, row| {
+            // centre_local(g, c), without its division.
+            let (x_c, y_c) = ((f64::from(col) + 0.5) * res, (f64::from(row) + 0.5) * res);
             let s = &mut sums[c];
             if s.count == 0 {
                 s.z_ref_m = p[2];

@@ -27,7 +27,7 @@
 //! date at insertion), the step from one pass over the disc's cells: O(disc cells) per cell, no
 //! allocation, and O(cells × disc cells) for [`TraversabilityMap::compute`].
 //! [`TraversabilityMap::update`] recomputes only the cells whose disc changed, in row-major order;
-//! [`TraversabilityMap::refresh_cell`] one cell; [`TraversabilityMap::refresh_known`] keeps the
+//! [`TraversabilityMap::refresh_cells`] a few cells; [`TraversabilityMap::refresh_known`] keeps the
 //! known/unknown flags without estimating. Against the straightforward gather-then-fuse of notes
 //! §2 the disc sums agree to rounding (proptest `optimised_estimate_agrees_with_straightforward_reference`).
 
@@ -217,7 +217,7 @@ pub(super) fn estimate_cell(
     let relative = p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some();
     // Empty cells have z_max = −∞, z_min = +∞ (and a finite mean): they change nothing.
     let (mut raw_hi, mut raw_lo, mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
-    sums.disc.for_each(g, index, |k| {
+    sums.disc.for_each(g, index, |k, _, _| {
         let m = &moments[k];
         raw_hi = raw_hi.max(m.z_max);
         raw_lo = raw_lo.min(m.z_min);
@@ -289,45 +289,48 @@ impl TraversabilityMap {
             return g.len();
         }
         let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
-        let stale = &mut self.stale_estimate;
-        stale.list.sort_unstable();
         let mut n = 0;
-        for &j in &stale.list {
-            let j = j as usize;
-            // A cell refreshed on its own since it was listed (Self::refresh_cell) is skipped,
-            // one listed twice is done once.
-            if std::mem::take(&mut stale.flag[j]) {
-                let e = estimate_cell(sums, &self.moments, &g, j, params);
-                layers.write(j, self.moments[j].count, &e);
-                n += 1;
-            }
-        }
-        stale.clear();
+        // A cell refreshed on its own since it was listed (Self::refresh_cells) is skipped.
+        self.stale_estimate.drain_in_order(|j| {
+            let e = estimate_cell(sums, &self.moments, &g, j, params);
+            layers.write(j, self.moments[j].count, &e);
+            n += 1;
+        });
         n
     }
 
-    /// Re-estimates one cell if its disc changed since its last estimate — for lazy users that
-    /// need a few cells now (a path corridor) and the whole map later. Does a full
-    /// [`Self::update`] when `layers` does not match the map or its parameters. O(disc cells).
-    pub fn refresh_cell(&mut self, index: usize, params: &TraversabilityParams, layers: &mut TraversabilityLayers) {
+    /// Re-estimates the cells `indices` whose disc changed since their last estimate — for lazy
+    /// users that need a few cells now (a path corridor) and the whole map later. Does a full
+    /// [`Self::update`] instead when `layers` does not match the map or its parameters (checked
+    /// once per call). O(disc cells) per stale cell, O(1) per other index; indices outside the
+    /// grid are ignored.
+    pub fn refresh_cells(
+        &mut self,
+        indices: impl IntoIterator<Item = usize>,
+        params: &TraversabilityParams,
+        layers: &mut TraversabilityLayers,
+    ) {
         let g = self.geometry;
         self.ensure_discs(params.disc_radius_m);
         if self.stale_estimate.all || layers.geometry() != g || layers.computed_with != *params {
             self.update(params, layers);
             return;
         }
-        if index < g.len() && std::mem::take(&mut self.stale_estimate.flag[index]) {
-            let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
-            let e = estimate_cell(sums, &self.moments, &g, index, params);
-            layers.write(index, self.moments[index].count, &e);
+        let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
+        let flag = &mut self.stale_estimate.flag;
+        for index in indices {
+            if index < g.len() && std::mem::take(&mut flag[index]) {
+                let e = estimate_cell(sums, &self.moments, &g, index, params);
+                layers.write(index, self.moments[index].count, &e);
+            }
         }
     }
 
     /// Brings the per-cell "known" flags up to date without estimating anything: a cell is known
     /// when its score would not be NaN ([`known_moments`]: enough points in its disc, spread out
     /// horizontally). Calls `changed(index, known)` for every flag that flipped since the last
-    /// call (all cells the first time, or when the disc radius, `min_points` or
-    /// `min_spread_ratio` changed). O(cells whose disc changed), O(1) each.
+    /// call, in row-major order (all cells the first time, or when the disc radius, `min_points` or
+    /// `min_spread_ratio` changed). O(cells whose disc changed), O(1) each, plus ordering them.
     pub fn refresh_known(&mut self, params: &TraversabilityParams, mut changed: impl FnMut(usize, bool)) {
         self.ensure_discs(params.disc_radius_m);
         let key = (params.disc_radius_m.to_bits(), params.min_points, params.min_spread_ratio.to_bits());
@@ -348,11 +351,9 @@ impl TraversabilityMap {
             for j in 0..self.known.len() {
                 check(j, &mut self.known);
             }
+            stale.clear();
         } else {
-            for &j in &stale.list {
-                check(j as usize, &mut self.known);
-            }
+            stale.drain_in_order(|j| check(j, &mut self.known));
         }
-        stale.clear();
     }
 }

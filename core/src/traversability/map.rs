@@ -7,8 +7,8 @@
 //! cloud's extent plus a margin). [`TraversabilityMap::clear`] empties it for re-registration
 //! after the SLAM graph is re-optimised. Once a disc radius is known (the first update), every
 //! point also joins the [`DiscSums`] of the cells whose disc holds it, and those cells are marked
-//! stale, so that [`TraversabilityMap::update`] recomputes only them, one cell can be refreshed on
-//! its own ([`TraversabilityMap::refresh_cell`]) and the known cells can be counted without
+//! stale, so that [`TraversabilityMap::update`] recomputes only them, a few cells can be refreshed
+//! on their own ([`TraversabilityMap::refresh_cells`]) and the known cells can be counted without
 //! estimating anything ([`TraversabilityMap::refresh_known`]).
 //!
 //! Precision: moments are stored relative to a per-map local origin — (x, y) of the grid's
@@ -84,6 +84,34 @@ impl StaleCells {
     pub(super) fn clear(&mut self) {
         for &i in &self.list {
             self.flag[i as usize] = false;
+        }
+        self.list.clear();
+        self.all = false;
+    }
+
+    /// Calls `f` once with every flagged cell, in increasing (row-major) order, so that
+    /// neighbouring discs share cache lines, and empties the set (`all` is the caller's to handle
+    /// first). A cell unflagged since it was listed is skipped. Sorts the list when it is short,
+    /// else scans the flags 64 at a time: O(min(k log k, cells / 64 + k)) for k listed cells.
+    pub(super) fn drain_in_order(&mut self, mut f: impl FnMut(usize)) {
+        if self.list.len() * 64 < self.flag.len() {
+            self.list.sort_unstable();
+            for &i in &self.list {
+                if std::mem::take(&mut self.flag[i as usize]) {
+                    f(i as usize);
+                }
+            }
+        } else {
+            for (k, chunk) in self.flag.chunks_mut(64).enumerate() {
+                // A branch-free OR over the chunk (vectorised), then the flagged cells.
+                if chunk.iter().fold(false, |any, &b| any | b) {
+                    for (j, b) in chunk.iter_mut().enumerate() {
+                        if std::mem::take(b) {
+                            f(k * 64 + j);
+                        }
+                    }
+                }
+            }
         }
         self.list.clear();
         self.all = false;
@@ -236,6 +264,34 @@ impl TraversabilityMap {
 mod tests {
     use super::*;
     use crate::grid::Cell;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Whichever way it orders them (a sorted short list, or a scan of the flags for a long
+        /// one), the drain visits exactly the still-flagged cells once each, in increasing order,
+        /// and leaves the set empty.
+        #[test]
+        fn drain_visits_the_flagged_cells_once_in_order(
+            cells in 1usize..700,
+            marks in proptest::collection::vec(0usize..700, 0..400),
+            unflag in proptest::collection::vec(0usize..700, 0..40),
+        ) {
+            let mut s = StaleCells::new(cells);
+            s.clear();
+            for &m in &marks {
+                s.mark(m % cells);
+            }
+            for &u in &unflag {
+                s.flag[u % cells] = false;
+            }
+            let mut want: Vec<usize> = (0..cells).filter(|&i| s.flag[i]).collect();
+            want.dedup();
+            let mut got = Vec::new();
+            s.drain_in_order(|i| got.push(i));
+            prop_assert_eq!(got, want);
+            prop_assert!(s.list.is_empty() && !s.all && s.flag.iter().all(|&f| !f));
+        }
+    }
 
     #[test]
     fn points_are_binned_relative_to_the_local_origin() {

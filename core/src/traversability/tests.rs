@@ -448,9 +448,7 @@ proptest! {
         map.update(&p, &mut layers);
         map.refresh_known(&p, |i, k| known[i] = k);
         map.insert_points(b.iter().copied());
-        for &i in &refresh {
-            map.refresh_cell(i, &p, &mut layers);
-        }
+        map.refresh_cells(refresh.iter().copied(), &p, &mut layers);
         map.refresh_known(&p, |i, k| known[i] = k);
         map.update(&p, &mut layers);
         let full = map.compute(&p);
