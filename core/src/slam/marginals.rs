@@ -1,5 +1,6 @@
 //! Marginal covariances at the current linearisation (notes §1): the block of `H⁻¹`
-//! (H = JᵀΩJ over the free variables) for a variable, without a selected inverse.
+//! (H = JᵀΩJ over the free variables) for a variable, by forward solves for a few variables and
+//! from the selected inverse for many.
 //!
 //! With faer's fill-reducing permutation P and factor P H Pᵀ = L Lᵀ,
 //! `H⁻¹ = Pᵀ L⁻ᵀ L⁻¹ P`, so the block of the variable with columns c..c+d is the Gram matrix
@@ -9,7 +10,10 @@
 //! reach). faer's simplicial factor is the special case of one-column nodes.
 //!
 //! Cost: one numeric factorisation, then per variable O(d · Σ over its path of the nodes'
-//! entries), typically far below the O(d · nnz(L)) of a full solve. Covariances are in the
+//! entries), typically far below the O(d · nnz(L)) of a full solve. Many variables (all the
+//! landmarks, say) share most of their paths: then Σ on the pattern of L, computed once from the
+//! root down (Takahashi's recursion, see `Marginals::selected_inverse`), is cheaper, and
+//! [`Marginals::covariances`] picks by counting both methods' multiply-adds. Covariances are in the
 //! variable's tangent (poses: body frame, ξ = (δt, δφ)); fixed variables have zero covariance
 //! (they are the gauge anchor). Symmetric by construction.
 
@@ -29,6 +33,11 @@ pub enum MarginalError {
     Solve(#[from] SolveError),
 }
 
+/// Per multiply-add, the selected inverse (with its gathers of Σ_RR) took 2–4× the time of the
+/// forward solves on the real graphs (BENCHMARKS.md, SLAM backend): it is chosen when it needs
+/// fewer than a third of their multiply-adds.
+const SELECTED_INVERSE_WEIGHT: usize = 3;
+
 /// One node of the factor: columns `start..start + size` of L (one column when simplicial, a
 /// supernode otherwise), their rows below the node (`pattern`, in the permuted order) and the
 /// values, column-major `(size + pattern.len()) × size` (the lower-triangular top block, then the
@@ -39,6 +48,8 @@ struct Node<'a> {
     size: usize,
     pattern: &'a [usize],
     values: &'a [f64],
+    /// Where `values` starts in the factor's value array.
+    offset: usize,
 }
 
 /// The factorised information matrix of a problem, ready for covariance queries.
@@ -103,14 +114,16 @@ impl Marginals {
                 // Column s: the diagonal first, then the rows below it.
                 let l = sym.factor();
                 let range = l.col_ptr()[s]..l.col_ptr()[s + 1];
-                Node { start: s, size: 1, pattern: &l.row_idx()[range.start + 1..range.end], values: &values[range] }
+                let offset = range.start;
+                Node { start: s, size: 1, pattern: &l.row_idx()[range.start + 1..range.end], values: &values[range], offset }
             }
             SymbolicCholeskyRaw::Supernodal(sym) => {
                 let (start, end) = (sym.supernode_begin()[s], sym.supernode_end()[s]);
                 let rows = sym.col_ptr_for_row_idx()[s];
                 let pattern = &sym.row_idx()[rows..rows + sym.nnz_per_super()[s]];
                 let vals = sym.col_ptr_for_val()[s]..sym.col_ptr_for_val()[s + 1];
-                Node { start, size: end - start, pattern, values: &values[vals] }
+                let offset = vals.start;
+                Node { start, size: end - start, pattern, values: &values[vals], offset }
             }
         }
     }
@@ -125,8 +138,66 @@ impl Marginals {
         Ok(self.covariances(&[id])?.pop().unwrap_or_else(|| DMatrix::zeros(0, 0)))
     }
 
-    /// Marginal covariances of several variables (each its own d×d block).
+    /// Marginal covariances of several variables (each its own d×d block): by forward solves
+    /// along each variable's elimination-tree path, or from the selected inverse when the
+    /// solves' multiply-adds would outnumber its own (many variables: a landmark refresh).
     pub fn covariances(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, MarginalError> {
+        if self.solve_cost(ids)? > SELECTED_INVERSE_WEIGHT * self.selected_inverse_cost() {
+            self.covariances_from_selected_inverse(ids)
+        } else {
+            self.covariances_by_solves(ids)
+        }
+    }
+
+    /// Multiply-adds of [`Self::covariances_by_solves`] for `ids`: per variable, d × the
+    /// entries of the nodes on its path.
+    fn solve_cost(&self, ids: &[VarId]) -> Result<usize, MarginalError> {
+        let inv = self.system.factor_parts().0.perm().map(|p| p.arrays().1);
+        let mut on_path = vec![false; self.parent.len()];
+        let mut path = Vec::new();
+        let mut cost = 0;
+        for id in ids {
+            let d = *self.dims.get(id.0).ok_or(SolveError::UnknownVariable(*id))?;
+            let Some(c) = self.system.column_of(*id) else { continue };
+            self.collect_path((0..d).map(|a| inv.map_or(c + a, |inv| inv[c + a])), &mut on_path, &mut path);
+            for &s in &path {
+                let node = self.node(s);
+                cost += d * node.size * (node.size + node.pattern.len());
+                on_path[s] = false;
+            }
+        }
+        Ok(cost)
+    }
+
+    /// Multiply-adds of [`Self::selected_inverse`]: per node with k columns and m pattern rows,
+    /// m²k for Σ_RJ, mk² for U and Σ_JJ, k³ for L_JJ⁻¹.
+    fn selected_inverse_cost(&self) -> usize {
+        (0..self.node_count())
+            .map(|s| {
+                let node = self.node(s);
+                let (k, m) = (node.size, node.pattern.len());
+                m * m * k + 2 * m * k * k + k * k * k
+            })
+            .sum()
+    }
+
+    /// The elimination-tree nodes of the permuted columns `columns` and all their ancestors,
+    /// children before parents, flagged in `on_path` (the caller clears the flags).
+    fn collect_path(&self, columns: impl Iterator<Item = usize>, on_path: &mut [bool], path: &mut Vec<usize>) {
+        path.clear();
+        for k in columns {
+            let mut s = self.node_of[k];
+            while s != usize::MAX && !on_path[s] {
+                on_path[s] = true;
+                path.push(s);
+                s = self.parent[s];
+            }
+        }
+        // Node indices are a topological order of the tree.
+        path.sort_unstable();
+    }
+
+    fn covariances_by_solves(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, MarginalError> {
         let n = self.system.dim();
         let inv = self.system.factor_parts().0.perm().map(|p| p.arrays().1);
         let max_d = self.dims.iter().copied().max().unwrap_or(0);
@@ -143,19 +214,11 @@ impl Marginals {
                 continue;
             };
             // y_a = L⁻¹ P e_(c+a): the unit entry sits at the permuted position of c + a.
-            path.clear();
+            let permuted = |a: usize| inv.map_or(c + a, |inv| inv[c + a]);
             for a in 0..d {
-                let k = inv.map_or(c + a, |inv| inv[c + a]);
-                x[a * n + k] = 1.0;
-                let mut s = self.node_of[k];
-                while s != usize::MAX && !on_path[s] {
-                    on_path[s] = true;
-                    path.push(s);
-                    s = self.parent[s];
-                }
+                x[a * n + permuted(a)] = 1.0;
             }
-            // Children before parents: node indices are a topological order of the tree.
-            path.sort_unstable();
+            self.collect_path((0..d).map(permuted), &mut on_path, &mut path);
             for &s in &path {
                 let node = self.node(s);
                 for y in x.chunks_exact_mut(n).take(d) {
@@ -187,6 +250,129 @@ impl Marginals {
             out.push(cov);
         }
         Ok(out)
+    }
+
+    /// The covariance blocks of `ids` read from the selected inverse.
+    fn covariances_from_selected_inverse(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, MarginalError> {
+        let inv = self.system.factor_parts().0.perm().map(|p| p.arrays().1);
+        let sigma = self.selected_inverse();
+        let mut out = Vec::with_capacity(ids.len());
+        for id in ids {
+            let d = *self.dims.get(id.0).ok_or(SolveError::UnknownVariable(*id))?;
+            let mut cov = DMatrix::zeros(d, d);
+            if let Some(c) = self.system.column_of(*id) {
+                let permuted = |a: usize| inv.map_or(c + a, |inv| inv[c + a]);
+                for a in 0..d {
+                    for b in 0..=a {
+                        // A variable's own block is dense in H, hence in the pattern of L.
+                        let v = self.sigma_at(&sigma, permuted(a), permuted(b)).unwrap_or(f64::NAN);
+                        cov[(a, b)] = v;
+                        cov[(b, a)] = v;
+                    }
+                }
+            }
+            out.push(cov);
+        }
+        Ok(out)
+    }
+
+    /// Σ = (P H Pᵀ)⁻¹ on the pattern of L (the selected inverse, Takahashi, Fagan & Chen 1973),
+    /// in the factor's own value layout, node by node from the root: for the node's columns J and
+    /// pattern rows R, with U = L_RJ L_JJ⁻¹,
+    ///   Σ_RJ = −Σ_RR U,   Σ_JJ = L_JJ⁻ᵀ L_JJ⁻¹ − Σ_RJᵀ U
+    /// (from Σ L = L⁻ᵀ, upper triangular); Σ_RR lies in the ancestors' part, already computed.
+    /// Both triangles of each Σ_JJ are stored. O(Σ over nodes of m²k + mk² + k³).
+    fn selected_inverse(&self) -> Vec<f64> {
+        let (_, values) = self.system.factor_parts();
+        let mut sigma = vec![0.0; values.len()];
+        let (mut u, mut srr, mut linv) = (Vec::new(), Vec::new(), Vec::new());
+        for s in (0..self.node_count()).rev() {
+            let node = self.node(s);
+            let (k, m, l) = (node.size, node.pattern.len(), node.values);
+            let rows = k + m;
+            // L_JJ⁻¹ (k × k, column-major, lower).
+            linv.clear();
+            linv.resize(k * k, 0.0);
+            for j in 0..k {
+                linv[j * k + j] = 1.0 / l[j * rows + j];
+                for i in j + 1..k {
+                    let mut v = 0.0;
+                    for t in j..i {
+                        v -= l[t * rows + i] * linv[j * k + t];
+                    }
+                    linv[j * k + i] = v / l[i * rows + i];
+                }
+            }
+            // U = L_RJ L_JJ⁻¹ (m × k, column-major).
+            u.clear();
+            u.resize(m * k, 0.0);
+            for j in 0..k {
+                for t in j..k {
+                    let w = linv[j * k + t];
+                    for r in 0..m {
+                        u[j * m + r] += l[t * rows + k + r] * w;
+                    }
+                }
+            }
+            // Σ_RR (m × m, column-major, both triangles) from the ancestors.
+            srr.clear();
+            srr.resize(m * m, 0.0);
+            for c in 0..m {
+                // Column pattern[c] of Σ lives in its node t; the rows pattern[c..] are among t's
+                // rows (its own columns, then its pattern), both sorted: one merge walk.
+                let jc = node.pattern[c];
+                let t = self.node(self.node_of[jc]);
+                let t_rows = t.size + t.pattern.len();
+                let col = &sigma[t.offset + (jc - t.start) * t_rows..][..t_rows];
+                let mut pos = 0;
+                for r in c..m {
+                    let i = node.pattern[r];
+                    let v = if i < t.start + t.size {
+                        col[i - t.start]
+                    } else {
+                        while pos < t.pattern.len() && t.pattern[pos] < i {
+                            pos += 1;
+                        }
+                        if pos < t.pattern.len() && t.pattern[pos] == i { col[t.size + pos] } else { 0.0 }
+                    };
+                    srr[c * m + r] = v;
+                    srr[r * m + c] = v;
+                }
+            }
+            let base = node.offset;
+            // Σ_RJ = −Σ_RR U (Σ_RR symmetric: its column r is its row r, contiguous).
+            for j in 0..k {
+                let uj = &u[j * m..(j + 1) * m];
+                for r in 0..m {
+                    let v: f64 = srr[r * m..(r + 1) * m].iter().zip(uj).map(|(a, b)| a * b).sum();
+                    sigma[base + j * rows + k + r] = -v;
+                }
+            }
+            // Σ_JJ = L_JJ⁻ᵀ L_JJ⁻¹ − Σ_RJᵀ U.
+            for j in 0..k {
+                for i in j..k {
+                    let mut v = 0.0;
+                    for t in i..k {
+                        v += linv[i * k + t] * linv[j * k + t];
+                    }
+                    for r in 0..m {
+                        v -= sigma[base + i * rows + k + r] * u[j * m + r];
+                    }
+                    sigma[base + j * rows + i] = v;
+                    sigma[base + i * rows + j] = v;
+                }
+            }
+        }
+        sigma
+    }
+
+    /// Σ(i, j) from the selected inverse (permuted indices), if (i, j) is in the pattern of L.
+    fn sigma_at(&self, sigma: &[f64], i: usize, j: usize) -> Option<f64> {
+        let (i, j) = if i >= j { (i, j) } else { (j, i) };
+        let node = self.node(self.node_of[j]);
+        let rows = node.size + node.pattern.len();
+        let r = if i < node.start + node.size { i - node.start } else { node.size + node.pattern.binary_search(&i).ok()? };
+        Some(sigma[node.offset + (j - node.start) * rows + r])
     }
 }
 
@@ -225,7 +411,9 @@ mod tests {
         let marginals = Marginals::new(graph, values).unwrap();
         let h = marginals.dense_information();
         let inv = h.clone().try_inverse().unwrap();
-        let covs = marginals.covariances(ids).unwrap();
+        let by_solves = marginals.covariances_by_solves(ids).unwrap();
+        let selected = marginals.covariances_from_selected_inverse(ids).unwrap();
+        let chosen = marginals.covariances(ids).unwrap();
         let mut col = 0;
         let mut offsets = Vec::new();
         for (id, v) in values.iter() {
@@ -234,7 +422,7 @@ mod tests {
                 col += v.dim();
             }
         }
-        for (id, cov) in ids.iter().zip(&covs) {
+        for (id, cov) in ids.iter().zip(by_solves.iter()).chain(ids.iter().zip(&selected)).chain(ids.iter().zip(&chosen)) {
             let d = cov.nrows();
             if offsets[id.0] == usize::MAX {
                 assert_eq!(cov.amax(), 0.0, "fixed variable has zero covariance");
