@@ -60,6 +60,9 @@ pub struct Marginals {
     node_of: Vec<usize>,
     /// Per node, its parent in the elimination tree (`usize::MAX` at a root).
     parent: Vec<usize>,
+    /// Whether every node's pattern is in increasing row order, as the selected inverse's
+    /// lookups need (faer's are; otherwise only the path solves are used).
+    sorted_patterns: bool,
 }
 
 impl core::fmt::Debug for Marginals {
@@ -75,7 +78,7 @@ impl Marginals {
         system.linearize(graph, values)?;
         system.factorize(0.0)?;
         let dims = values.iter().map(|(_, v)| v.dim()).collect();
-        let mut m = Self { system, dims, node_of: Vec::new(), parent: Vec::new() };
+        let mut m = Self { system, dims, node_of: Vec::new(), parent: Vec::new(), sorted_patterns: false };
         let count = m.node_count();
         let mut node_of = vec![0; m.system.dim()];
         let mut parent = vec![usize::MAX; count];
@@ -91,6 +94,7 @@ impl Marginals {
             }
         }
         (m.node_of, m.parent) = (node_of, parent);
+        m.sorted_patterns = (0..count).all(|s| m.node(s).pattern.is_sorted());
         Ok(m)
     }
 
@@ -140,9 +144,10 @@ impl Marginals {
 
     /// Marginal covariances of several variables (each its own d×d block): by forward solves
     /// along each variable's elimination-tree path, or from the selected inverse when the
-    /// solves' multiply-adds would outnumber its own (many variables: a landmark refresh).
+    /// solves would need more than `SELECTED_INVERSE_WEIGHT` (3) times its multiply-adds (many
+    /// variables: every landmark of a map, say).
     pub fn covariances(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, MarginalError> {
-        if self.solve_cost(ids)? > SELECTED_INVERSE_WEIGHT * self.selected_inverse_cost() {
+        if self.sorted_patterns && self.solve_cost(ids)? > SELECTED_INVERSE_WEIGHT * self.selected_inverse_cost() {
             self.covariances_from_selected_inverse(ids)
         } else {
             self.covariances_by_solves(ids)
@@ -432,6 +437,7 @@ mod tests {
             let rel = (cov - block).amax() / block.amax();
             assert!(rel < 1e-9, "{id:?}: relative difference {rel:e}");
         }
+        assert!(marginals.sorted_patterns);
         marginals.is_supernodal()
     }
 
