@@ -21,7 +21,17 @@ pub enum GraphError {
 #[derive(Debug, Default)]
 pub struct FactorGraph {
     factors: Vec<Box<dyn Factor>>,
+    /// Each factor's keys, beside the boxes: scanning the structure (every window update does)
+    /// reads this flat array instead of every factor's heap object.
+    keys: Vec<FactorKeys>,
     generation: u64,
+}
+
+/// A factor's keys in a fixed-size buffer (the graph caps them at [`MAX_FACTOR_KEYS`]).
+#[derive(Clone, Copy, Debug)]
+struct FactorKeys {
+    ids: [VarId; MAX_FACTOR_KEYS],
+    len: usize,
 }
 
 impl FactorGraph {
@@ -47,6 +57,9 @@ impl FactorGraph {
                 return Err(GraphError::DuplicateKey(*k));
             }
         }
+        let mut ids = [VarId(0); MAX_FACTOR_KEYS];
+        ids[..keys.len()].copy_from_slice(keys);
+        self.keys.push(FactorKeys { ids, len: keys.len() });
         self.factors.push(factor);
         self.generation += 1;
         Ok(self.factors.len() - 1)
@@ -64,6 +77,13 @@ impl FactorGraph {
         &self.factors
     }
 
+    /// The keys of factor `index`, as its [`Factor::keys`] (from a flat copy). Panics if `index`
+    /// is not a factor's.
+    pub fn keys_of(&self, index: usize) -> &[VarId] {
+        let k = &self.keys[index];
+        &k.ids[..k.len]
+    }
+
     /// Changes whenever a factor is added.
     pub fn generation(&self) -> u64 {
         self.generation
@@ -72,5 +92,35 @@ impl FactorGraph {
     /// Σ eᵀ Ω e over all factors.
     pub fn chi2(&self, values: &Values) -> Result<f64, FactorError> {
         self.factors.iter().map(|f| f.chi2(values)).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::factors::{BetweenSe2, GaussianNoise, PriorSe2};
+    use crate::slam::lie::Se2;
+
+    #[test]
+    fn flat_keys_are_the_factors_keys() {
+        let noise = GaussianNoise::isotropic(3, 0.1).unwrap();
+        let mut graph = FactorGraph::new();
+        graph.add(PriorSe2::new(VarId(3), Se2::new(0.0, 0.0, 0.0), noise)).unwrap();
+        graph.add(BetweenSe2::new(VarId(5), VarId(2), Se2::new(1.0, 0.0, 0.0), noise)).unwrap();
+        graph.add(BetweenSe2::new(VarId(0), VarId(7), Se2::new(1.0, 0.0, 0.0), noise)).unwrap();
+        assert_eq!(graph.len(), 3);
+        assert_eq!(graph.keys_of(0), &[VarId(3)]);
+        assert_eq!(graph.keys_of(1), &[VarId(5), VarId(2)]);
+        assert_eq!(graph.keys_of(2), &[VarId(0), VarId(7)]);
+        for (i, f) in graph.factors().iter().enumerate() {
+            assert_eq!(graph.keys_of(i), f.keys());
+        }
+        // A rejected factor leaves both lists alone.
+        let generation = graph.generation();
+        assert_eq!(
+            graph.add(BetweenSe2::new(VarId(1), VarId(1), Se2::new(1.0, 0.0, 0.0), noise)),
+            Err(GraphError::DuplicateKey(VarId(1)))
+        );
+        assert_eq!((graph.len(), graph.generation()), (3, generation));
     }
 }

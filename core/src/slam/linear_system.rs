@@ -79,20 +79,27 @@ impl LinearSystem {
         // Block pairs (column var, row var) with row ≤ column, including every diagonal.
         let mut pairs: Vec<(usize, usize)> = (0..nv).filter(|&v| !fixed[v]).map(|v| (v, v)).collect();
         let mut active = Vec::new();
-        for (fi, f) in graph.factors().iter().enumerate() {
-            let keys = f.keys();
+        for fi in 0..graph.len() {
+            let keys = graph.keys_of(fi);
             for k in keys {
                 if k.0 >= nv {
                     return Err(SolveError::UnknownVariable(*k));
                 }
             }
-            let free: Vec<usize> = keys.iter().map(|k| k.0).filter(|&v| !fixed[v]).collect();
-            if free.is_empty() {
+            // The factor's free variables, in a fixed-size buffer (the graph caps the keys).
+            let mut free = [0usize; MAX_FACTOR_KEYS];
+            let mut n_free = 0;
+            for k in keys.iter().filter(|k| !fixed[k.0]) {
+                free[n_free] = k.0;
+                n_free += 1;
+            }
+            if n_free == 0 {
                 continue;
             }
             active.push(fi);
-            for &a in &free {
-                for &b in &free {
+            let free = &free[..n_free];
+            for &a in free {
+                for &b in free {
                     if a < b {
                         pairs.push((b, a));
                     }
@@ -136,7 +143,7 @@ impl LinearSystem {
         }
         let mut block_rowoff = Vec::with_capacity(active.len());
         for &fi in &active {
-            let keys = graph.factors()[fi].keys();
+            let keys = graph.keys_of(fi);
             let mut table = [[NONE; MAX_FACTOR_KEYS]; MAX_FACTOR_KEYS];
             for (p, kp) in keys.iter().enumerate() {
                 for (q, kq) in keys.iter().enumerate() {
