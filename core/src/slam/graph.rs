@@ -117,10 +117,7 @@ mod tests {
         }
         // A rejected factor leaves both lists alone.
         let generation = graph.generation();
-        assert_eq!(
-            graph.add(BetweenSe2::new(VarId(1), VarId(1), Se2::new(1.0, 0.0, 0.0), noise)),
-            Err(GraphError::DuplicateKey(VarId(1)))
-        );
+        assert_eq!(graph.add(BetweenSe2::new(VarId(1), VarId(1), Se2::new(1.0, 0.0, 0.0), noise)), Err(GraphError::DuplicateKey(VarId(1))));
         assert_eq!((graph.len(), graph.generation()), (3, generation));
     }
 }
