@@ -1,13 +1,19 @@
-//! CSV point clouds and landmark sets: one point per line, `x,y,z` in metres, optionally followed
-//! by its position covariance. O(file size).
+//! CSV point clouds and landmark sets: one point per line, `x,y,z` in metres, optionally with
+//! its position covariance. O(file size).
 //!
 //! Accepted:
 //! - separators: commas (spaces around them are ignored); a line without any comma is split on
 //!   whitespace instead;
 //! - `#` starts a comment (whole line or trailing); blank lines are skipped; CRLF is fine;
-//! - an optional header: the first non-blank, non-comment line is skipped if one of its fields
-//!   is not a number (column names are not interpreted: columns are positional);
-//! - the number of numbers per line, the same on every line:
+//! - a header: the first non-blank, non-comment line, if one of its fields is not a number.
+//!
+//! A header that names `x`, `y` and `z` (case-insensitive; quotes and CloudCompare's leading
+//! `//` are ignored) selects the columns **by name**, as PLY properties and PCD fields are: an
+//! optional `classification` (integer 0–255) and the optional covariance `cov_xx cov_xy cov_xz
+//! cov_yy cov_yz cov_zz` (m², all six or none); every other column (intensity, colour, labels) is
+//! ignored unread. Every line then has the header's number of fields.
+//!
+//! Without such a header the columns are **positional**, the same number of numbers on every line:
 //!   - 3: `x y z` (no covariance);
 //!   - 4: `x y z σ`: isotropic standard deviation σ ≥ 0 in metres, covariance σ²·I;
 //!   - 6: `x y z vxx vyy vzz`: diagonal variances (m²);
@@ -15,9 +21,9 @@
 //!   - 12: `x y z` and the full 3×3 covariance row by row (must be symmetric to 1e-9 relative).
 //!
 //! Errors name the 1-based line: non-numbers, non-finite coordinates, a wrong or changing number
-//! of columns, negative variances.
+//! of columns, negative variances, bad classifications.
 
-use super::{CloudError, check_cov, cov_from_upper};
+use super::{CloudBuilder, CloudError, FieldMap, check_cov, cov_from_upper};
 use crate::cloud::PointCloud;
 use nalgebra::{Matrix3, Point3};
 
@@ -25,41 +31,98 @@ use nalgebra::{Matrix3, Point3};
 pub fn load_csv(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
     let text =
         std::str::from_utf8(bytes).map_err(|e| CloudError::Header { name: name.to_string(), detail: format!("not UTF-8 text ({e})") })?;
-    let line_err = |line: usize, detail: String| CloudError::Line { name: name.to_string(), line, detail };
+    // (1-based line number, content without comment and surrounding blanks)
+    let mut lines = text.lines().enumerate().filter_map(|(i, raw)| {
+        let content = raw.split('#').next().unwrap_or("").trim();
+        (!content.is_empty()).then_some((i + 1, content))
+    });
+    let Some((first_no, first)) = lines.next() else {
+        return Ok(PointCloud::from_points(Vec::new()));
+    };
+    let mut fields = Vec::new();
+    split_fields(first, &mut fields);
+    if fields.iter().all(|f| f.parse::<f64>().is_ok()) {
+        return load_positional(std::iter::once((first_no, first)).chain(lines), name);
+    }
+    let header: Vec<String> = fields.iter().map(|f| column_name(f)).collect();
+    if ["x", "y", "z"].iter().all(|axis| header.iter().any(|h| h == axis)) {
+        load_named(lines, &header, first_no, name)
+    } else {
+        load_positional(lines, name)
+    }
+}
+
+/// The fields of a line: split on commas if it has any, else on whitespace.
+fn split_fields<'a>(content: &'a str, out: &mut Vec<&'a str>) {
+    out.clear();
+    if content.contains(',') {
+        out.extend(content.split(',').map(str::trim));
+    } else {
+        out.extend(content.split_ascii_whitespace());
+    }
+}
+
+/// A header field as a column name: lower case, without quotes or CloudCompare's leading `//`.
+fn column_name(field: &str) -> String {
+    let f = field.trim().trim_matches(|c| c == '"' || c == '\'');
+    f.trim_start_matches("//").trim().to_ascii_lowercase()
+}
+
+fn line_error(name: &str, line: usize, detail: String) -> CloudError {
+    CloudError::Line { name: name.to_string(), line, detail }
+}
+
+fn not_a_number(name: &str, line: usize, field: &str) -> CloudError {
+    line_error(name, line, format!("'{}' is not a number", field.chars().take(40).collect::<String>()))
+}
+
+/// Columns chosen by the header's names (see the module doc).
+fn load_named<'a>(
+    lines: impl Iterator<Item = (usize, &'a str)>,
+    header: &[String],
+    header_line: usize,
+    name: &str,
+) -> Result<PointCloud, CloudError> {
+    let map = FieldMap::find(header.iter().map(String::as_str), name, "the header", "column")?;
+    let used: Vec<usize> = map.xyz.into_iter().chain(map.classification).chain(map.cov.into_iter().flatten()).collect();
+    let mut values = vec![f64::NAN; header.len()];
+    let mut builder = CloudBuilder::new(name, map, 0);
+    let mut fields = Vec::with_capacity(header.len());
+    for (line_no, content) in lines {
+        split_fields(content, &mut fields);
+        if fields.len() != header.len() {
+            return Err(line_error(
+                name,
+                line_no,
+                format!("{} fields, but the header (line {header_line}) names {} columns", fields.len(), header.len()),
+            ));
+        }
+        for &i in &used {
+            values[i] = fields[i].parse().map_err(|_| not_a_number(name, line_no, fields[i]))?;
+        }
+        builder.push(|i| values[i]).map_err(|e| match e {
+            CloudError::NonFinitePoint { .. } => line_error(name, line_no, "non-finite coordinate".to_string()),
+            CloudError::Attribute { detail, .. } => line_error(name, line_no, detail),
+            other => other,
+        })?;
+    }
+    Ok(builder.finish())
+}
+
+/// Columns by position: 3, 4, 6, 9 or 12 numbers per line (see the module doc).
+fn load_positional<'a>(lines: impl Iterator<Item = (usize, &'a str)>, name: &str) -> Result<PointCloud, CloudError> {
+    let line_err = |line: usize, detail: String| line_error(name, line, detail);
     let mut points = Vec::new();
     let mut covariances: Vec<Matrix3<f64>> = Vec::new();
     // (column count, line that set it)
     let mut columns: Option<(usize, usize)> = None;
-    let mut seen_content = false;
+    let mut fields = Vec::new();
     let mut values: Vec<f64> = Vec::with_capacity(12);
-    for (i, raw) in text.lines().enumerate() {
-        let line_no = i + 1;
-        let content = raw.split('#').next().unwrap_or("").trim();
-        if content.is_empty() {
-            continue;
-        }
-        let first_content = !seen_content;
-        seen_content = true;
+    for (line_no, content) in lines {
+        split_fields(content, &mut fields);
         values.clear();
-        let mut bad_field = None;
-        let mut push = |f: &str| match f.trim().parse::<f64>() {
-            Ok(v) => values.push(v),
-            Err(_) => {
-                if bad_field.is_none() {
-                    bad_field = Some(f.trim().chars().take(40).collect::<String>());
-                }
-            }
-        };
-        if content.contains(',') {
-            content.split(',').for_each(&mut push);
-        } else {
-            content.split_ascii_whitespace().for_each(&mut push);
-        }
-        if let Some(field) = bad_field {
-            if first_content {
-                continue; // a header line
-            }
-            return Err(line_err(line_no, format!("'{field}' is not a number")));
+        for f in &fields {
+            values.push(f.parse().map_err(|_| not_a_number(name, line_no, f))?);
         }
         let n = values.len();
         if !matches!(n, 3 | 4 | 6 | 9 | 12) {
@@ -172,6 +235,50 @@ mod tests {
         let e = load_csv(b"1,2,inf\n", "x.csv").unwrap_err();
         assert_eq!(e.to_string(), "x.csv: line 1: non-finite coordinate");
         assert!(load_csv(b"\xff\xfe", "x.csv").is_err());
+    }
+
+    #[test]
+    fn a_header_naming_x_y_z_selects_columns_by_name() {
+        // Reordered columns and a label column that is never read.
+        let c = load_csv(b"id,Z,x,y,label\n0,3,1,2,rock\n1, 6 ,4,5,sand\n", "n.csv").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0), Point3::new(4.0, 5.0, 6.0)]);
+        assert_eq!((c.covariances, c.classification), (None, None));
+        // A fourth column named otherwise is not a σ (positionally it would be).
+        let c = load_csv(b"x,y,z,intensity\n1,2,3,200\n", "i.csv").unwrap();
+        assert_eq!(c.covariances, None);
+        // CloudCompare's export, whitespace-separated, colours ignored.
+        let c = load_csv(b"//X Y Z R G B\n1 2 3 255 0 0\n", "cc.txt.csv").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0)]);
+        assert_eq!(c.covariances, None);
+        // Classification and covariance by name, in any order.
+        let text = "\"cov_zz\",cov_yz,cov_yy,cov_xz,cov_xy,cov_xx,Classification,z,y,x\n3,0.3,2,0.2,0.1,1,2,9,8,7\n";
+        let c = load_csv(text.as_bytes(), "c.csv").unwrap();
+        assert_eq!(c.points, vec![Point3::new(7.0, 8.0, 9.0)]);
+        assert_eq!(c.classification, Some(vec![2]));
+        assert_eq!(c.covariances, Some(vec![Matrix3::new(1.0, 0.1, 0.2, 0.1, 2.0, 0.3, 0.2, 0.3, 3.0)]));
+    }
+
+    #[test]
+    fn a_header_without_x_y_z_keeps_columns_positional() {
+        let c = load_csv(b"east,north,up,sigma\n1,2,3,0.5\n", "p.csv").unwrap();
+        assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0)]);
+        assert_eq!(c.covariances, Some(vec![Matrix3::from_diagonal_element(0.25)]));
+    }
+
+    #[test]
+    fn named_columns_errors_name_the_line() {
+        let e = load_csv(b"x,y,z,label\n1,2,3,a\n1,2,3\n", "n.csv").unwrap_err();
+        assert_eq!(e.to_string(), "n.csv: line 3: 3 fields, but the header (line 1) names 4 columns");
+        let e = load_csv(b"# c\nx,y,z,label\n1,2,q,a\n", "n.csv").unwrap_err();
+        assert_eq!(e.to_string(), "n.csv: line 3: 'q' is not a number");
+        let e = load_csv(b"x,y,z\n1,inf,3\n", "n.csv").unwrap_err();
+        assert_eq!(e.to_string(), "n.csv: line 2: non-finite coordinate");
+        let e = load_csv(b"x,y,z,classification\n1,2,3,2.5\n", "n.csv").unwrap_err();
+        assert_eq!(e.to_string(), "n.csv: line 2: classification 2.5 is not an integer in 0..=255");
+        let e = load_csv(b"x,y,z,cov_xx,cov_yy,cov_zz\n1,2,3,1,1,1\n", "n.csv").unwrap_err();
+        assert!(e.to_string().starts_with("n.csv: the header has some covariance columns but no 'cov_xy'"), "{e}");
+        let e = load_csv(b"x,y,z,cov_xx,cov_xy,cov_xz,cov_yy,cov_yz,cov_zz\n0,0,0,-1,0,0,1,0,1\n", "n.csv").unwrap_err();
+        assert_eq!(e.to_string(), "n.csv: line 2: negative variance on the covariance diagonal");
     }
 
     #[test]
