@@ -76,8 +76,9 @@ impl Heightfield {
         self.geometry.index(cell).map(|i| self.heights_m[i])
     }
 
-    /// Builds a rover-scale heightfield from a grey PNG DEM (pixel value = metres; image row 0 is
-    /// north, i.e. the top). The central square crop (`crop_fraction` of the shorter side, in
+    /// Builds a rover-scale heightfield from a grey PNG DEM (8 or 16 bits, alpha ignored; a grey
+    /// image saved as RGB(A), every pixel with R = G = B, reads as grey; pixel value = metres;
+    /// image row 0 is north, i.e. the top). The central square crop (`crop_fraction` of the shorter side, in
     /// ground metres) is mapped onto a `world_size_m` square with its origin at (0, 0), and heights
     /// are scaled by the same factor as distances, so slopes are the real terrain's; the lowest
     /// point of the crop is at z = 0.
@@ -101,23 +102,31 @@ impl Heightfield {
         };
         let mut buf = vec![0u8; reader.output_buffer_size().ok_or_else(|| invalid("image too large".into()))?];
         let frame = reader.next_frame(&mut buf).map_err(|e| HeightfieldError::Png { name: name.into(), message: e.to_string() })?;
-        let channels = frame.color_type.samples();
-        if frame.color_type != png::ColorType::Grayscale && frame.color_type != png::ColorType::GrayscaleAlpha {
+        use png::ColorType::{Grayscale, GrayscaleAlpha, Rgb, Rgba};
+        if !matches!(frame.color_type, Grayscale | GrayscaleAlpha | Rgb | Rgba) {
             return Err(invalid(format!("DEM must be a grey image (got {:?})", frame.color_type)));
         }
-        let sixteen = frame.bit_depth == png::BitDepth::Sixteen;
+        let channels = frame.color_type.samples();
+        let bytes_per_sample = if frame.bit_depth == png::BitDepth::Sixteen { 2 } else { 1 };
         let stride = frame.line_size;
-        let value = |col: usize, row: usize| -> f64 {
-            let base = row * stride;
-            if sixteen {
-                let o = base + col * channels * 2;
-                u16::from_be_bytes([buf[o], buf[o + 1]]) as f64
-            } else {
-                buf[base + col * channels] as f64
-            }
+        let sample_at = |col: usize, row: usize, channel: usize| -> f64 {
+            let o = row * stride + (col * channels + channel) * bytes_per_sample;
+            if bytes_per_sample == 2 { u16::from_be_bytes([buf[o], buf[o + 1]]) as f64 } else { buf[o] as f64 }
         };
+        let value = |col: usize, row: usize| sample_at(col, row, 0);
         if w < 2 || h < 2 {
             return Err(invalid("DEM must be at least 2 × 2 pixels".into()));
+        }
+        // A grey DEM saved as RGB(A) is read as grey; a colour image has no single height.
+        if matches!(frame.color_type, Rgb | Rgba) {
+            for (row, col) in (0..h).flat_map(|r| (0..w).map(move |c| (r, c))) {
+                let (r, g, b) = (sample_at(col, row, 0), sample_at(col, row, 1), sample_at(col, row, 2));
+                if r != g || g != b {
+                    return Err(invalid(format!(
+                        "DEM must be a grey image: it is RGB and pixel (column {col}, row {row}) has R, G, B = {r}, {g}, {b} (save it as grey)"
+                    )));
+                }
+            }
         }
         // Central crop in ground metres.
         let crop_m = s.crop_fraction * ((w as f64 - 1.0) * s.pixel_x_m).min((h as f64 - 1.0) * s.pixel_y_m);
@@ -182,5 +191,41 @@ mod tests {
         // crop ≈ 0.5 · 343 · 93 m ≈ 15.9 km → 20 m: scale ≈ 1/800; the real relief (≤ 840 m) becomes ≤ ~1.1 m.
         assert!(max > 0.05 && max < 1.2, "relief {max}");
         assert!(Heightfield::from_dem_png(b"not a png", "x.png", s).is_err());
+    }
+
+    fn png_of(color: png::ColorType, depth: png::BitDepth, (w, h): (u32, u32), data: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(color);
+        enc.set_depth(depth);
+        enc.write_header().unwrap().write_image_data(data).unwrap();
+        out
+    }
+
+    #[test]
+    fn a_grey_dem_saved_as_rgb_reads_as_grey_and_a_colour_one_is_refused() {
+        use png::{BitDepth, ColorType};
+        let grey: Vec<u8> = (0..12).map(|i| (i * 20) as u8).collect(); // 4 × 3 pixels
+        let s = DemScaling { pixel_x_m: 1.0, pixel_y_m: 1.0, world_size_m: 1.0, cell_m: 0.25, crop_fraction: 1.0 };
+        let reference = Heightfield::from_dem_png(&png_of(ColorType::Grayscale, BitDepth::Eight, (4, 3), &grey), "g.png", s).unwrap();
+        assert!(reference.heights_m.iter().any(|&z| z > 0.0));
+        let rgb: Vec<u8> = grey.iter().flat_map(|&v| [v, v, v]).collect();
+        let from_rgb = Heightfield::from_dem_png(&png_of(ColorType::Rgb, BitDepth::Eight, (4, 3), &rgb), "c.png", s).unwrap();
+        assert_eq!(from_rgb.heights_m, reference.heights_m);
+        // 16 bits, RGBA with alpha: the same heights as the 16-bit grey image.
+        let grey16: Vec<u8> = grey.iter().flat_map(|&v| [v, 7]).collect();
+        let rgba16: Vec<u8> = grey.iter().flat_map(|&v| [v, 7, v, 7, v, 7, 255, 255]).collect();
+        let reference16 =
+            Heightfield::from_dem_png(&png_of(ColorType::Grayscale, BitDepth::Sixteen, (4, 3), &grey16), "g16.png", s).unwrap();
+        let from_rgba16 = Heightfield::from_dem_png(&png_of(ColorType::Rgba, BitDepth::Sixteen, (4, 3), &rgba16), "c16.png", s).unwrap();
+        assert_eq!(from_rgba16.heights_m, reference16.heights_m);
+        assert_ne!(reference16.heights_m, reference.heights_m);
+        let mut colour = rgb.clone();
+        colour[3 * 6 + 1] += 1; // pixel 6 (column 2, row 1, grey 120): G differs
+        let e = Heightfield::from_dem_png(&png_of(ColorType::Rgb, BitDepth::Eight, (4, 3), &colour), "c.png", s).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "c.png: DEM must be a grey image: it is RGB and pixel (column 2, row 1) has R, G, B = 120, 121, 120 (save it as grey)"
+        );
     }
 }
