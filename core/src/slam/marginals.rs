@@ -38,6 +38,9 @@ pub enum MarginalError {
 /// fewer than a third of their multiply-adds.
 const SELECTED_INVERSE_WEIGHT: usize = 3;
 
+/// Most right-hand sides one forward solve carries (a variable's dimension: 6 for an SE(3) pose).
+const MAX_RHS: usize = 6;
+
 /// One node of the factor: columns `start..start + size` of L (one column when simplicial, a
 /// supernode otherwise), their rows below the node (`pattern`, in the permuted order) and the
 /// values, column-major `(size + pattern.len()) × size` (the lower-triangular top block, then the
@@ -206,7 +209,9 @@ impl Marginals {
         let n = self.system.dim();
         let inv = self.system.factor_parts().0.perm().map(|p| p.arrays().1);
         let max_d = self.dims.iter().copied().max().unwrap_or(0);
-        // Workspace: max_d right-hand sides of length n, zero outside the current path.
+        // Workspace: max_d right-hand sides of length n, interleaved (row r of right-hand side a
+        // at r · max_d + a) so that a node's values are read once for all of them; zero outside
+        // the current path.
         let mut x = vec![0.0; n * max_d];
         let mut on_path = vec![false; self.parent.len()];
         let mut path = Vec::new();
@@ -221,29 +226,25 @@ impl Marginals {
             // y_a = L⁻¹ P e_(c+a): the unit entry sits at the permuted position of c + a.
             let permuted = |a: usize| inv.map_or(c + a, |inv| inv[c + a]);
             for a in 0..d {
-                x[a * n + permuted(a)] = 1.0;
+                x[permuted(a) * max_d + a] = 1.0;
             }
             self.collect_path((0..d).map(permuted), &mut on_path, &mut path);
             for &s in &path {
-                let node = self.node(s);
-                for y in x.chunks_exact_mut(n).take(d) {
-                    forward_node(&node, y);
-                }
+                forward_node(&self.node(s), &mut x, d, max_d);
             }
             for &s in &path {
                 let node = self.node(s);
                 for r in node.start..node.start + node.size {
+                    let xr = &mut x[r * max_d..r * max_d + d];
                     for a in 0..d {
-                        let xa = x[a * n + r];
+                        let xa = xr[a];
                         if xa != 0.0 {
                             for b in 0..=a {
-                                cov[(a, b)] += xa * x[b * n + r];
+                                cov[(a, b)] += xa * xr[b];
                             }
                         }
                     }
-                    for a in 0..d {
-                        x[a * n + r] = 0.0;
-                    }
+                    xr.fill(0.0);
                 }
                 on_path[s] = false;
             }
@@ -381,23 +382,78 @@ impl Marginals {
     }
 }
 
-/// One node's part of the forward solve `L y = b`: solves the node's lower-triangular top block
-/// for its rows of `y`, then subtracts their contribution from the pattern rows.
-fn forward_node(node: &Node, y: &mut [f64]) {
+/// One node's part of the forward solves `L y_a = b_a` for the right-hand sides a < `d`, stored
+/// interleaved in `y` (row r of y_a at r · `stride` + a): solves the node's lower-triangular top
+/// block for its rows, then subtracts their contribution from the pattern rows. Each y_a sees
+/// the same operations in the same order as a solve of its own (a zero y_a(j) skips column j
+/// for that a), so the results do not depend on `d`; the node's values and pattern are read once
+/// for all of them.
+fn forward_node(node: &Node, y: &mut [f64], d: usize, stride: usize) {
+    debug_assert!(d <= MAX_RHS && d <= stride);
+    match d {
+        3 => forward_node_fixed::<3>(node, y, stride),
+        6 => forward_node_fixed::<6>(node, y, stride),
+        _ => forward_node_any(node, y, d, stride),
+    }
+}
+
+/// [`forward_node`] for `D` right-hand sides known at compile time.
+fn forward_node_fixed<const D: usize>(node: &Node, y: &mut [f64], stride: usize) {
     let (start, size) = (node.start, node.size);
     let rows = size + node.pattern.len();
     for j in 0..size {
         let col = &node.values[j * rows..(j + 1) * rows];
-        let yj = y[start + j] / col[j];
-        y[start + j] = yj;
-        if yj == 0.0 {
+        let at = (start + j) * stride;
+        let mut yj = [0.0; D];
+        for (a, v) in yj.iter_mut().enumerate() {
+            *v = y[at + a] / col[j];
+            y[at + a] = *v;
+        }
+        if yj.contains(&0.0) {
+            forward_column_some(col, j, node, y, &yj, stride);
             continue;
         }
         for i in j + 1..size {
-            y[start + i] -= col[i] * yj;
+            let t: &mut [f64; D] = (&mut y[(start + i) * stride..][..D]).try_into().expect("D rows");
+            for a in 0..D {
+                t[a] -= col[i] * yj[a];
+            }
+        }
+        for (&l, &row) in col[size..].iter().zip(node.pattern) {
+            let t: &mut [f64; D] = (&mut y[row * stride..][..D]).try_into().expect("D rows");
+            for a in 0..D {
+                t[a] -= l * yj[a];
+            }
+        }
+    }
+}
+
+/// [`forward_node`] for any number of right-hand sides.
+fn forward_node_any(node: &Node, y: &mut [f64], d: usize, stride: usize) {
+    let (start, size) = (node.start, node.size);
+    let rows = size + node.pattern.len();
+    let mut yj = [0.0; MAX_RHS];
+    for j in 0..size {
+        let col = &node.values[j * rows..(j + 1) * rows];
+        let at = (start + j) * stride;
+        for a in 0..d {
+            yj[a] = y[at + a] / col[j];
+            y[at + a] = yj[a];
+        }
+        forward_column_some(col, j, node, y, &yj[..d], stride);
+    }
+}
+
+/// Column `j`'s updates below it, right-hand side by right-hand side, for those whose `yj` is
+/// not zero.
+fn forward_column_some(col: &[f64], j: usize, node: &Node, y: &mut [f64], yj: &[f64], stride: usize) {
+    let (start, size) = (node.start, node.size);
+    for (a, &v) in yj.iter().enumerate().filter(|(_, v)| **v != 0.0) {
+        for i in j + 1..size {
+            y[(start + i) * stride + a] -= col[i] * v;
         }
         for (p, &row) in node.pattern.iter().enumerate() {
-            y[row] -= col[size + p] * yj;
+            y[row * stride + a] -= col[size + p] * v;
         }
     }
 }
@@ -526,10 +582,9 @@ mod tests {
         assert!(!assert_matches_dense_inverse(&graph, &values, &all), "simplicial factor");
     }
 
-    #[test]
-    fn supernodal_factor_matches_dense_inverse() {
-        // 40 SE(3) poses on a chain with a loop, 30 landmarks each seen from most poses: dense
-        // enough that faer factorises supernodally (asserted), with several supernodes.
+    /// 40 SE(3) poses on a chain with a loop, 30 landmarks each seen from most poses: dense
+    /// enough that faer factorises supernodally, with several supernodes. Returns every variable.
+    fn supernodal_example() -> (FactorGraph, Values, Vec<VarId>) {
         let a = Matrix6::from_fn(|i, j| ((i * 7 + j) as f64).cos());
         let poses: Vec<Se3> = (0..40).map(|k| se3([0.3 * k as f64, (0.2 * k as f64).sin(), 0.0], [0.0, 0.05, 0.1 * k as f64])).collect();
         let lms: Vec<Vector3<f64>> = (0..30).map(|j| Vector3::new(0.4 * j as f64, 3.0 + (j % 3) as f64, 1.0)).collect();
@@ -537,9 +592,58 @@ mod tests {
         let (mut graph, values, poses, lms) = pose_chain_with_landmarks(&poses, &lms, info6, 0.3, |k, j| (k * 7 + j * 3) % 5 != 0);
         let noise6 = GaussianNoise::from_information(&info6).unwrap();
         graph.add(BetweenSe3::new(poses[0], poses[39], se3([11.0, 0.5, 0.0], [0.0, 0.0, 3.9]), noise6)).unwrap();
-        let all: Vec<VarId> = poses.iter().chain(&lms).copied().collect();
+        (graph, values, poses.iter().chain(&lms).copied().collect())
+    }
+
+    #[test]
+    fn supernodal_factor_matches_dense_inverse() {
+        let (graph, values, all) = supernodal_example();
         assert!(assert_matches_dense_inverse(&graph, &values, &all), "supernodal factor");
         let m = Marginals::new(&graph, &values).unwrap();
         assert!(m.node_count() > 1, "several supernodes: {}", m.node_count());
+    }
+
+    /// The interleaved forward solves of a variable's d columns give, bit for bit, what d solves
+    /// of one right-hand side each give (3 and 6 columns, supernodal and simplicial factors; the
+    /// unit right-hand sides start with zeros, so both the skipping and the fused branches run).
+    #[test]
+    fn interleaved_solves_equal_one_at_a_time_bit_for_bit() {
+        let (graph, values, all) = supernodal_example();
+        let (chain_graph, chain_values, chain_poses, chain_lms) = {
+            let poses: Vec<Se3> = (0..6).map(|k| se3([k as f64, 0.2, 0.0], [0.0, 0.1, 0.3 * k as f64])).collect();
+            let lms: Vec<Vector3<f64>> = (0..4).map(|k| Vector3::new(k as f64, 3.0, 1.0)).collect();
+            pose_chain_with_landmarks(&poses, &lms, Matrix6::identity() * 7.0, 0.2, |k, j| (k + j) % 2 == 0)
+        };
+        let chain_all: Vec<VarId> = chain_poses.iter().chain(&chain_lms).copied().collect();
+        for (graph, values, ids, supernodal) in [(&graph, &values, &all, true), (&chain_graph, &chain_values, &chain_all, false)] {
+            let m = Marginals::new(graph, values).unwrap();
+            assert_eq!(m.is_supernodal(), supernodal);
+            let n = m.system.dim();
+            let inv = m.system.factor_parts().0.perm().map(|p| p.arrays().1);
+            let (mut on_path, mut path) = (vec![false; m.parent.len()], Vec::new());
+            for &id in ids {
+                let (d, c) = (m.dims[id.0], m.system.column_of(id).unwrap());
+                let permuted = |a: usize| inv.map_or(c + a, |inv| inv[c + a]);
+                let mut x = vec![0.0; n * MAX_RHS];
+                let mut one_at_a_time = vec![vec![0.0; n]; d];
+                for a in 0..d {
+                    x[permuted(a) * MAX_RHS + a] = 1.0;
+                    one_at_a_time[a][permuted(a)] = 1.0;
+                }
+                m.collect_path((0..d).map(permuted), &mut on_path, &mut path);
+                for &s in &path {
+                    forward_node(&m.node(s), &mut x, d, MAX_RHS);
+                    for y in &mut one_at_a_time {
+                        forward_node(&m.node(s), y, 1, 1);
+                    }
+                    on_path[s] = false;
+                }
+                for (a, y) in one_at_a_time.iter().enumerate() {
+                    for (r, v) in y.iter().enumerate() {
+                        assert_eq!(x[r * MAX_RHS + a].to_bits(), v.to_bits(), "{id:?} column {a} row {r}");
+                    }
+                }
+            }
+        }
     }
 }
