@@ -24,6 +24,9 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
         let spec = WorldSpec::from_toml(&text, name).unwrap();
         assert!(spec.time_limit_s > 0.0, "{name}");
     }
+    // The benchmark world of BENCHMARKS.md (Mission) parses too.
+    let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
+    WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
     // The indoor world: walls are GT lethal, the start room is explorable, rooms connect by doors.
     let spec = WorldSpec::from_toml(&String::from_utf8(files("indoor_rooms.toml").unwrap()).unwrap(), "indoor").unwrap();
     let w = World::build(&spec, &params.traversability, params.traversability.tau, files).unwrap();
