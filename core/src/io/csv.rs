@@ -307,5 +307,21 @@ mod tests {
         fn arbitrary_bytes_never_panic(b in prop::collection::vec(any::<u8>(), 0..200)) {
             let _ = load_csv(&b, "x.csv");
         }
+
+        /// Named headers (any subset and order of the known names and others) over arbitrary
+        /// rows: an error or a cloud whose attributes have one entry per point.
+        #[test]
+        fn named_headers_over_arbitrary_rows_never_panic(
+            header in prop::sample::subsequence(
+                vec!["x", "y", "z", "Classification", "cov_xx", "cov_xy", "cov_xz", "cov_yy", "cov_yz", "cov_zz", "label", "//X"], 0..12
+            ).prop_shuffle(),
+            rows in "[0-9,. #\\n\\-eEnaifab]{0,200}",
+        ) {
+            let text = format!("{}\n{rows}", header.join(","));
+            if let Ok(c) = load_csv(text.as_bytes(), "n.csv") {
+                prop_assert!(c.covariances.as_ref().is_none_or(|v| v.len() == c.points.len()));
+                prop_assert!(c.classification.as_ref().is_none_or(|v| v.len() == c.points.len()));
+            }
+        }
     }
 }
