@@ -38,8 +38,14 @@ pub enum MarginalError {
 /// fewer than a third of their multiply-adds.
 const SELECTED_INVERSE_WEIGHT: usize = 3;
 
-/// Most right-hand sides one forward solve carries (a variable's dimension: 6 for an SE(3) pose).
+/// Most right-hand sides one variable brings (its dimension: 6 for an SE(3) pose).
 const MAX_RHS: usize = 6;
+
+/// Variables whose forward solves share each pass through L (at most 64: a bit each).
+const SOLVE_BATCH: usize = 8;
+
+/// Most right-hand sides of one pass.
+const MAX_LANES: usize = SOLVE_BATCH * MAX_RHS;
 
 /// One node of the factor: columns `start..start + size` of L (one column when simplicial, a
 /// supernode otherwise), their rows below the node (`pattern`, in the permuted order) and the
@@ -205,55 +211,99 @@ impl Marginals {
         path.sort_unstable();
     }
 
+    /// The solves of up to [`SOLVE_BATCH`] variables at a time: their columns are interleaved
+    /// (row r of column a at r · stride + a, `stride` their total dimension) and each node of L
+    /// on the union of their paths is read once for the variables whose path holds it (all of
+    /// them near the root). Every column sees the operations of its own solve in the same
+    /// order, so the blocks do not depend on the batching.
     fn covariances_by_solves(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, MarginalError> {
         let n = self.system.dim();
         let inv = self.system.factor_parts().0.perm().map(|p| p.arrays().1);
         let max_d = self.dims.iter().copied().max().unwrap_or(0);
-        // Workspace: max_d right-hand sides of length n, interleaved (row r of right-hand side a
-        // at r · max_d + a) so that a node's values are read once for all of them; zero outside
-        // the current path.
-        let mut x = vec![0.0; n * max_d];
-        let mut on_path = vec![false; self.parent.len()];
-        let mut path = Vec::new();
+        // Workspace, zero outside the current union of paths.
+        let mut x = vec![0.0; n * max_d * SOLVE_BATCH.min(ids.len())];
+        // Per node, which of the batch's variables have it on their path.
+        let mut on_paths = vec![0u64; self.parent.len()];
+        let mut union = Vec::new();
         let mut out = Vec::with_capacity(ids.len());
-        for id in ids {
-            let d = *self.dims.get(id.0).ok_or(SolveError::UnknownVariable(*id))?;
-            let mut cov = DMatrix::zeros(d, d);
-            let Some(c) = self.system.column_of(*id) else {
-                out.push(cov);
-                continue;
-            };
+        for batch in ids.chunks(SOLVE_BATCH) {
+            // (first column, dimension, first lane) of each variable with free columns.
+            let mut members = Vec::with_capacity(batch.len());
+            let mut stride = 0;
+            for id in batch {
+                let d = *self.dims.get(id.0).ok_or(SolveError::UnknownVariable(*id))?;
+                if let Some(c) = self.system.column_of(*id) {
+                    members.push((c, d, stride));
+                    stride += d;
+                }
+            }
             // y_a = L⁻¹ P e_(c+a): the unit entry sits at the permuted position of c + a.
-            let permuted = |a: usize| inv.map_or(c + a, |inv| inv[c + a]);
-            for a in 0..d {
-                x[permuted(a) * max_d + a] = 1.0;
+            for (m, &(c, d, lane)) in members.iter().enumerate() {
+                let bit = 1u64 << m;
+                for a in 0..d {
+                    let k = inv.map_or(c + a, |inv| inv[c + a]);
+                    x[k * stride + lane + a] = 1.0;
+                    let mut s = self.node_of[k];
+                    while s != usize::MAX && on_paths[s] & bit == 0 {
+                        if on_paths[s] == 0 {
+                            union.push(s);
+                        }
+                        on_paths[s] |= bit;
+                        s = self.parent[s];
+                    }
+                }
             }
-            self.collect_path((0..d).map(permuted), &mut on_path, &mut path);
-            for &s in &path {
-                forward_node(&self.node(s), &mut x, d, max_d);
+            // Node indices are a topological order of the tree: children before parents.
+            union.sort_unstable();
+            let everyone = (1u64 << members.len()) - 1;
+            for &s in &union {
+                let node = self.node(s);
+                if on_paths[s] == everyone {
+                    forward_node(&node, &mut x, 0..stride, stride);
+                } else {
+                    for (_, &(_, d, lane)) in members.iter().enumerate().filter(|(m, _)| on_paths[s] & (1 << m) != 0) {
+                        forward_node(&node, &mut x, lane..lane + d, stride);
+                    }
+                }
             }
-            for &s in &path {
+            let mut covs: Vec<DMatrix<f64>> = members.iter().map(|&(_, d, _)| DMatrix::zeros(d, d)).collect();
+            for &s in &union {
                 let node = self.node(s);
                 for r in node.start..node.start + node.size {
-                    let xr = &mut x[r * max_d..r * max_d + d];
-                    for a in 0..d {
-                        let xa = xr[a];
-                        if xa != 0.0 {
-                            for b in 0..=a {
-                                cov[(a, b)] += xa * xr[b];
+                    let xr = &mut x[r * stride..(r + 1) * stride];
+                    for (m, (&(_, d, lane), cov)) in members.iter().zip(&mut covs).enumerate() {
+                        if on_paths[s] & (1 << m) == 0 {
+                            continue;
+                        }
+                        let xm = &xr[lane..lane + d];
+                        for a in 0..d {
+                            if xm[a] != 0.0 {
+                                for b in 0..=a {
+                                    cov[(a, b)] += xm[a] * xm[b];
+                                }
                             }
                         }
                     }
                     xr.fill(0.0);
                 }
-                on_path[s] = false;
+                on_paths[s] = 0;
             }
-            for a in 0..d {
-                for b in 0..a {
-                    cov[(b, a)] = cov[(a, b)];
-                }
+            union.clear();
+            let mut covs = covs.into_iter();
+            for id in batch {
+                let cov = if self.system.column_of(*id).is_some() { covs.next() } else { None };
+                out.push(cov.map_or_else(
+                    || DMatrix::zeros(self.dims[id.0], self.dims[id.0]),
+                    |mut cov| {
+                        for a in 0..cov.nrows() {
+                            for b in 0..a {
+                                cov[(b, a)] = cov[(a, b)];
+                            }
+                        }
+                        cov
+                    },
+                ));
             }
-            out.push(cov);
         }
         Ok(out)
     }
@@ -382,45 +432,41 @@ impl Marginals {
     }
 }
 
-/// One node's part of the forward solves `L y_a = b_a` for the right-hand sides a < `d`, stored
-/// interleaved in `y` (row r of y_a at r · `stride` + a): solves the node's lower-triangular top
-/// block for its rows, then subtracts their contribution from the pattern rows. Each y_a sees
-/// the same operations in the same order as a solve of its own (a zero y_a(j) skips column j
-/// for that a), so the results do not depend on `d`; the node's values and pattern are read once
-/// for all of them.
-fn forward_node(node: &Node, y: &mut [f64], d: usize, stride: usize) {
-    debug_assert!(d <= MAX_RHS && d <= stride);
-    match d {
-        3 => forward_node_fixed::<3>(node, y, stride),
-        6 => forward_node_fixed::<6>(node, y, stride),
-        _ => forward_node_any(node, y, d, stride),
+/// One node's part of the forward solves `L y_a = b_a` for the right-hand sides in `lanes`,
+/// stored interleaved in `y` (row r of y_a at r · `stride` + a): solves the node's
+/// lower-triangular top block for its rows, then subtracts their contribution from the pattern
+/// rows. A column whose entries are all zero is skipped. Within a column, a zero entry still
+/// subtracts `l · 0 = ±0`, which leaves every value as it was (no value here is ever −0: the
+/// right-hand sides are units and zeros, L's diagonal is positive, and x − x rounds to +0), so
+/// each y_a is bit for bit what a solve of its own, skipping its zeros, gives; the node's values
+/// and pattern are read once for all of them.
+fn forward_node(node: &Node, y: &mut [f64], lanes: std::ops::Range<usize>, stride: usize) {
+    debug_assert!(lanes.end <= stride && lanes.len() <= MAX_LANES);
+    match lanes.len() {
+        3 => forward_node_fixed::<3>(node, y, lanes.start, stride),
+        6 => forward_node_fixed::<6>(node, y, lanes.start, stride),
+        _ => forward_node_any(node, y, lanes, stride),
     }
 }
 
-/// [`forward_node`] for `D` right-hand sides known at compile time.
-fn forward_node_fixed<const D: usize>(node: &Node, y: &mut [f64], stride: usize) {
+/// [`forward_node`] for `D` lanes from `lane`, `D` known at compile time.
+fn forward_node_fixed<const D: usize>(node: &Node, y: &mut [f64], lane: usize, stride: usize) {
     let (start, size) = (node.start, node.size);
     let rows = size + node.pattern.len();
     for j in 0..size {
         let col = &node.values[j * rows..(j + 1) * rows];
-        let at = (start + j) * stride;
+        let at = (start + j) * stride + lane;
         let mut yj = [0.0; D];
         for (a, v) in yj.iter_mut().enumerate() {
             *v = y[at + a] / col[j];
             y[at + a] = *v;
         }
-        if yj.contains(&0.0) {
-            forward_column_some(col, j, node, y, &yj, stride);
+        if yj == [0.0; D] {
             continue;
         }
-        for i in j + 1..size {
-            let t: &mut [f64; D] = (&mut y[(start + i) * stride..][..D]).try_into().expect("D rows");
-            for a in 0..D {
-                t[a] -= col[i] * yj[a];
-            }
-        }
-        for (&l, &row) in col[size..].iter().zip(node.pattern) {
-            let t: &mut [f64; D] = (&mut y[row * stride..][..D]).try_into().expect("D rows");
+        let targets = (start + j + 1..start + size).chain(node.pattern.iter().copied());
+        for (&l, row) in col[j + 1..].iter().zip(targets) {
+            let t: &mut [f64; D] = (&mut y[row * stride + lane..][..D]).try_into().expect("D lanes");
             for a in 0..D {
                 t[a] -= l * yj[a];
             }
@@ -428,32 +474,28 @@ fn forward_node_fixed<const D: usize>(node: &Node, y: &mut [f64], stride: usize)
     }
 }
 
-/// [`forward_node`] for any number of right-hand sides.
-fn forward_node_any(node: &Node, y: &mut [f64], d: usize, stride: usize) {
+/// [`forward_node`] for any number of lanes.
+fn forward_node_any(node: &Node, y: &mut [f64], lanes: std::ops::Range<usize>, stride: usize) {
     let (start, size) = (node.start, node.size);
     let rows = size + node.pattern.len();
-    let mut yj = [0.0; MAX_RHS];
+    let width = lanes.len();
+    let mut yj = [0.0; MAX_LANES];
+    let yj = &mut yj[..width];
     for j in 0..size {
         let col = &node.values[j * rows..(j + 1) * rows];
-        let at = (start + j) * stride;
-        for a in 0..d {
-            yj[a] = y[at + a] / col[j];
-            y[at + a] = yj[a];
+        let at = (start + j) * stride + lanes.start;
+        for (v, t) in yj.iter_mut().zip(&mut y[at..at + width]) {
+            *v = *t / col[j];
+            *t = *v;
         }
-        forward_column_some(col, j, node, y, &yj[..d], stride);
-    }
-}
-
-/// Column `j`'s updates below it, right-hand side by right-hand side, for those whose `yj` is
-/// not zero.
-fn forward_column_some(col: &[f64], j: usize, node: &Node, y: &mut [f64], yj: &[f64], stride: usize) {
-    let (start, size) = (node.start, node.size);
-    for (a, &v) in yj.iter().enumerate().filter(|(_, v)| **v != 0.0) {
-        for i in j + 1..size {
-            y[(start + i) * stride + a] -= col[i] * v;
+        if yj.iter().all(|&v| v == 0.0) {
+            continue;
         }
-        for (p, &row) in node.pattern.iter().enumerate() {
-            y[row * stride + a] -= col[size + p] * v;
+        let targets = (start + j + 1..start + size).chain(node.pattern.iter().copied());
+        for (&l, row) in col[j + 1..].iter().zip(targets) {
+            for (t, &v) in y[row * stride + lanes.start..][..width].iter_mut().zip(yj.iter()) {
+                *t -= l * v;
+            }
         }
     }
 }
@@ -603,6 +645,25 @@ mod tests {
         assert!(m.node_count() > 1, "several supernodes: {}", m.node_count());
     }
 
+    /// Solved in batches (paths shared near the root, not below), every block is bit for bit
+    /// its solve alone; fixed variables keep their place with a zero block.
+    #[test]
+    fn batched_solves_equal_solves_alone_bit_for_bit() {
+        let (graph, mut values, all) = supernodal_example();
+        values.set_fixed(all[3], true);
+        let m = Marginals::new(&graph, &values).unwrap();
+        // Landmarks and poses mixed, out of order, more than one batch.
+        let ids: Vec<VarId> = all.iter().rev().step_by(3).chain(all.iter().step_by(5)).copied().collect();
+        assert!(ids.len() > 2 * SOLVE_BATCH && ids.contains(&all[3]));
+        let batched = m.covariances_by_solves(&ids).unwrap();
+        for (id, cov) in ids.iter().zip(&batched) {
+            let alone = m.covariances_by_solves(&[*id]).unwrap().remove(0);
+            assert_eq!(cov.shape(), alone.shape());
+            assert!(cov.iter().zip(alone.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "{id:?}");
+        }
+        assert_eq!(batched[ids.iter().position(|&i| i == all[3]).unwrap()].amax(), 0.0);
+    }
+
     /// The interleaved forward solves of a variable's d columns give, bit for bit, what d solves
     /// of one right-hand side each give (3 and 6 columns, supernodal and simplicial factors; the
     /// unit right-hand sides start with zeros, so both the skipping and the fused branches run).
@@ -632,9 +693,9 @@ mod tests {
                 }
                 m.collect_path((0..d).map(permuted), &mut on_path, &mut path);
                 for &s in &path {
-                    forward_node(&m.node(s), &mut x, d, MAX_RHS);
+                    forward_node(&m.node(s), &mut x, 0..d, MAX_RHS);
                     for y in &mut one_at_a_time {
-                        forward_node(&m.node(s), y, 1, 1);
+                        forward_node(&m.node(s), y, 0..1, 1);
                     }
                     on_path[s] = false;
                 }
