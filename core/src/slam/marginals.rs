@@ -41,8 +41,10 @@ const SELECTED_INVERSE_WEIGHT: usize = 3;
 /// Most right-hand sides one variable brings (its dimension: 6 for an SE(3) pose).
 const MAX_RHS: usize = 6;
 
-/// Variables whose forward solves share each pass through L (at most 64: a bit each).
+/// Variables whose forward solves share each pass through L (fewer than 64: a bit each in a
+/// `u64`, with room for the all-set mask).
 const SOLVE_BATCH: usize = 8;
+const _: () = assert!(SOLVE_BATCH < 64);
 
 /// Most right-hand sides of one pass.
 const MAX_LANES: usize = SOLVE_BATCH * MAX_RHS;
@@ -261,8 +263,10 @@ impl Marginals {
                 if on_paths[s] == everyone {
                     forward_node(&node, &mut x, 0..stride, stride);
                 } else {
-                    for (_, &(_, d, lane)) in members.iter().enumerate().filter(|(m, _)| on_paths[s] & (1 << m) != 0) {
-                        forward_node(&node, &mut x, lane..lane + d, stride);
+                    for (m, &(_, d, lane)) in members.iter().enumerate() {
+                        if on_paths[s] & (1 << m) != 0 {
+                            forward_node(&node, &mut x, lane..lane + d, stride);
+                        }
                     }
                 }
             }
