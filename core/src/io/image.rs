@@ -36,15 +36,27 @@ impl Raster {
         self.channels == 2 || self.channels == 4
     }
 
-    /// Sample `k` of the flat sample array, normalised to [0, 1].
+    /// Sample `k` of the flat sample array as stored (0–255 or 0–65535).
     #[inline]
-    fn sample(&self, k: usize) -> f64 {
-        let raw = if self.bytes_per_sample == 1 {
+    fn stored(&self, k: usize) -> f64 {
+        if self.bytes_per_sample == 1 {
             f64::from(self.data[k])
         } else {
             f64::from(u16::from_be_bytes([self.data[2 * k], self.data[2 * k + 1]]))
-        };
-        raw / self.max_value
+        }
+    }
+
+    /// Sample `k` of the flat sample array, normalised to [0, 1].
+    #[inline]
+    fn sample(&self, k: usize) -> f64 {
+        self.stored(k) / self.max_value
+    }
+
+    /// Channel `channel` of pixel `index` (row-major from the top-left) as stored, not
+    /// normalised: a DEM's pixel value.
+    #[inline]
+    pub fn stored_sample(&self, index: usize, channel: usize) -> f64 {
+        self.stored(index * self.channels + channel)
     }
 
     /// Colour and alpha of pixel `index` (row-major from the top-left), each in [0, 1]: the

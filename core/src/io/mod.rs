@@ -24,7 +24,7 @@
 //! a non-negative diagonal.
 
 pub mod csv;
-mod image;
+pub(crate) mod image;
 #[cfg(feature = "las")]
 pub mod las;
 pub mod map_server;

@@ -1,14 +1,16 @@
 //! Terrain as a heightfield: ground height z(x, y) on a square grid, bilinear between samples.
-//! Built from a real DEM image (16- or 8-bit grey PNG, value = metres) scaled to rover size, or
+//! Built from a real DEM image (grey PNG or PGM, value = metres) scaled to rover size, or
 //! procedurally. Lookups O(1).
 
 use crate::grid::{Cell, GridGeometry};
+use crate::io::MapError;
+use crate::io::image::decode_image;
 use thiserror::Error;
 
 /// A DEM that could not be read.
 #[derive(Debug, Error)]
 pub enum HeightfieldError {
-    #[error("{name}: not a readable PNG: {message}")]
+    #[error("{name}: not a readable DEM image: {message}")]
     Png { name: String, message: String },
     #[error("{name}: {message}")]
     Invalid { name: String, message: String },
@@ -76,9 +78,9 @@ impl Heightfield {
         self.geometry.index(cell).map(|i| self.heights_m[i])
     }
 
-    /// Builds a rover-scale heightfield from a grey PNG DEM (8 or 16 bits, alpha ignored; a grey
-    /// image saved as RGB(A), every pixel with R = G = B, reads as grey; pixel value = metres;
-    /// image row 0 is north, i.e. the top). The central square crop (`crop_fraction` of the shorter side, in
+    /// Builds a rover-scale heightfield from a grey DEM image, PNG (1–16 bits, palette expanded,
+    /// alpha ignored; a grey image saved as RGB(A), every pixel with R = G = B, reads as grey) or
+    /// PGM (pixel value = metres; image row 0 is north, i.e. the top). The central square crop (`crop_fraction` of the shorter side, in
     /// ground metres) is mapped onto a `world_size_m` square with its origin at (0, 0), and heights
     /// are scaled by the same factor as distances, so slopes are the real terrain's; the lowest
     /// point of the crop is at z = 0.
@@ -94,34 +96,26 @@ impl Heightfield {
         {
             return Err(invalid("DEM scaling parameters must be positive (crop fraction in (0, 1])".into()));
         }
-        let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-        let mut reader = decoder.read_info().map_err(|e| HeightfieldError::Png { name: name.into(), message: e.to_string() })?;
-        let (w, h) = {
-            let info = reader.info();
-            (info.width as usize, info.height as usize)
-        };
-        let mut buf = vec![0u8; reader.output_buffer_size().ok_or_else(|| invalid("image too large".into()))?];
-        let frame = reader.next_frame(&mut buf).map_err(|e| HeightfieldError::Png { name: name.into(), message: e.to_string() })?;
-        use png::ColorType::{Grayscale, GrayscaleAlpha, Rgb, Rgba};
-        if !matches!(frame.color_type, Grayscale | GrayscaleAlpha | Rgb | Rgba) {
-            return Err(invalid(format!("DEM must be a grey image (got {:?})", frame.color_type)));
-        }
-        let channels = frame.color_type.samples();
-        let bytes_per_sample = if frame.bit_depth == png::BitDepth::Sixteen { 2 } else { 1 };
-        let stride = frame.line_size;
-        let sample_at = |col: usize, row: usize, channel: usize| -> f64 {
-            let o = row * stride + (col * channels + channel) * bytes_per_sample;
-            if bytes_per_sample == 2 { u16::from_be_bytes([buf[o], buf[o + 1]]) as f64 } else { buf[o] as f64 }
-        };
-        let value = |col: usize, row: usize| sample_at(col, row, 0);
+        // The map images' decoder: PNG (any colour type and depth, expanded) or PGM, with its
+        // allocation caps.
+        let raster = decode_image(bytes, name).map_err(|e| HeightfieldError::Png {
+            name: name.into(),
+            message: match e {
+                MapError::Image { detail, .. } => detail,
+                other => other.to_string(),
+            },
+        })?;
+        let (w, h, channels) = (raster.width, raster.height, raster.channels);
+        let value = |col: usize, row: usize| raster.stored_sample(row * w + col, 0);
         if w < 2 || h < 2 {
             return Err(invalid("DEM must be at least 2 × 2 pixels".into()));
         }
         // A grey DEM saved as RGB(A) is read as grey; a colour image has no single height.
-        if matches!(frame.color_type, Rgb | Rgba) {
-            for (row, col) in (0..h).flat_map(|r| (0..w).map(move |c| (r, c))) {
-                let (r, g, b) = (sample_at(col, row, 0), sample_at(col, row, 1), sample_at(col, row, 2));
+        if channels >= 3 {
+            for index in 0..w * h {
+                let [r, g, b] = [0, 1, 2].map(|c| raster.stored_sample(index, c));
                 if r != g || g != b {
+                    let (col, row) = (index % w, index / w);
                     return Err(invalid(format!(
                         "DEM must be a grey image: it is RGB and pixel (column {col}, row {row}) has R, G, B = {r}, {g}, {b} (save it as grey)"
                     )));

@@ -120,8 +120,8 @@ pub enum TerrainSpec {
         #[serde(default)]
         tilt_y_deg: f64,
     },
-    /// A grey PNG DEM (pixel value = metres; grey saved as RGB(A) is accepted), central crop
-    /// scaled to `size_m`.
+    /// A grey DEM image, PNG or PGM (pixel value = metres; grey saved as RGB(A) is accepted),
+    /// central crop scaled to `size_m`.
     Dem {
         file: String,
         pixel_x_m: f64,
