@@ -197,7 +197,7 @@ mod tests {
     }
 
     #[test]
-    fn a_grey_dem_saved_as_rgb_reads_as_grey_and_a_colour_one_is_refused() {
+    fn a_grey_dem_saved_as_rgb_or_pgm_reads_as_grey_and_a_colour_one_is_refused() {
         use png::{BitDepth, ColorType};
         let grey: Vec<u8> = (0..12).map(|i| (i * 20) as u8).collect(); // 4 × 3 pixels
         let s = DemScaling { pixel_x_m: 1.0, pixel_y_m: 1.0, world_size_m: 1.0, cell_m: 0.25, crop_fraction: 1.0 };
@@ -206,6 +206,8 @@ mod tests {
         let rgb: Vec<u8> = grey.iter().flat_map(|&v| [v, v, v]).collect();
         let from_rgb = Heightfield::from_dem_png(&png_of(ColorType::Rgb, BitDepth::Eight, (4, 3), &rgb), "c.png", s).unwrap();
         assert_eq!(from_rgb.heights_m, reference.heights_m);
+        let pgm = crate::io::image::write_pgm(4, 3, &grey, "dem");
+        assert_eq!(Heightfield::from_dem_png(&pgm, "g.pgm", s).unwrap().heights_m, reference.heights_m);
         // 16 bits, RGBA with alpha: the same heights as the 16-bit grey image.
         let grey16: Vec<u8> = grey.iter().flat_map(|&v| [v, 7]).collect();
         let rgba16: Vec<u8> = grey.iter().flat_map(|&v| [v, 7, v, 7, v, 7, 255, 255]).collect();

@@ -670,7 +670,8 @@ mod tests {
 
     /// The interleaved forward solves of a variable's d columns give, bit for bit, what d solves
     /// of one right-hand side each give (3 and 6 columns, supernodal and simplicial factors; the
-    /// unit right-hand sides start with zeros, so both the skipping and the fused branches run).
+    /// unit right-hand sides start with zeros, so columns that are all zero are skipped and columns
+    /// with some zero entries subtract l · 0 from those).
     #[test]
     fn interleaved_solves_equal_one_at_a_time_bit_for_bit() {
         let (graph, values, all) = supernodal_example();
