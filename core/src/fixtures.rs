@@ -14,6 +14,7 @@
 
 use crate::cloud::PointCloud;
 use crate::grid::{Cell, FREE, Grid, GridGeometry, LETHAL, OccupancyGrid, UNKNOWN};
+use crate::math;
 use crate::pose::Pose2;
 use nalgebra::Point3;
 use rand::{RngExt, SeedableRng};
@@ -78,17 +79,17 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
     let radius_at = |phi: f64| {
         let bin = ((phi.rem_euclid(TAU) / TAU) * BINS as f64) as usize % BINS;
         r0 * (1.0
-            + 0.22 * (3.0 * phi + phases[0]).sin()
-            + 0.1 * (7.0 * phi + phases[1]).sin()
-            + 0.05 * (17.0 * phi + phases[2]).sin()
-            + 0.03 * (41.0 * phi + phases[3]).sin())
+            + 0.22 * math::sin(3.0 * phi + phases[0])
+            + 0.1 * math::sin(7.0 * phi + phases[1])
+            + 0.05 * math::sin(17.0 * phi + phases[2])
+            + 0.03 * math::sin(41.0 * phi + phases[3]))
             + jitter[bin]
     };
     for r in 0..n {
         for c in 0..n {
             let (x, y) = geometry.center_of(Cell::new(c as i32, r as i32));
             let (dx, dy) = (x - centre[0], y - centre[1]);
-            if (dx * dx + dy * dy).sqrt() < radius_at(dy.atan2(dx)) {
+            if (dx * dx + dy * dy).sqrt() < radius_at(math::atan2(dy, dx)) {
                 grid.data[r * n + c] = FREE;
             }
         }
@@ -101,7 +102,7 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
         tries += 1;
         let phi = rng.random_range(0.0..TAU);
         let rho = rng.random_range(0.0..1.0f64).sqrt() * radius_at(phi) * 0.95;
-        let (cx, cy) = (centre[0] + rho * phi.cos(), centre[1] + rho * phi.sin());
+        let (cx, cy) = (centre[0] + rho * math::cos(phi), centre[1] + rho * math::sin(phi));
         let disc = rng.random_range(0.0..1.0) < 0.5;
         let (hw, hh): (f64, f64) = if disc {
             let r: f64 = rng.random_range(0.2..0.8);
@@ -109,7 +110,7 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
         } else {
             (rng.random_range(0.1..1.5), rng.random_range(0.1..1.5))
         };
-        if (cx - centre[0]).hypot(cy - centre[1]) < 2.0 + hw.max(hh) * 1.5 {
+        if math::hypot(cx - centre[0], cy - centre[1]) < 2.0 + hw.max(hh) * 1.5 {
             continue;
         }
         let pocket = rng.random_range(0.0..1.0) < 0.3;
@@ -132,10 +133,10 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
         if pocket {
             // An unobserved pocket beside the obstacle (its "shadow").
             let (px, py) = (cx + pdx * (hw + 0.6), cy + pdy * (hh + 0.6));
-            stamp(px - 0.6, py - 0.6, px + 0.6, py + 0.6, UNKNOWN, &|x, y| (x - px).hypot(y - py) < 0.6);
+            stamp(px - 0.6, py - 0.6, px + 0.6, py + 0.6, UNKNOWN, &|x, y| math::hypot(x - px, y - py) < 0.6);
         }
         if disc {
-            stamp(cx - hw, cy - hw, cx + hw, cy + hw, LETHAL, &|x, y| (x - cx).hypot(y - cy) <= hw);
+            stamp(cx - hw, cy - hw, cx + hw, cy + hw, LETHAL, &|x, y| math::hypot(x - cx, y - cy) <= hw);
         } else {
             stamp(cx - hw, cy - hh, cx + hw, cy + hh, LETHAL, &|_, _| true);
         }
@@ -149,7 +150,7 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
             let (cx, cy, hw, hh, disc) = surfaces[rng.random_range(0..surfaces.len())];
             let (x, y) = if disc {
                 let a = rng.random_range(0.0..TAU);
-                (cx + hw * a.cos(), cy + hw * a.sin())
+                (cx + hw * math::cos(a), cy + hw * math::sin(a))
             } else {
                 let t = rng.random_range(0.0..4.0f64);
                 let u = t.fract() * 2.0 - 1.0;
@@ -164,7 +165,7 @@ pub fn synthetic_world(spec: &SyntheticWorldSpec) -> SyntheticWorld {
         } else {
             let phi = rng.random_range(0.0..TAU);
             let rho = rng.random_range(0.0..1.0f64).sqrt() * radius_at(phi);
-            points.push(Point3::new(centre[0] + rho * phi.cos(), centre[1] + rho * phi.sin(), rng.random_range(0.0..1.5)));
+            points.push(Point3::new(centre[0] + rho * math::cos(phi), centre[1] + rho * math::sin(phi), rng.random_range(0.0..1.5)));
         }
     }
     SyntheticWorld { grid, landmarks: PointCloud::from_points(points), robot: Pose2::new(centre[0], centre[1], 0.0) }

@@ -17,13 +17,18 @@
 //! | [`select`] | goal selectors: FIT-SLAM, greedy, random, u1-only, with the whole ranking (notes §7) |
 //! | [`sim`] | ground-truth world: heightfields (procedural, real DEM), noise |
 //! | [`params`] | every parameter with the paper's defaults |
+//! | [`math`] | sin, cos, atan2… computed alike on every target (same seed, same run, native and wasm) |
 //! | [`fixtures`] | shared fixture worlds (synthetic map + landmarks, corridor) for tests, benches, examples |
+
+// Tests compare against the platform's maths library on purpose (see math.rs).
+#![cfg_attr(test, allow(clippy::disallowed_methods))]
 
 pub mod cloud;
 pub mod fixtures;
 pub mod frontier;
 pub mod grid;
 pub mod io;
+pub mod math;
 pub mod params;
 pub mod path;
 pub mod pose;

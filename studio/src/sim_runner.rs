@@ -369,6 +369,36 @@ impl SimRunner {
     }
 }
 
+/// The outputs of one whole mission that the CLI writes too, to compare them file for file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct WholeMission {
+    /// As `fitslam explore` writes `metrics.csv`.
+    pub metrics_csv: String,
+    /// As `fitslam explore` writes `trajectory_est.tum`.
+    pub trajectory_est_tum: String,
+    pub end: String,
+}
+
+/// Runs one mission on a built-in world from start to end at once (default parameters, as
+/// `fitslam explore` without options): for page scripts, and for the browser test's check that a
+/// whole mission in wasm is the CLI's, to the bit. O(the mission).
+pub fn run_to_end(world_name: &str, strategy: Strategy, seed: u64, localisation: Localisation) -> Result<WholeMission, String> {
+    let w = world(world_name).ok_or_else(|| format!("no built-in world named '{world_name}'"))?;
+    let params = Params::default();
+    let mut mission = Mission::new(w.build(&params)?, params, MissionParams::default(), strategy, seed, localisation)
+        .map_err(|e| format!("{world_name} / {}: {e}", strategy_label(strategy)))?;
+    let end = loop {
+        if let StepOutcome::Finished(r) = mission.step() {
+            break r;
+        }
+    };
+    Ok(WholeMission {
+        metrics_csv: mission.metrics_csv(),
+        trajectory_est_tum: Mission::tum(&mission.trajectory_est),
+        end: format!("{end:?}"),
+    })
+}
+
 /// A fixed origin for the missions' wall clock (`plan_ms` only).
 fn clock_origin() -> web_time::Instant {
     use std::sync::OnceLock;
@@ -392,6 +422,28 @@ mod tests {
     /// A fake clock that never runs out of budget: `advance` then stops only at the target.
     fn frozen() -> impl FnMut() -> f64 {
         || 0.0
+    }
+
+    #[test]
+    fn a_whole_mission_at_once_is_the_lane_run_to_its_end() {
+        let whole = run_to_end("tiny_test", Strategy::Greedy, 2, Localisation::GroundTruth).unwrap();
+        let mut lane = SimRunner::new(
+            MissionConfig {
+                world: "tiny_test".into(),
+                strategies: vec![Strategy::Greedy],
+                seed: 2,
+                localisation: Localisation::GroundTruth,
+            },
+            &Params::default(),
+        )
+        .unwrap();
+        while lane.lanes[0].running() {
+            lane.lanes[0].step();
+        }
+        assert_eq!(whole.metrics_csv, lane.lanes[0].mission.metrics_csv());
+        assert_eq!(whole.end, format!("{:?}", lane.lanes[0].end.unwrap()));
+        assert!(whole.metrics_csv.lines().count() > 10 && whole.trajectory_est_tum.lines().count() > 10);
+        assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth).is_err());
     }
 
     #[test]

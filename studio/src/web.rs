@@ -29,6 +29,20 @@ pub async fn start(canvas_id: String) -> Result<(), JsValue> {
     result
 }
 
+/// Runs one whole mission on a built-in world at once and returns its `metrics.csv`,
+/// `trajectory_est.tum` and end as JSON (`sim_runner::run_to_end`). `strategy` and
+/// `localisation` are the CLI's names (`fit`, `ground_truth` or `ground-truth`, …). Blocks the
+/// page for the mission's length (seconds for the paper world with ground truth).
+#[wasm_bindgen]
+pub fn run_mission(world: &str, strategy: &str, seed: u64, localisation: &str) -> Result<String, JsValue> {
+    // The CLI's names are serde's snake_case with '-' for '_'.
+    let json_name = |s: &str| serde_json::Value::String(s.replace('-', "_")).to_string();
+    let strategy = serde_json::from_str(&json_name(strategy)).map_err(|e| format!("strategy '{strategy}': {e}"))?;
+    let localisation = serde_json::from_str(&json_name(localisation)).map_err(|e| format!("localisation '{localisation}': {e}"))?;
+    let whole = crate::sim_runner::run_to_end(world, strategy, seed, localisation)?;
+    serde_json::to_string(&whole).map_err(|e| e.to_string().into())
+}
+
 fn query_param(key: &str) -> Option<String> {
     let search = web_sys::window()?.location().search().ok()?;
     web_sys::UrlSearchParams::new_with_str(&search).ok()?.get(key)

@@ -374,6 +374,38 @@ try {
     s = await state();
   }
 
+  // A whole mission, not just its first seconds: the wasm build's (run_mission, the bundle's own
+  // export) against the native CLI's, file for file. Ground truth: both compute their maths with
+  // the same libm (core/src/math.rs), so they agree to the bit.
+  {
+    const [world, strategy, seed] = ["paper_unstructured_20m", "fit", 1];
+    let detail;
+    let same = false;
+    try {
+      const t0 = Date.now();
+      const whole = JSON.parse(await page.evaluate(async ([w, st, sd]) => {
+        const m = await import("./fitslam_studio.js");
+        return m.run_mission(w, st, BigInt(sd), "ground_truth");
+      }, [world, strategy, seed]));
+      const wasmS = (Date.now() - t0) / 1000;
+      const dir = fs.mkdtempSync(path.join(os.tmpdir(), "fitslam-native-whole-"));
+      const cli = path.join(targetDir, "debug", process.platform === "win32" ? "fitslam.exe" : "fitslam");
+      execFileSync(cli, ["explore", "--world", path.join(repo, "assets/worlds", `${world}.toml`), "--strategy", strategy,
+        "--seed", String(seed), "--localisation", "ground-truth", "--out", dir], { stdio: "pipe" });
+      const native = ["metrics.csv", "trajectory_est.tum"].map((f) => fs.readFileSync(path.join(dir, f), "utf8"));
+      fs.rmSync(dir, { recursive: true, force: true });
+      const ours = [whole.metrics_csv, whole.trajectory_est_tum];
+      const differs = ["metrics.csv", "trajectory_est.tum"].filter((_, i) => ours[i] !== native[i]);
+      same = differs.length === 0;
+      const rows = whole.metrics_csv.trim().split("\n").length - 1;
+      detail = same ? `${rows} metrics rows and the trajectory identical, end ${whole.end} (wasm ${wasmS.toFixed(1)} s)`
+        : `${differs.join(", ")} differ${differs.length === 1 ? "s" : ""}`;
+    } catch (e) {
+      detail = String(e.message ?? e).split("\n")[0];
+    }
+    check(`a whole ${world} mission (${strategy}, seed ${seed}, ground truth) in wasm is the native CLI's`, same, detail);
+  }
+
   check("no error messages from the studio", !s.stats.messages.some((m) => /panic|failed/i.test(m)), JSON.stringify(s.stats.messages));
   check("no errors in the console", consoleErrors.length === 0, consoleErrors.slice(0, 3).join(" | "));
 } catch (e) {

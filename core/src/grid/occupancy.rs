@@ -2,6 +2,7 @@
 //! between are occupancy probabilities in percent; at or above [`LETHAL_THRESHOLD`] is lethal).
 
 use super::{Grid, GridGeometry};
+use crate::math;
 
 /// A traversable (free) cell.
 pub const FREE: i8 = 0;
@@ -67,7 +68,7 @@ pub fn cells_in_disc(g: &GridGeometry, x_m: f64, y_m: f64, radius_m: f64) -> imp
     };
     rows.flat_map(move |row| cols.clone().map(move |col| (col, row))).filter_map(move |(col, row)| {
         let (cx, cy) = g.center_of(super::Cell::new(col as i32, row as i32));
-        let d = (cx - x_m).hypot(cy - y_m);
+        let d = math::hypot(cx - x_m, cy - y_m);
         (d <= radius_m).then_some((row * g.width + col, d))
     })
 }

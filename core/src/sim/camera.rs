@@ -7,6 +7,7 @@
 
 use super::lidar::{RayCaster, gaussian};
 use super::{Heightfield, line_of_sight};
+use crate::math;
 use crate::params::CameraParams;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use rand_chacha::ChaCha8Rng;
@@ -92,7 +93,7 @@ pub fn observe_landmarks(
     out: &mut Vec<CameraObservation>,
 ) {
     out.clear();
-    let (th, tv) = ((params.hfov_rad / 2.0).tan(), (params.vfov_rad / 2.0).tan());
+    let (th, tv) = (math::tan(params.hfov_rad / 2.0), math::tan(params.vfov_rad / 2.0));
     let step = field.geometry.resolution_m * 0.5;
     let mut ids = Vec::new();
     index.for_each_near(camera_m.x, camera_m.y, params.max_depth_m, |i| ids.push(i));
@@ -143,7 +144,7 @@ pub fn depth_ground_hits(
         let el = -vf / 2.0 + vf * (r as f64 + 0.5) / nr as f64;
         for c in 0..nc {
             let az = -hf / 2.0 + hf * (c as f64 + 0.5) / nc as f64;
-            let dir = world_from_body * Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+            let dir = world_from_body * Vector3::new(math::cos(el) * math::cos(az), math::cos(el) * math::sin(az), math::sin(el));
             if let Some(d) = caster.cast(field, camera_m, dir, params.max_depth_m).filter(|&d| d >= params.min_depth_m) {
                 on_hit(dir, d);
             }

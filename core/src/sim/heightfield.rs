@@ -5,6 +5,7 @@
 use crate::grid::{Cell, GridGeometry};
 use crate::io::MapError;
 use crate::io::image::decode_image;
+use crate::math;
 use thiserror::Error;
 
 /// A DEM that could not be read.
@@ -155,7 +156,7 @@ impl Heightfield {
         let e = self.geometry.resolution_m;
         let dzdx = (self.height_at(x_m + e, y_m)? - self.height_at(x_m - e, y_m)?) / (2.0 * e);
         let dzdy = (self.height_at(x_m, y_m + e)? - self.height_at(x_m, y_m - e)?) / (2.0 * e);
-        Some(dzdx.hypot(dzdy).atan())
+        Some(math::atan(math::hypot(dzdx, dzdy)))
     }
 }
 

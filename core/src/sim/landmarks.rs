@@ -4,6 +4,7 @@
 //! O(area / spacing²).
 
 use super::{Heightfield, Rock, fractal_noise, hash_unit};
+use crate::math;
 use nalgebra::Point3;
 
 /// How landmarks are scattered.
@@ -40,7 +41,7 @@ impl Default for LandmarkDensity {
 pub fn texture_richness(x_m: f64, y_m: f64, density: &LandmarkDensity, seed: u64) -> f64 {
     let n = fractal_noise(x_m, y_m, density.texture_wavelength_m, 3, seed ^ 0x7E47);
     // fBm concentrates near 0.5: stretch to [0, 1] before sharpening.
-    ((n - 0.25) / 0.5).clamp(0.0, 1.0).powf(density.contrast)
+    math::powf(((n - 0.25) / 0.5).clamp(0.0, 1.0), density.contrast)
 }
 
 /// Scatters landmarks over the terrain and on rock sides.
@@ -69,7 +70,7 @@ pub fn scatter_landmarks(field: &Heightfield, rocks: &[Rock], density: &Landmark
         for m in 0..n {
             let a = std::f64::consts::TAU * hash_unit(k as i64, m, seed ^ 21);
             let h = rock.height_m * hash_unit(k as i64, m, seed ^ 22);
-            out.push(Point3::new(rock.x_m + rock.radius_m * a.cos(), rock.y_m + rock.radius_m * a.sin(), base + h));
+            out.push(Point3::new(rock.x_m + rock.radius_m * math::cos(a), rock.y_m + rock.radius_m * math::sin(a), base + h));
         }
     }
     out

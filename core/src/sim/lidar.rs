@@ -17,6 +17,7 @@
 //! O(rings × azimuths × that). [`RayCaster::new`] is O(cells).
 
 use super::Heightfield;
+use crate::math;
 use nalgebra::{Point3, Rotation3, Vector3};
 use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
@@ -310,13 +311,13 @@ pub fn scan(
     let azimuths: Vec<(f64, f64)> = (0..n_az)
         .map(|a| {
             let az = a as f64 * params.azimuth_step_rad;
-            (az.cos(), az.sin())
+            (math::cos(az), math::sin(az))
         })
         .collect();
     let mut rays = 0;
     for k in 0..params.rings {
         let el = ring_elevation_rad(params, k);
-        let (ce, se) = (el.cos(), el.sin());
+        let (ce, se) = (math::cos(el), math::sin(el));
         for &(ca, sa) in &azimuths {
             let dir = world_from_sensor * Vector3::new(ce * ca, ce * sa, se);
             rays += 1;
@@ -335,7 +336,7 @@ pub fn scan(
 pub fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random::<f64>().max(1e-300);
     let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    (-2.0 * math::ln(u1)).sqrt() * math::cos(std::f64::consts::TAU * u2)
 }
 
 #[cfg(test)]

@@ -40,6 +40,7 @@ use crate::PointCloud;
 use crate::frontier::Blacklist;
 use crate::frontier::BlacklistReason;
 use crate::grid::OccupancyGrid;
+use crate::math;
 use crate::params::{Params, Strategy};
 use crate::pose::{Pose2, wrap_pi};
 use crate::select::{DecisionInput, DropReason, GoalSelector, make_selector};
@@ -579,7 +580,7 @@ impl Mission {
             self.slam_keyframe();
         }
         let (p, t) = self.last_scan;
-        let moved = (self.est.x_m - p.x_m).hypot(self.est.y_m - p.y_m);
+        let moved = math::hypot(self.est.x_m - p.x_m, self.est.y_m - p.y_m);
         let turned = wrap_pi(self.est.yaw_rad - p.yaw_rad).abs();
         if moved >= self.mission.scan_every_m || turned >= self.mission.scan_every_rad || self.time_s - t >= self.mission.scan_every_s {
             self.sense_geometry();
@@ -625,7 +626,7 @@ impl Mission {
             return;
         }
         let th = self.est.yaw_rad + 0.5 * mth;
-        let (c, s) = (th.cos(), th.sin());
+        let (c, s) = (math::cos(th), math::sin(th));
         self.est = Pose2 { x_m: self.est.x_m + ms * c, y_m: self.est.y_m + ms * s, yaw_rad: wrap_pi(self.est.yaw_rad + mth) };
         let f = Matrix3::new(1.0, 0.0, -ms * s, 0.0, 1.0, ms * c, 0.0, 0.0, 1.0);
         let (vs, vt) = self.mission.odometry.variances(ds, dth, dt);
@@ -794,12 +795,12 @@ impl Mission {
         let rc = (r / g.resolution_m).ceil() as i32;
         let path = &self.follower.path_m;
         for w in path.windows(2) {
-            let len = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+            let len = math::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]);
             let n = (len / g.resolution_m).ceil().max(1.0) as usize;
             for k in 0..=n {
                 let t = k as f64 / n as f64;
                 let (x, y) = (w[0][0] + t * (w[1][0] - w[0][0]), w[0][1] + t * (w[1][1] - w[0][1]));
-                if (x - self.est.x_m).hypot(y - self.est.y_m) < r {
+                if math::hypot(x - self.est.x_m, y - self.est.y_m) < r {
                     continue; // under the robot: its own snapping handles it
                 }
                 let Some(c) = g.cell_of(x, y) else { return true };
@@ -814,7 +815,7 @@ impl Mission {
                     let s = self.layers.score.data[i];
                     if !s.is_nan() && s < tau {
                         let (cx, cy) = g.center_of(cell);
-                        if (cx - x).hypot(cy - y) <= r {
+                        if math::hypot(cx - x, cy - y) <= r {
                             return true;
                         }
                     }
@@ -888,11 +889,11 @@ impl Mission {
                         .iter()
                         .filter(|c| c.rho_m.is_some() && c.dropped.is_none_or(|d| d == DropReason::NotInTopN))
                         .min_by(|a, b| {
-                            let da = (a.x_m - goal.x_m).hypot(a.y_m - goal.y_m);
-                            let db = (b.x_m - goal.x_m).hypot(b.y_m - goal.y_m);
+                            let da = math::hypot(a.x_m - goal.x_m, a.y_m - goal.y_m);
+                            let db = math::hypot(b.x_m - goal.x_m, b.y_m - goal.y_m);
                             da.total_cmp(&db)
                         })
-                        .filter(|c| (c.x_m - goal.x_m).hypot(c.y_m - goal.y_m) <= r);
+                        .filter(|c| math::hypot(c.x_m - goal.x_m, c.y_m - goal.y_m) <= r);
                     if let Some(c) = same {
                         self.failed_decisions = 0;
                         self.follower = PathFollower::new(c.path_m.clone());
@@ -909,7 +910,7 @@ impl Mission {
             let c = &decision.candidates[chosen];
             // A goal chosen again right where the robot already went: blacklist and retry.
             if let Some(prev) = self.last_reached {
-                if (c.x_m - prev[0]).hypot(c.y_m - prev[1]) <= self.blacklist.radius_m() {
+                if math::hypot(c.x_m - prev[0], c.y_m - prev[1]) <= self.blacklist.radius_m() {
                     self.blacklist.add(prev[0], prev[1], BlacklistReason::Reselected);
                     self.last_reached = None;
                     continue;
@@ -1053,5 +1054,5 @@ impl Mission {
 /// The planar pose (x, y, yaw) of a 3D pose.
 fn pose2_of(t: &Se3) -> Pose2 {
     let r = t.rotation_matrix();
-    Pose2 { x_m: t.translation.x, y_m: t.translation.y, yaw_rad: r[(1, 0)].atan2(r[(0, 0)]) }
+    Pose2 { x_m: t.translation.x, y_m: t.translation.y, yaw_rad: math::atan2(r[(1, 0)], r[(0, 0)]) }
 }

@@ -3,6 +3,7 @@
 //! O(rocks × footprint cells).
 
 use super::{Heightfield, hash_unit};
+use crate::math;
 
 /// One rock: a vertical cylinder standing on the terrain.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,7 +41,7 @@ pub fn scatter_rocks(
             let y = min_y + (j as f64 + hash_unit(i, j, seed ^ 2)) * spacing_m;
             let r = radius_range_m.0 + (radius_range_m.1 - radius_range_m.0) * hash_unit(i, j, seed ^ 3);
             let h = height_range_m.0 + (height_range_m.1 - height_range_m.0) * hash_unit(i, j, seed ^ 4);
-            if (x - clear_xy.0).hypot(y - clear_xy.1) < keep_clear_m + r {
+            if math::hypot(x - clear_xy.0, y - clear_xy.1) < keep_clear_m + r {
                 continue;
             }
             rocks.push(Rock { x_m: x, y_m: y, radius_m: r, height_m: h });
@@ -63,7 +64,7 @@ fn stamp_rock(field: &mut Heightfield, rock: &Rock) {
             let cell = crate::grid::Cell::new(center.col + dc, center.row + dr);
             let Some(i) = g.index(cell) else { continue };
             let (x, y) = g.center_of(cell);
-            let r = (x - rock.x_m).hypot(y - rock.y_m) / rock.radius_m;
+            let r = math::hypot(x - rock.x_m, y - rock.y_m) / rock.radius_m;
             if r <= 1.0 {
                 let top = base + rock.height_m * (1.0 - r * r).sqrt();
                 field.heights_m[i] = field.heights_m[i].max(top);

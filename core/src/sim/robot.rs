@@ -6,6 +6,7 @@
 //! vertex reached).
 
 use super::Heightfield;
+use crate::math;
 use crate::pose::{Pose2, wrap_pi};
 use nalgebra::{Point3, Rotation3};
 use serde::{Deserialize, Serialize};
@@ -68,7 +69,7 @@ impl PathFollower {
     /// Whether the robot is within `tolerance` of the last point.
     pub fn arrived(&self, pose: Pose2, tolerance_m: f64) -> bool {
         match self.path_m.last() {
-            Some(p) => (p[0] - pose.x_m).hypot(p[1] - pose.y_m) <= tolerance_m,
+            Some(p) => math::hypot(p[0] - pose.x_m, p[1] - pose.y_m) <= tolerance_m,
             None => true,
         }
     }
@@ -85,7 +86,7 @@ impl PathFollower {
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let len2 = dx * dx + dy * dy;
             let t = if len2 > 0.0 { ((pose.x_m - a[0]) * dx + (pose.y_m - a[1]) * dy) / len2 } else { 1.0 };
-            if t >= 1.0 || (b[0] - pose.x_m).hypot(b[1] - pose.y_m) < p.lookahead_m * 0.5 {
+            if t >= 1.0 || math::hypot(b[0] - pose.x_m, b[1] - pose.y_m) < p.lookahead_m * 0.5 {
                 self.segment += 1;
             } else {
                 break;
@@ -95,7 +96,7 @@ impl PathFollower {
         let mut carrot = self.path_m[n - 1];
         for k in self.segment + 1..n {
             let q = self.path_m[k];
-            let d = (q[0] - pose.x_m).hypot(q[1] - pose.y_m);
+            let d = math::hypot(q[0] - pose.x_m, q[1] - pose.y_m);
             if d >= p.lookahead_m {
                 let a = self.path_m[k - 1];
                 // Point on segment a→q at the look-ahead distance (or q itself).
@@ -103,14 +104,14 @@ impl PathFollower {
                 break;
             }
         }
-        let heading = (carrot[1] - pose.y_m).atan2(carrot[0] - pose.x_m);
+        let heading = math::atan2(carrot[1] - pose.y_m, carrot[0] - pose.x_m);
         let err = wrap_pi(heading - pose.yaw_rad);
         let omega = (p.heading_gain * err).clamp(-p.max_turn_rate_radps, p.max_turn_rate_radps);
         if err.abs() > p.turn_in_place_rad {
             return Twist { v_mps: 0.0, omega_radps: omega };
         }
-        let dist = (carrot[0] - pose.x_m).hypot(carrot[1] - pose.y_m);
-        let v = (p.max_speed_mps * err.cos()).min(dist.max(0.05)).clamp(0.0, p.max_speed_mps);
+        let dist = math::hypot(carrot[0] - pose.x_m, carrot[1] - pose.y_m);
+        let v = (p.max_speed_mps * math::cos(err)).min(dist.max(0.05)).clamp(0.0, p.max_speed_mps);
         Twist { v_mps: v, omega_radps: omega }
     }
 }
@@ -138,10 +139,13 @@ pub fn integrate(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
     let dth = cmd.omega_radps * dt_s;
     let ds = cmd.v_mps * dt_s;
     let (x, y) = if dth.abs() < 1e-9 {
-        (pose.x_m + ds * pose.yaw_rad.cos(), pose.y_m + ds * pose.yaw_rad.sin())
+        (pose.x_m + ds * math::cos(pose.yaw_rad), pose.y_m + ds * math::sin(pose.yaw_rad))
     } else {
         let r = ds / dth;
-        (pose.x_m + r * ((pose.yaw_rad + dth).sin() - pose.yaw_rad.sin()), pose.y_m - r * ((pose.yaw_rad + dth).cos() - pose.yaw_rad.cos()))
+        (
+            pose.x_m + r * (math::sin(pose.yaw_rad + dth) - math::sin(pose.yaw_rad)),
+            pose.y_m - r * (math::cos(pose.yaw_rad + dth) - math::cos(pose.yaw_rad)),
+        )
     };
     Pose2 { x_m: x, y_m: y, yaw_rad: wrap_pi(pose.yaw_rad + dth) }
 }
@@ -150,12 +154,12 @@ pub fn integrate(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
 /// Rz(yaw)·Ry(pitch)·Rx(roll) with pitch and roll from the heights `body_half_m` ahead/behind and
 /// left/right (REP-103: nose up is negative pitch, left side up is positive roll).
 pub fn body_on_terrain(field: &Heightfield, pose: Pose2, body_half_m: f64) -> (Point3<f64>, Rotation3<f64>) {
-    let (c, s) = (pose.yaw_rad.cos(), pose.yaw_rad.sin());
+    let (c, s) = (math::cos(pose.yaw_rad), math::sin(pose.yaw_rad));
     let z = field.height_at(pose.x_m, pose.y_m).unwrap_or(0.0);
     let h = |dx: f64, dy: f64| field.height_at(pose.x_m + dx, pose.y_m + dy).unwrap_or(z);
     let b = body_half_m;
-    let pitch = -((h(b * c, b * s) - h(-b * c, -b * s)) / (2.0 * b)).atan();
-    let roll = ((h(-b * s, b * c) - h(b * s, -b * c)) / (2.0 * b)).atan();
+    let pitch = -math::atan((h(b * c, b * s) - h(-b * c, -b * s)) / (2.0 * b));
+    let roll = math::atan((h(-b * s, b * c) - h(b * s, -b * c)) / (2.0 * b));
     (Point3::new(pose.x_m, pose.y_m, z), Rotation3::from_euler_angles(roll, pitch, pose.yaw_rad))
 }
 

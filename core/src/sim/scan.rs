@@ -5,6 +5,7 @@
 //! O(points in range × range / step).
 
 use super::{Heightfield, hash_unit};
+use crate::math;
 use nalgebra::Point3;
 
 /// Points on the terrain visible from `sensor_m` within `max_range_m` (horizontal), sampled every
@@ -24,7 +25,7 @@ pub fn visible_ground_points(
     for iy in iy0 - n..=iy0 + n {
         for ix in ix0 - n..=ix0 + n {
             let (x, y) = (ix as f64 * spacing_m, iy as f64 * spacing_m);
-            let dist = (x - sensor_m.x).hypot(y - sensor_m.y);
+            let dist = math::hypot(x - sensor_m.x, y - sensor_m.y);
             if dist > max_range_m {
                 continue;
             }
@@ -41,7 +42,7 @@ pub fn visible_ground_points(
 /// Whether the segment from `a` to `b` stays above the terrain (checked every `step_m`).
 pub fn line_of_sight(field: &Heightfield, a: Point3<f64>, b: Point3<f64>, step_m: f64) -> bool {
     let d = b - a;
-    let len = d.x.hypot(d.y);
+    let len = math::hypot(d.x, d.y);
     let steps = (len / step_m).ceil() as usize;
     for k in 1..steps {
         let t = k as f64 / steps as f64;

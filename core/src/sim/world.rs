@@ -19,6 +19,7 @@ use super::{DemScaling, Heightfield, HeightfieldError, LandmarkDensity, Rock, fr
 use crate::frontier::Boundary;
 use crate::grid::{Cell, FREE, GridGeometry, LETHAL, OccupancyGrid};
 use crate::io::MapError;
+use crate::math;
 use crate::params::TraversabilityParams;
 use crate::pose::Pose2;
 use crate::traversability::{MAX_CELLS, TraversabilityError, TraversabilityMap};
@@ -389,7 +390,7 @@ impl World {
             } => {
                 let n = (size_m / spec.cell_m).round().max(2.0) as usize;
                 let g = GridGeometry::new(0.0, 0.0, size_m / n as f64, n, n);
-                let (tx, ty) = (tilt_x_deg.to_radians().tan(), tilt_y_deg.to_radians().tan());
+                let (tx, ty) = (math::tan(tilt_x_deg.to_radians()), math::tan(tilt_y_deg.to_radians()));
                 Heightfield::from_fn(g, |x, y| {
                     let hills = hill_height_m * fractal_noise(x, y, *hill_wavelength_m, 3, *seed);
                     let ridged = 1.0 - (2.0 * fractal_noise(x, y, *ridge_wavelength_m, 2, seed ^ 0xA5A5) - 1.0).abs();

@@ -17,6 +17,7 @@ use nalgebra::{Matrix2, Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector2, V
 use serde::{Deserialize, Serialize};
 use std::ops::Mul;
 
+use crate::math;
 use crate::pose::wrap_pi;
 
 /// Below this rotation angle the closed forms switch to Taylor series, radians.
@@ -35,7 +36,7 @@ pub fn so3_exp(phi: &Vector3<f64>) -> UnitQuaternion<f64> {
     let (w, k) = if theta < SMALL_ANGLE_RAD {
         (1.0 - theta2 / 8.0, 0.5 - theta2 / 48.0)
     } else {
-        ((0.5 * theta).cos(), (0.5 * theta).sin() / theta)
+        (math::cos(0.5 * theta), math::sin(0.5 * theta) / theta)
     };
     UnitQuaternion::new_normalize(Quaternion::new(w, k * phi.x, k * phi.y, k * phi.z))
 }
@@ -49,7 +50,7 @@ pub fn so3_log(q: &UnitQuaternion<f64>) -> Vector3<f64> {
         // θ ≈ 2 s / w; φ = θ/s · v ≈ 2 v / w (1 − s²/(3 w²))
         v * (2.0 / w) * (1.0 - s * s / (3.0 * w * w))
     } else {
-        v * (2.0 * s.atan2(w) / s)
+        v * (2.0 * math::atan2(s, w) / s)
     }
 }
 
@@ -60,7 +61,7 @@ fn so3_jl_coefficients(theta: f64) -> (f64, f64) {
     if theta < SMALL_ANGLE_RAD {
         (0.5 - t2 / 24.0, 1.0 / 6.0 - t2 / 120.0)
     } else {
-        ((1.0 - theta.cos()) / t2, (theta - theta.sin()) / (t2 * theta))
+        ((1.0 - math::cos(theta)) / t2, (theta - math::sin(theta)) / (t2 * theta))
     }
 }
 
@@ -75,7 +76,11 @@ pub fn so3_left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
 pub fn so3_left_jacobian_inv(phi: &Vector3<f64>) -> Matrix3<f64> {
     let theta = phi.norm();
     let t2 = theta * theta;
-    let c = if theta < SMALL_ANGLE_RAD { 1.0 / 12.0 + t2 / 720.0 } else { 1.0 / t2 - (1.0 + theta.cos()) / (2.0 * theta * theta.sin()) };
+    let c = if theta < SMALL_ANGLE_RAD {
+        1.0 / 12.0 + t2 / 720.0
+    } else {
+        1.0 / t2 - (1.0 + math::cos(theta)) / (2.0 * theta * math::sin(theta))
+    };
     let h = hat(phi);
     Matrix3::identity() - h * 0.5 + h * h * c
 }
@@ -87,7 +92,7 @@ fn se3_q(rho: &Vector3<f64>, phi: &Vector3<f64>) -> Matrix3<f64> {
     let (c1, c2, c3) = if theta < SMALL_ANGLE_RAD {
         (1.0 / 6.0 - t2 / 120.0, 1.0 / 24.0 - t2 / 720.0, 1.0 / 120.0 - t2 / 2520.0)
     } else {
-        let (s, c) = theta.sin_cos();
+        let (s, c) = math::sin_cos(theta);
         let t3 = t2 * theta;
         ((theta - s) / t3, (t2 + 2.0 * c - 2.0) / (2.0 * t2 * t2), (2.0 * theta - 3.0 * s + theta * c) / (2.0 * t2 * t3))
     };
@@ -239,7 +244,7 @@ fn se2_v_coefficients(theta: f64) -> (f64, f64) {
         let t2 = theta * theta;
         (1.0 - t2 / 6.0, theta * (0.5 - t2 / 24.0))
     } else {
-        (theta.sin() / theta, (1.0 - theta.cos()) / theta)
+        (math::sin(theta) / theta, (1.0 - math::cos(theta)) / theta)
     }
 }
 
@@ -258,7 +263,7 @@ impl Se2 {
     }
 
     pub fn rotation_matrix(&self) -> Matrix2<f64> {
-        let (s, c) = self.yaw_rad.sin_cos();
+        let (s, c) = math::sin_cos(self.yaw_rad);
         Matrix2::new(c, -s, s, c)
     }
 
@@ -283,7 +288,7 @@ impl Se2 {
     }
 
     pub fn inverse(&self) -> Self {
-        let (s, c) = self.yaw_rad.sin_cos();
+        let (s, c) = math::sin_cos(self.yaw_rad);
         Self::new(-(c * self.x_m + s * self.y_m), s * self.x_m - c * self.y_m, -self.yaw_rad)
     }
 
@@ -330,7 +335,7 @@ pub fn se2_right_jacobian(xi: &Vector3<f64>) -> Matrix3<f64> {
         let t2 = t * t;
         (1.0 - t2 / 6.0, t * (0.5 - t2 / 24.0), t * (1.0 / 6.0 - t2 / 120.0), 0.5 - t2 / 24.0)
     } else {
-        let (s, co) = t.sin_cos();
+        let (s, co) = math::sin_cos(t);
         (s / t, (1.0 - co) / t, (t - s) / (t * t), (1.0 - co) / (t * t))
     };
     Matrix3::new(a, b, r1 * c - r2 * d, -b, a, r1 * d + r2 * c, 0.0, 0.0, 1.0)

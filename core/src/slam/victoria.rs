@@ -23,6 +23,7 @@ use super::factors::{BearingRange2, BetweenSe2, GaussianNoise, NoiseError, Se2Re
 use super::lie::Se2;
 use super::problem::{Gauge, GaugeError, Problem};
 use super::values::{VarId, Variable};
+use crate::math;
 
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum VictoriaError {
@@ -119,7 +120,7 @@ pub fn read_victoria(bytes: &[u8]) -> Result<VictoriaPark, VictoriaError> {
                 out.records.push(VictoriaRecord::Landmark {
                     pose,
                     landmark,
-                    bearing_rad: y.atan2(x),
+                    bearing_rad: math::atan2(y, x),
                     range_m: (x * x + y * y).sqrt(),
                     noise,
                 });
@@ -143,7 +144,7 @@ impl VictoriaPark {
                 }
                 VictoriaRecord::Landmark { pose, landmark, bearing_rad, range_m, .. } => {
                     let xi = *poses.entry(*pose).or_insert_with(Se2::identity);
-                    let local = Vector2::new(bearing_rad.cos(), bearing_rad.sin()) * *range_m;
+                    let local = Vector2::new(math::cos(*bearing_rad), math::sin(*bearing_rad)) * *range_m;
                     landmarks.entry(*landmark).or_insert_with(|| xi.transform_point(&local));
                 }
             }

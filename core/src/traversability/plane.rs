@@ -16,6 +16,7 @@
 use nalgebra::{Matrix3, SymmetricEigen};
 
 use super::moments::CellMoments;
+use crate::math;
 
 /// Relative size of λ_mid below which the points are treated as collinear.
 const COLLINEAR_RATIO: f64 = 1e-6;
@@ -58,7 +59,7 @@ pub fn fit_plane(m: &CellMoments) -> Option<PlaneFit> {
         smallest_eigenpair_newton(&c).or_else(|| smallest_eigenpair_closed_form(&c)).unwrap_or_else(|| normal_iterative(&c));
     let normal = if normal[2] < 0.0 { normal.map(|v| -v) } else { normal };
     let horizontal = (normal[0] * normal[0] + normal[1] * normal[1]).sqrt();
-    let slope_rad = horizontal.atan2(normal[2]);
+    let slope_rad = math::atan2(horizontal, normal[2]);
     Some(PlaneFit { normal, centroid: m.mean, slope_rad, roughness_m })
 }
 
@@ -147,9 +148,9 @@ fn smallest_eigenpair_closed_form(c: &[[f64; 3]; 3]) -> Option<([f64; 3], f64)> 
     let b = [[d0 / p, a[0][1] / p, a[0][2] / p], [a[1][0] / p, d1 / p, a[1][2] / p], [a[2][0] / p, a[2][1] / p, d2 / p]];
     let det = b[0][0] * (b[1][1] * b[2][2] - b[1][2] * b[2][1]) - b[0][1] * (b[1][0] * b[2][2] - b[1][2] * b[2][0])
         + b[0][2] * (b[1][0] * b[2][1] - b[1][1] * b[2][0]);
-    let phi = (0.5 * det).clamp(-1.0, 1.0).acos() / 3.0;
-    let l_max = q + 2.0 * p * phi.cos();
-    let l_min = q + 2.0 * p * (phi + 2.0 * std::f64::consts::FRAC_PI_3).cos();
+    let phi = math::acos((0.5 * det).clamp(-1.0, 1.0)) / 3.0;
+    let l_max = q + 2.0 * p * math::cos(phi);
+    let l_min = q + 2.0 * p * math::cos(phi + 2.0 * std::f64::consts::FRAC_PI_3);
     let l_mid = 3.0 * q - l_max - l_min;
     if s * l_max <= COINCIDENT_VAR_M2 || l_mid <= COLLINEAR_RATIO * l_max {
         return None;

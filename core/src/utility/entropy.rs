@@ -10,20 +10,22 @@
 //! O(1) per evaluation; [`GainTable`] precomputes `g(0..n)` once so ray casting never calls
 //! `log₂` per cell.
 
+use crate::math;
+
 /// Binary entropy `H(p)` in bits. Returns 0 outside the open interval (0, 1) and for NaN.
 #[inline]
 pub fn binary_entropy_bits(p: f64) -> f64 {
     if !(p > 0.0 && p < 1.0) {
         return 0.0;
     }
-    -p * p.log2() - (1.0 - p) * (1.0 - p).log2()
+    -p * math::log2(p) - (1.0 - p) * math::log2(1.0 - p)
 }
 
 /// Expected gain `g(N) = 1 − H((1 + γ^N)/2)` in bits of an unknown cell with `cells_before`
 /// cells between it and the ray's origin cell (paper eqs. 5–6, notes §5).
 #[inline]
 pub fn visibility_gain_bits(gamma: f64, cells_before: u32) -> f64 {
-    let visibility = gamma.powf(f64::from(cells_before));
+    let visibility = math::powf(gamma, f64::from(cells_before));
     1.0 - binary_entropy_bits(0.5 * (1.0 + visibility))
 }
 

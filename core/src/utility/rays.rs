@@ -27,6 +27,7 @@
 use super::UtilityError;
 use super::entropy::GainTable;
 use crate::grid::{Cell, CellClass, OccupancyGrid};
+use crate::math;
 
 /// Number of rays `⌈2π/Δθ⌉` of the fan (angles `kΔθ < 2π`).
 pub fn ray_count(delta_theta_rad: f64) -> usize {
@@ -162,7 +163,7 @@ fn ray_gain(values: impl Iterator<Item = i8>, table: &[f64]) -> f64 {
 /// Amanatides–Woo traversal from the centre of cell (0, 0), in cell units, of the ray at `theta`
 /// up to (excluding) entry distance `range_cells`. Appends the offsets of the cells entered.
 fn trace_dda(theta: f64, range_cells: f64, out: &mut Vec<[i32; 2]>) {
-    let (dy, dx) = theta.sin_cos();
+    let (dy, dx) = math::sin_cos(theta);
     let step = |d: f64| if d > 0.0 { 1 } else { -1 };
     let (step_x, step_y) = (step(dx), step(dy));
     // From the centre, the first boundary is half a cell away on each axis.

@@ -22,6 +22,7 @@
 
 use super::fim::{trace_information, trace_information_general};
 use super::voxels::LandmarkVoxels;
+use crate::math;
 use crate::params::{CameraParams, InfoNormalisation};
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -95,7 +96,7 @@ pub fn waypoints_along(path_m: &[[f64; 2]], spacing_m: f64, goal_yaw_rad: f64, o
             let a = point_at(s - TANGENT_HALF_WINDOW_M);
             let b = point_at(s + TANGENT_HALF_WINDOW_M);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let yaw_rad = if dx != 0.0 || dy != 0.0 { dy.atan2(dx) } else { goal_yaw_rad };
+            let yaw_rad = if dx != 0.0 || dy != 0.0 { math::atan2(dy, dx) } else { goal_yaw_rad };
             out.push(Waypoint { x_m: p[0], y_m: p[1], yaw_rad, arc_length_m: s, is_goal: false });
             k += 1.0;
         }
@@ -124,7 +125,7 @@ pub struct Frustum {
 impl Frustum {
     /// From the camera parameters (a horizontal FOV ≥ π leaves x unbounded).
     pub fn from_params(camera: &CameraParams) -> Self {
-        let tan_half = |fov: f64| if fov < std::f64::consts::PI { (0.5 * fov).tan() } else { f64::INFINITY };
+        let tan_half = |fov: f64| if fov < std::f64::consts::PI { math::tan(0.5 * fov) } else { f64::INFINITY };
         Self {
             tan_half_hfov: tan_half(camera.hfov_rad),
             tan_half_vfov: tan_half(camera.vfov_rad),
@@ -148,7 +149,7 @@ pub fn waypoint_information(
     frustum: &Frustum,
     sigma_bearing_rad: f64,
 ) -> (usize, f64) {
-    let (s, c) = yaw_rad.sin_cos();
+    let (s, c) = math::sin_cos(yaw_rad);
     let (fwd, right) = ([c, s], [s, -c]);
     // x–y footprint: the trapezoid between min and max depth, or everything if unbounded.
     let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);

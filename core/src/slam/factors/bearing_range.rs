@@ -8,6 +8,7 @@
 use nalgebra::{Matrix2, RowVector2, Vector2};
 
 use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, fetch};
+use crate::math;
 use crate::pose::wrap_pi;
 use crate::slam::values::{Values, VarId};
 
@@ -45,7 +46,7 @@ impl BearingRange2 {
     }
 
     fn eval(&self, d: &Vector2<f64>) -> Residual {
-        let b = wrap_pi(d.y.atan2(d.x) - self.bearing_rad);
+        let b = wrap_pi(math::atan2(d.y, d.x) - self.bearing_rad);
         Residual::new(b, d.norm() - self.range_m, 0.0, 0.0, 0.0, 0.0)
     }
 }
