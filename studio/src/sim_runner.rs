@@ -387,15 +387,11 @@ pub fn run_to_end(world_name: &str, strategy: Strategy, seed: u64, localisation:
     let params = Params::default();
     let mut mission = Mission::new(w.build(&params)?, params, MissionParams::default(), strategy, seed, localisation)
         .map_err(|e| format!("{world_name} / {}: {e}", strategy_label(strategy)))?;
-    let end = loop {
-        if let StepOutcome::Finished(r) = mission.step() {
-            break r;
-        }
-    };
+    let end = mission.run().end_reason;
     Ok(WholeMission {
         metrics_csv: mission.metrics_csv(),
         trajectory_est_tum: Mission::tum(&mission.trajectory_est),
-        end: format!("{end:?}"),
+        end: end.map_or_else(String::new, |e| format!("{e:?}")),
     })
 }
 
