@@ -122,6 +122,7 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
         },
         ..OptimizerParams::default()
     };
+    let factorisation = params.factorisation;
     let start = Instant::now();
     let result = match args.method {
         Method::Lm => LevenbergMarquardt::new(params).optimize(&problem.graph, &mut problem.values),
@@ -151,7 +152,7 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
                 summary.iterations
             )
         };
-        let m = Marginals::new(&problem.graph, &problem.values).with_context(reached)?;
+        let m = Marginals::new(&problem.graph, &problem.values, factorisation).with_context(reached)?;
         let cov = m.covariance(last).with_context(reached)?;
         // Row-major.
         (0..cov.nrows()).flat_map(|r| (0..cov.ncols()).map(move |c| (r, c))).map(|(r, c)| cov[(r, c)]).collect()

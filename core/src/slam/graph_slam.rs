@@ -41,8 +41,8 @@ pub struct GraphSlamParams {
     /// observations): one revisit re-observes many old landmarks over several keyframes, and
     /// each would otherwise re-run the full problem. Default 0 (every closure runs it).
     pub full_cooldown_keyframes: usize,
-    /// Stopping rules of each optimisation. Default: [`OptimizerParams::default`] with 20
-    /// iterations.
+    /// Stopping rules of each optimisation, and the factorisation of it and of the marginals
+    /// ([`super::Factorisation`]). Default: [`OptimizerParams::default`] with 20 iterations.
     pub optimizer: OptimizerParams,
 }
 
@@ -327,7 +327,7 @@ impl GraphSlam {
 
     /// Marginals of the full problem at the current estimate.
     pub fn marginals(&self) -> Result<Marginals, SlamError> {
-        Ok(Marginals::new(&self.graph, &self.full_values())?)
+        Ok(Marginals::new(&self.graph, &self.full_values(), self.params.optimizer.factorisation)?)
     }
 }
 

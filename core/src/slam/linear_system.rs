@@ -1,6 +1,6 @@
 //! The sparse normal equations `H δ = −g` (H = Σ Jᵀ Ω J, g = Σ Jᵀ Ω e over the factors that
 //! touch a free variable) in compressed-column form, upper triangle only, and their sparse
-//! Cholesky solution with faer (AMD ordering).
+//! Cholesky solution with faer (AMD ordering; simplicial or supernodal, see [`Factorisation`]).
 //!
 //! The block structure and faer's symbolic factorisation are computed once per structure
 //! (factor list + fixed flags) in O(nnz log nnz); every linearisation then writes into the same
@@ -8,9 +8,11 @@
 //! factorisation with the cached symbolic one.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{CholeskySymbolicParams, LltRef, SymbolicCholesky, factorize_symbolic_cholesky};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Side};
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::factors::{FactorError, Jacobian, MAX_FACTOR_KEYS};
@@ -31,6 +33,23 @@ pub enum SolveError {
 
 const NONE: usize = usize::MAX;
 
+/// Which of faer's two sparse Cholesky factorisations runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Factorisation {
+    /// faer's choice by flop count: supernodal (dense blocks through SIMD kernels) when the
+    /// fronts are large, simplicial otherwise. The fastest on large graphs, but the dense kernels
+    /// pick SIMD width and FMA at run time, so the last bits of the factor depend on the CPU and
+    /// differ in wasm.
+    #[default]
+    Fastest,
+    /// Always simplicial: faer's up-looking factorisation and its solves are scalar arithmetic in
+    /// a fixed order (Rust never contracts to FMA), so the factor and everything computed from it
+    /// are the same bits on every CPU and in wasm. Slower on large graphs (BENCHMARKS.md, Mission,
+    /// session 16).
+    Reproducible,
+}
+
 /// Normal equations of one graph structure, reused across iterations.
 #[derive(Debug)]
 pub struct LinearSystem {
@@ -48,7 +67,7 @@ pub struct LinearSystem {
     symbolic: SymbolicSparseColMat<usize>,
     /// Index of each diagonal entry in `values`.
     diag_pos: Vec<usize>,
-    /// faer's symbolic Cholesky of H (AMD ordering; simplicial or supernodal, faer's choice).
+    /// faer's symbolic Cholesky of H (AMD ordering; simplicial or supernodal, [`Factorisation`]).
     cholesky: SymbolicCholesky<usize>,
     /// The numeric factor L of the last [`LinearSystem::factorize`], in `cholesky`'s layout.
     l_values: Vec<f64>,
@@ -61,7 +80,7 @@ pub struct LinearSystem {
 
 impl LinearSystem {
     /// Builds the structure for the current factors and fixed flags.
-    pub fn new(graph: &FactorGraph, values: &Values) -> Result<Self, SolveError> {
+    pub fn new(graph: &FactorGraph, values: &Values, factorisation: Factorisation) -> Result<Self, SolveError> {
         let nv = values.len();
         let fixed = values.fixed_flags().to_vec();
         let dims: Vec<usize> = values.iter().map(|(_, v)| v.dim()).collect();
@@ -157,7 +176,13 @@ impl LinearSystem {
         }
         let nnz = row_idx.len();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
-        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Upper, Default::default(), Default::default())
+        let params = match factorisation {
+            Factorisation::Fastest => CholeskySymbolicParams::default(),
+            Factorisation::Reproducible => {
+                CholeskySymbolicParams { supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL, ..Default::default() }
+            }
+        };
+        let cholesky = factorize_symbolic_cholesky(symbolic.as_ref(), Side::Upper, Default::default(), params)
             .map_err(|e| SolveError::Faer(format!("{e:?}")))?;
         Ok(Self {
             generation: graph.generation(),

@@ -22,7 +22,7 @@ use nalgebra::DMatrix;
 
 use super::factors::FactorError;
 use super::graph::FactorGraph;
-use super::linear_system::{LinearSystem, SolveError};
+use super::linear_system::{Factorisation, LinearSystem, SolveError};
 use super::values::{Values, VarId};
 
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
@@ -84,8 +84,8 @@ impl core::fmt::Debug for Marginals {
 
 impl Marginals {
     /// Linearises `graph` at `values` (fixed flags respected) and factorises H.
-    pub fn new(graph: &FactorGraph, values: &Values) -> Result<Self, MarginalError> {
-        let mut system = LinearSystem::new(graph, values)?;
+    pub fn new(graph: &FactorGraph, values: &Values, factorisation: Factorisation) -> Result<Self, MarginalError> {
+        let mut system = LinearSystem::new(graph, values, factorisation)?;
         system.linearize(graph, values)?;
         system.factorize(0.0)?;
         let dims = values.iter().map(|(_, v)| v.dim()).collect();
@@ -517,7 +517,11 @@ mod tests {
 
     /// Checks every block against the dense inverse; returns whether the factor was supernodal.
     fn assert_matches_dense_inverse(graph: &FactorGraph, values: &Values, ids: &[VarId]) -> bool {
-        let marginals = Marginals::new(graph, values).unwrap();
+        assert_matches_dense_inverse_with(graph, values, ids, Factorisation::Fastest)
+    }
+
+    fn assert_matches_dense_inverse_with(graph: &FactorGraph, values: &Values, ids: &[VarId], factorisation: Factorisation) -> bool {
+        let marginals = Marginals::new(graph, values, factorisation).unwrap();
         let h = marginals.dense_information();
         let inv = h.clone().try_inverse().unwrap();
         let by_solves = marginals.covariances_by_solves(ids).unwrap();
@@ -556,7 +560,7 @@ mod tests {
             let path = format!("{}/../assets/data/slam/{name}", env!("CARGO_MANIFEST_DIR"));
             let g2o = crate::slam::g2o::read_g2o(&std::fs::read(&path).unwrap()).unwrap();
             let p = g2o.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
-            let m = Marginals::new(&p.graph, &p.values).unwrap();
+            let m = Marginals::new(&p.graph, &p.values, Factorisation::Fastest).unwrap();
             assert!(m.sorted_patterns && m.is_supernodal() == supernodal, "{name}");
             let all: Vec<VarId> = p.values.iter().map(|(id, _)| id).collect();
             let by_solves = m.covariances_by_solves(&all).unwrap();
@@ -647,8 +651,16 @@ mod tests {
     fn supernodal_factor_matches_dense_inverse() {
         let (graph, values, all) = supernodal_example();
         assert!(assert_matches_dense_inverse(&graph, &values, &all), "supernodal factor");
-        let m = Marginals::new(&graph, &values).unwrap();
+        let m = Marginals::new(&graph, &values, Factorisation::Fastest).unwrap();
         assert!(m.node_count() > 1, "several supernodes: {}", m.node_count());
+    }
+
+    /// Where faer would factorise supernodally, the reproducible choice factorises simplicially
+    /// (scalar loops only: the same bits on every CPU and in wasm), with the same marginals.
+    #[test]
+    fn reproducible_factorisation_is_simplicial_with_the_same_marginals() {
+        let (graph, values, all) = supernodal_example();
+        assert!(!assert_matches_dense_inverse_with(&graph, &values, &all, Factorisation::Reproducible), "simplicial factor");
     }
 
     /// Solved in batches (paths shared near the root, not below), every block is bit for bit
@@ -657,7 +669,7 @@ mod tests {
     fn batched_solves_equal_solves_alone_bit_for_bit() {
         let (graph, mut values, all) = supernodal_example();
         values.set_fixed(all[3], true);
-        let m = Marginals::new(&graph, &values).unwrap();
+        let m = Marginals::new(&graph, &values, Factorisation::Fastest).unwrap();
         // Landmarks and poses mixed, out of order, more than one batch.
         let ids: Vec<VarId> = all.iter().rev().step_by(3).chain(all.iter().step_by(5)).copied().collect();
         assert!(ids.len() > 2 * SOLVE_BATCH && ids.contains(&all[3]));
@@ -684,7 +696,7 @@ mod tests {
         };
         let chain_all: Vec<VarId> = chain_poses.iter().chain(&chain_lms).copied().collect();
         for (graph, values, ids, supernodal) in [(&graph, &values, &all, true), (&chain_graph, &chain_values, &chain_all, false)] {
-            let m = Marginals::new(graph, values).unwrap();
+            let m = Marginals::new(graph, values, Factorisation::Fastest).unwrap();
             assert_eq!(m.is_supernodal(), supernodal);
             let n = m.system.dim();
             let inv = m.system.factor_parts().0.perm().map(|p| p.arrays().1);

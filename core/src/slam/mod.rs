@@ -7,8 +7,8 @@
 //! first); covariances are in the body frame. See [`lie`].
 //!
 //! ```
-//! use fitslam_core::slam::{g2o::read_g2o, Gauge, LevenbergMarquardt, Marginals, Optimizer,
-//!     OptimizerParams, Se2Residual};
+//! use fitslam_core::slam::{g2o::read_g2o, Factorisation, Gauge, LevenbergMarquardt, Marginals,
+//!     Optimizer, OptimizerParams, Se2Residual};
 //!
 //! // Three poses, odometry and one loop closure; vertex 0 is fixed (g2o's gauge).
 //! let text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.1 0 0\nVERTEX_SE2 2 1.0 1.2 1.5\n\
@@ -20,7 +20,7 @@
 //!     .optimize(&problem.graph, &mut problem.values)?;
 //! assert!(summary.final_chi2 < 1e-6); // the three edges are consistent
 //! let last = problem.last_pose().expect("poses");
-//! let cov = Marginals::new(&problem.graph, &problem.values)?.covariance(last)?;
+//! let cov = Marginals::new(&problem.graph, &problem.values, Factorisation::Fastest)?.covariance(last)?;
 //! assert_eq!(cov.shape(), (3, 3));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -59,6 +59,7 @@ pub use graph_slam::{
     SlamError,
 };
 pub use lie::{Se2, Se3};
+pub use linear_system::Factorisation;
 pub use marginals::{MarginalError, Marginals};
 pub use optimizer::{
     GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination,

@@ -22,7 +22,7 @@ use thiserror::Error;
 
 use super::factors::FactorError;
 use super::graph::FactorGraph;
-use super::linear_system::{LinearSystem, SolveError};
+use super::linear_system::{Factorisation, LinearSystem, SolveError};
 use super::values::Values;
 
 /// Smallest factor by which an accepted LM step shrinks λ (Nielsen uses 1/3; GTSAM 1/10).
@@ -61,6 +61,9 @@ pub struct OptimizerParams {
     pub lambda_max: f64,
     /// LM damping schedule. Default Nielsen.
     pub lambda_schedule: LambdaSchedule,
+    /// Sparse Cholesky: faer's fastest choice, or always simplicial for the same bits on every
+    /// CPU and in wasm. Default fastest.
+    pub factorisation: Factorisation,
 }
 
 impl Default for OptimizerParams {
@@ -72,6 +75,7 @@ impl Default for OptimizerParams {
             lambda_initial_factor: 1e-5,
             lambda_max: 1e16,
             lambda_schedule: LambdaSchedule::Nielsen,
+            factorisation: Factorisation::Fastest,
         }
     }
 }
@@ -177,10 +181,11 @@ fn ensure_system<'a>(
     system: &'a mut Option<LinearSystem>,
     graph: &FactorGraph,
     values: &Values,
+    factorisation: Factorisation,
 ) -> Result<&'a mut LinearSystem, SolveError> {
     let stale = system.as_ref().is_none_or(|s| !s.matches(graph, values));
     if stale {
-        *system = Some(LinearSystem::new(graph, values)?);
+        *system = Some(LinearSystem::new(graph, values, factorisation)?);
     }
     system.as_mut().ok_or(SolveError::NoFreeVariables)
 }
@@ -208,7 +213,7 @@ impl Optimizer for GaussNewton {
     fn reset(&mut self) {}
 
     fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
-        let system = ensure_system(&mut self.system, graph, values)?;
+        let system = ensure_system(&mut self.system, graph, values, self.params.factorisation)?;
         let chi2 = system.linearize(graph, values)?;
         if chi2 <= self.params.absolute_tolerance {
             return Ok(StepReport { chi2_before: chi2, chi2_after: chi2, accepted: false, lambda: 0.0, step_norm: 0.0 });
@@ -258,7 +263,7 @@ impl Optimizer for LevenbergMarquardt {
     }
 
     fn step(&mut self, graph: &FactorGraph, values: &mut Values) -> Result<StepReport, OptError> {
-        let system = ensure_system(&mut self.system, graph, values)?;
+        let system = ensure_system(&mut self.system, graph, values, self.params.factorisation)?;
         let chi2 = system.linearize(graph, values)?;
         if chi2 <= self.params.absolute_tolerance {
             return Ok(StepReport { chi2_before: chi2, chi2_after: chi2, accepted: false, lambda: 0.0, step_norm: 0.0 });
