@@ -4,6 +4,7 @@
 //! a default. The studio exports exactly this struct and the robot node reads exactly this struct.
 //! Angles are radians, lengths metres (suffixes say so).
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -262,7 +263,7 @@ pub enum ParamsError {
 impl Params {
     /// Parses TOML text; `source_name` (usually the file name) is quoted in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
-        let p: Params = toml::from_str(text).map_err(|e: toml::de::Error| {
+        let p: Params = from_toml_over_default(text).map_err(|e: toml::de::Error| {
             // One line: "line N: message" (the crate's own Display draws a multi-line caret).
             let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             let message = e.message().trim().replace('\n', " ");
@@ -396,6 +397,32 @@ pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), S
         Ok(())
     } else {
         Err(format!("u2.waypoint_spacing_m ({spacing_m} m) must be at least a grid cell ({resolution_m} m)"))
+    }
+}
+
+/// Deserialises TOML `text` over `T::default()`: every key the text leaves out keeps the
+/// default's value, at every depth. serde's `default` alone fills the missing keys of a nested
+/// table from the nested type's own `Default`, which is not what its parent chose where the two
+/// differ (the SLAM front end's optimiser stops earlier than [`crate::slam::OptimizerParams`]'s
+/// own default): a file restating one nested default would then change the others. Errors come
+/// from a plain parse of `text` first, so they keep their position.
+pub fn from_toml_over_default<T: Default + Serialize + DeserializeOwned>(text: &str) -> Result<T, toml::de::Error> {
+    toml::from_str::<T>(text)?;
+    let given: toml::Table = toml::from_str(text)?;
+    let mut merged = toml::Table::try_from(T::default()).map_err(<toml::de::Error as serde::de::Error>::custom)?;
+    merge_into(&mut merged, given);
+    toml::Value::Table(merged).try_into()
+}
+
+/// Overwrites `base` with `over`, descending into tables present in both.
+fn merge_into(base: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge_into(b, o),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
     }
 }
 

@@ -145,9 +145,12 @@ impl Default for MissionParams {
 }
 
 impl MissionParams {
-    /// Parses TOML (unknown keys rejected) and validates; `name` is quoted in errors.
+    /// Parses TOML (unknown keys rejected; keys left out keep [`MissionParams::default`]'s
+    /// values at every depth, [`crate::params::from_toml_over_default`]) and validates; `name` is
+    /// quoted in errors.
     pub fn from_toml(text: &str, name: &str) -> Result<Self, String> {
-        let p: Self = toml::from_str(text).map_err(|e: toml::de::Error| format!("{name}: {}", e.message().trim().replace('\n', " ")))?;
+        let p: Self = crate::params::from_toml_over_default(text)
+            .map_err(|e: toml::de::Error| format!("{name}: {}", e.message().trim().replace('\n', " ")))?;
         p.validate().map_err(|m| format!("{name}: {m}"))?;
         Ok(p)
     }

@@ -89,6 +89,22 @@ fn simulator_settings_beyond_the_work_bounds_are_rejected() {
     assert!(MissionParams::from_toml("dt_s = 0.001\n[lidar]\nazimuth_step_rad = 0.0035", "sim.toml").is_ok());
 }
 
+/// A key left out keeps the default at every depth: restating one nested default changes
+/// nothing else (the SLAM front end's optimiser defaults differ from the optimiser's own, so a
+/// plain serde `default` would reset them), and the whole default file reads back as the default.
+#[test]
+fn simulator_settings_left_out_keep_the_defaults_at_every_depth() {
+    let defaults = MissionParams::default();
+    let restated = MissionParams::from_toml("[slam.graph]\nwindow_keyframes = 10\n", "sim.toml").unwrap();
+    assert_eq!(restated, defaults);
+    let one = MissionParams::from_toml("[slam.graph.optimizer]\nfactorisation = \"reproducible\"\n", "sim.toml").unwrap();
+    let mut expected = defaults.clone();
+    expected.slam.graph.optimizer.factorisation = crate::slam::Factorisation::Reproducible;
+    assert_eq!(one, expected);
+    let whole = toml::to_string(&defaults).unwrap();
+    assert_eq!(MissionParams::from_toml(&whole, "sim.toml").unwrap(), defaults);
+}
+
 proptest::proptest! {
     /// Mutated world files give a spec or a typed error, never a panic.
     #[test]
