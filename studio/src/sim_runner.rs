@@ -379,13 +379,19 @@ pub struct WholeMission {
     pub end: String,
 }
 
-/// Runs one mission on a built-in world from start to end at once (default parameters, as
-/// `fitslam explore` without options): for page scripts, and for the browser test's check that a
-/// whole mission in wasm is the CLI's, to the bit. O(the mission).
-pub fn run_to_end(world_name: &str, strategy: Strategy, seed: u64, localisation: Localisation) -> Result<WholeMission, String> {
+/// Runs one mission on a built-in world from start to end at once (default planner parameters;
+/// `mission_params`, as `fitslam explore --sim-params`): for page scripts, and for the browser
+/// test's check that a whole mission in wasm is the CLI's, to the bit. O(the mission).
+pub fn run_to_end(
+    world_name: &str,
+    strategy: Strategy,
+    seed: u64,
+    localisation: Localisation,
+    mission_params: MissionParams,
+) -> Result<WholeMission, String> {
     let w = world(world_name).ok_or_else(|| format!("no built-in world named '{world_name}'"))?;
     let params = Params::default();
-    let mut mission = Mission::new(w.build(&params)?, params, MissionParams::default(), strategy, seed, localisation)
+    let mut mission = Mission::new(w.build(&params)?, params, mission_params, strategy, seed, localisation)
         .map_err(|e| format!("{world_name} / {}: {e}", strategy_label(strategy)))?;
     let end = mission.run().end_reason;
     Ok(WholeMission {
@@ -422,7 +428,7 @@ mod tests {
 
     #[test]
     fn a_whole_mission_at_once_is_the_lane_run_to_its_end() {
-        let whole = run_to_end("tiny_test", Strategy::Greedy, 2, Localisation::GroundTruth).unwrap();
+        let whole = run_to_end("tiny_test", Strategy::Greedy, 2, Localisation::GroundTruth, MissionParams::default()).unwrap();
         let mut lane = SimRunner::new(
             MissionConfig {
                 world: "tiny_test".into(),
@@ -439,7 +445,7 @@ mod tests {
         assert_eq!(whole.metrics_csv, lane.lanes[0].mission.metrics_csv());
         assert_eq!(whole.end, format!("{:?}", lane.lanes[0].end.unwrap()));
         assert!(whole.metrics_csv.lines().count() > 10 && whole.trajectory_est_tum.lines().count() > 10);
-        assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth).is_err());
+        assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth, MissionParams::default()).is_err());
     }
 
     #[test]

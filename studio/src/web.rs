@@ -31,15 +31,20 @@ pub async fn start(canvas_id: String) -> Result<(), JsValue> {
 
 /// Runs one whole mission on a built-in world at once and returns its `metrics.csv`,
 /// `trajectory_est.tum` and end as JSON (`sim_runner::run_to_end`). `strategy` and
-/// `localisation` are the CLI's names (`fit`, `ground_truth` or `ground-truth`, …). Blocks the
-/// page for the mission's length (seconds for the paper world with ground truth).
+/// `localisation` are the CLI's names (`fit`, `ground_truth` or `ground-truth`, …);
+/// `sim_params_toml`, when given, is what `fitslam explore --sim-params` reads. Blocks the page
+/// for the mission's length (seconds for the paper world with ground truth).
 #[wasm_bindgen]
-pub fn run_mission(world: &str, strategy: &str, seed: u64, localisation: &str) -> Result<String, JsValue> {
+pub fn run_mission(world: &str, strategy: &str, seed: u64, localisation: &str, sim_params_toml: Option<String>) -> Result<String, JsValue> {
     // The CLI's names are serde's snake_case with '-' for '_'.
     let json_name = |s: &str| serde_json::Value::String(s.replace('-', "_")).to_string();
     let strategy = serde_json::from_str(&json_name(strategy)).map_err(|e| format!("strategy '{strategy}': {e}"))?;
     let localisation = serde_json::from_str(&json_name(localisation)).map_err(|e| format!("localisation '{localisation}': {e}"))?;
-    let whole = crate::sim_runner::run_to_end(world, strategy, seed, localisation)?;
+    let mission_params = match sim_params_toml {
+        Some(text) => fitslam_core::sim::MissionParams::from_toml(&text, "sim_params_toml")?,
+        None => fitslam_core::sim::MissionParams::default(),
+    };
+    let whole = crate::sim_runner::run_to_end(world, strategy, seed, localisation, mission_params)?;
     serde_json::to_string(&whole).map_err(|e| e.to_string().into())
 }
 
