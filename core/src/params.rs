@@ -404,14 +404,14 @@ pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), S
 /// default's value, at every depth. serde's `default` alone fills the missing keys of a nested
 /// table from the nested type's own `Default`, which is not what its parent chose where the two
 /// differ (the SLAM front end's optimiser stops earlier than [`crate::slam::OptimizerParams`]'s
-/// own default): a file restating one nested default would then change the others. Errors come
-/// from a plain parse of `text` first, so they keep their position.
+/// own default): a file restating one nested default would then change the others. A file the
+/// merge refuses (a wrong type, an unknown key) is parsed once more straight into `T`, whose
+/// error carries the position in `text`.
 pub fn from_toml_over_default<T: Default + Serialize + DeserializeOwned>(text: &str) -> Result<T, toml::de::Error> {
-    toml::from_str::<T>(text)?;
     let given: toml::Table = toml::from_str(text)?;
     let mut merged = toml::Table::try_from(T::default()).map_err(<toml::de::Error as serde::de::Error>::custom)?;
     merge_into(&mut merged, given);
-    toml::Value::Table(merged).try_into()
+    toml::Value::Table(merged).try_into().map_err(|e| toml::from_str::<T>(text).err().unwrap_or(e))
 }
 
 /// Overwrites `base` with `over`, descending into tables present in both.

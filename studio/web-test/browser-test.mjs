@@ -397,7 +397,7 @@ try {
       const t0 = Date.now();
       const whole = JSON.parse(await page.evaluate(async ([w, st, sd, loc, sim]) => {
         const m = await import("./fitslam_studio.js");
-        return m.run_mission(w, st, BigInt(sd), loc, sim ?? undefined);
+        return m.run_mission(w, st, BigInt(sd), loc, sim);
       }, [world, strategy, seed, localisation, simToml]));
       const wasmS = (Date.now() - t0) / 1000;
       const dir = fs.mkdtempSync(path.join(os.tmpdir(), "fitslam-native-whole-"));
