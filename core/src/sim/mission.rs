@@ -7,7 +7,8 @@
 //! are registered with the *estimated* pose into the traversability map (lazily estimated, below);
 //! every `camera_every_s` the camera observes landmarks, which build the landmark map. The goal
 //! is (re)chosen on arrival (after turning to Θ*), on failure (timeout → blacklist `Failed`),
-//! when the path is blocked, and every `replan_period_s` (then the current goal is kept while it
+//! when the path ahead of the robot is blocked (checked after each scan, [`super::corridor`];
+//! the part already driven is not checked), and every `replan_period_s` (then the current goal is kept while it
 //! is still a reachable frontier candidate). Candidates the selector finds unreachable are
 //! blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted `Reselected`. The
 //! mission ends when no candidate is left (`Decision::chosen == None`) or at the time limit.
@@ -21,7 +22,7 @@
 //! odometry the estimate's height is the terrain's under it).
 //!
 //! The traversability map is estimated lazily: a scan only adds its points (O(disc cells) each);
-//! the cells along the remaining path are re-estimated for the blocked-path check, every stale
+//! the cells along the path ahead are re-estimated for the blocked-path check, every stale
 //! cell at a decision, and the metrics count known cells from flags kept without estimating.
 //!
 //! Cost per tick: O(path) control; per scan O(rays × march) + O(points × disc cells) + O(path
@@ -32,6 +33,7 @@
 
 use super::World;
 use super::camera::{CameraNoise, CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
+use super::corridor::CorridorCheck;
 use super::lidar::{LidarParams, RayCaster, gaussian, scan};
 use super::odometry::OdometryNoise;
 use super::robot::{DriveParams, PathFollower, Twist, body_on_terrain, footprint_points, integrate};
@@ -322,6 +324,7 @@ pub struct Mission {
     /// Estimated lazily: cells are refreshed along the path after each scan and everywhere at
     /// each decision ([`Self::layers`] brings them all up to date).
     layers: TraversabilityLayers,
+    corridor: CorridorCheck,
     /// Landmark map: id → (sum of world positions, count).
     landmark_sums: BTreeMap<u64, (Vector3<f64>, u32)>,
     pub blacklist: Blacklist,
@@ -407,6 +410,7 @@ impl Mission {
             body_points: Vec::new(),
             tmap,
             layers,
+            corridor: CorridorCheck::default(),
             landmark_sums: BTreeMap::new(),
             blacklist,
             // A full turn in place first: the LiDAR is blind within ~1.1 m, the camera sees it.
@@ -789,43 +793,17 @@ impl Mission {
         self.last_camera_s = self.time_s;
     }
 
-    /// Whether the remaining path crosses a lethal cell of the current map within the robot
-    /// radius (refreshing just those cells' estimates).
+    /// Whether the path ahead crosses a lethal cell of the current map within the robot radius
+    /// ([`CorridorCheck`]), refreshing the estimates of the cells it reads.
     fn path_blocked(&mut self) -> bool {
         let g = self.layers.geometry();
-        let tau = self.params.traversability.tau as f32;
-        let r = self.params.robot.radius_m;
-        let rc = (r / g.resolution_m).ceil() as i32;
-        let path = &self.follower.path_m;
-        for w in path.windows(2) {
-            let len = math::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]);
-            let n = (len / g.resolution_m).ceil().max(1.0) as usize;
-            for k in 0..=n {
-                let t = k as f64 / n as f64;
-                let (x, y) = (w[0][0] + t * (w[1][0] - w[0][0]), w[0][1] + t * (w[1][1] - w[0][1]));
-                if math::hypot(x - self.est.x_m, y - self.est.y_m) < r {
-                    continue; // under the robot: its own snapping handles it
-                }
-                let Some(c) = g.cell_of(x, y) else { return true };
-                let square = (-rc..=rc).flat_map(|dr| {
-                    (-rc..=rc).filter_map(move |dc| {
-                        let cell = crate::grid::Cell::new(c.col + dc, c.row + dr);
-                        g.index(cell).map(|i| (i, cell))
-                    })
-                });
-                self.tmap.refresh_cells(square.clone().map(|(i, _)| i), &self.params.traversability, &mut self.layers);
-                for (i, cell) in square {
-                    let s = self.layers.score.data[i];
-                    if !s.is_nan() && s < tau {
-                        let (cx, cy) = g.center_of(cell);
-                        if math::hypot(cx - x, cy - y) <= r {
-                            return true;
-                        }
-                    }
-                }
-            }
-        }
-        false
+        let (tmap, layers, params) = (&mut self.tmap, &mut self.layers, &self.params);
+        let ahead = self.follower.remaining(self.est);
+        let robot_m = [self.est.x_m, self.est.y_m];
+        self.corridor.blocked(&g, ahead, robot_m, params.robot.radius_m, params.traversability.tau as f32, |i| {
+            tmap.refresh_cells([i], &params.traversability, layers);
+            layers.score.data[i]
+        })
     }
 
     /// Chooses a goal. `keep_current`: periodic replanning keeps the current goal while it is

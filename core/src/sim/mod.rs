@@ -4,6 +4,7 @@
 //! (visible ground points, deterministic noise).
 
 pub mod camera;
+mod corridor;
 mod heightfield;
 mod landmarks;
 pub mod lidar;

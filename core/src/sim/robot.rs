@@ -66,6 +66,22 @@ impl PathFollower {
         Self { path_m, segment: 0 }
     }
 
+    /// The path still ahead of the robot: its projection on the current segment, then the
+    /// segment ends after it (the whole path before the first [`Self::command`]).
+    pub fn remaining(&self, pose: Pose2) -> impl Iterator<Item = [f64; 2]> + '_ {
+        let rest = self.path_m.get(self.segment + 1..).unwrap_or(&[]);
+        let start = match (self.path_m.get(self.segment), rest.first()) {
+            (Some(&a), Some(&b)) => {
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let len2 = dx * dx + dy * dy;
+                let t = if len2 > 0.0 { (((pose.x_m - a[0]) * dx + (pose.y_m - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                Some([a[0] + t * dx, a[1] + t * dy])
+            }
+            (a, _) => a.copied(),
+        };
+        start.into_iter().chain(rest.iter().copied())
+    }
+
     /// Whether the robot is within `tolerance` of the last point.
     pub fn arrived(&self, pose: Pose2, tolerance_m: f64) -> bool {
         match self.path_m.last() {
@@ -190,6 +206,21 @@ pub fn footprint_points(
 mod tests {
     use super::*;
     use crate::grid::GridGeometry;
+
+    #[test]
+    fn the_path_ahead_starts_at_the_robots_projection_on_its_segment() {
+        let p = DriveParams::default();
+        let mut f = PathFollower::new(vec![[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]]);
+        let pose = |x_m, y_m| Pose2 { x_m, y_m, yaw_rad: 0.0 };
+        assert_eq!(f.remaining(pose(1.0, 0.3)).collect::<Vec<_>>(), [[1.0, 0.0], [2.0, 0.0], [2.0, 2.0]]);
+        // On the second segment once the robot has passed the first one's end.
+        f.command(pose(2.1, 0.5), &p);
+        assert_eq!(f.remaining(pose(2.1, 0.5)).collect::<Vec<_>>(), [[2.0, 0.5], [2.0, 2.0]]);
+        // Clamped to the segment; one point alone; nothing.
+        assert_eq!(f.remaining(pose(2.0, 3.0)).collect::<Vec<_>>(), [[2.0, 2.0], [2.0, 2.0]]);
+        assert_eq!(PathFollower::new(vec![[1.0, 1.0]]).remaining(pose(0.0, 0.0)).collect::<Vec<_>>(), [[1.0, 1.0]]);
+        assert_eq!(PathFollower::default().remaining(pose(0.0, 0.0)).count(), 0);
+    }
 
     #[test]
     fn straight_path_is_followed_at_max_speed_and_reached() {
