@@ -64,7 +64,7 @@ struct Metric {
     get: fn(&RunFigures) -> f64,
 }
 
-const METRICS: [Metric; 8] = [
+const METRICS: [Metric; 9] = [
     Metric { csv: "time_s", header: "end time (s)", get: |r| r.summary.time_s },
     Metric { csv: "unexplored_pct", header: "final unexplored (%)", get: |r| r.summary.unexplored_pct },
     Metric { csv: "mean_cov_trace", header: "mean tr(cov)", get: |r| r.mean_cov_trace },
@@ -72,6 +72,9 @@ const METRICS: [Metric; 8] = [
     Metric { csv: "ate_rmse_m", header: "ATE RMSE (m)", get: |r| r.summary.ate_rmse_m },
     Metric { csv: "distance_m", header: "distance (m)", get: |r| r.summary.distance_m },
     Metric { csv: "gt_violations", header: "GT violations", get: |r| r.summary.gt_violations as f64 },
+    // The simulated bumper (`safety_stop`) that stops the robot before a ground-truth lethal
+    // cell: while it never fires, the run is the one without it, so 0 violations is the robot's.
+    Metric { csv: "safety_stops", header: "safety stops", get: |r| r.summary.safety_stops as f64 },
     Metric { csv: "loop_closures", header: "loop closures", get: |r| r.summary.loop_closures as f64 },
 ];
 

@@ -88,7 +88,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
     println!(
-        "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, end {:?}",
+        "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, {} safety stops, end {:?}",
         args.out.display(),
         strategy,
         args.seed,
@@ -98,6 +98,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
         summary.distance_m,
         summary.goals_reached,
         summary.gt_violations,
+        summary.safety_stops,
         summary.end_reason
     );
     Ok(())

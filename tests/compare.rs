@@ -58,6 +58,11 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.join("random/seed_2/summary.json")).unwrap()).unwrap();
     let time_s: f64 = lines[4].split(',').nth(3).unwrap().parse().unwrap();
     assert!((json["time_s"].as_f64().unwrap() - time_s).abs() < 1e-6 * time_s.max(1.0));
+    let column = |name: &str| lines[0].split(',').position(|h| h == name).unwrap_or_else(|| panic!("no {name} column: {}", lines[0]));
+    for name in ["gt_violations", "safety_stops"] {
+        let value: f64 = lines[4].split(',').nth(column(name)).unwrap().parse().unwrap();
+        assert_eq!(value, json[name].as_f64().unwrap(), "{name}");
+    }
 
     let md = std::fs::read_to_string(a.join("summary.md")).unwrap();
     assert_eq!(md.lines().filter(|l| l.starts_with("| fit |")).count(), 1, "{md}");
