@@ -15,6 +15,7 @@ use crate::sim_runner::{self, LOCALISATIONS, MissionConfig, RunState, STRATEGIES
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, Vec2};
 use egui_plot::{Legend, Line, Plot, PlotPoints};
 use fitslam_core::params::Strategy;
+use fitslam_core::sim::Localisation;
 use fitslam_core::traversability::score_rgb;
 
 /// Which map each lane shows.
@@ -170,6 +171,7 @@ impl MissionView {
             "seed": r.config.seed,
             "localisation": sim_runner::localisation_label(r.config.localisation),
             "localisation_id": r.config.localisation,
+            "reproducible_slam": r.config.reproducible_slam,
             "state": format!("{:?}", r.state),
             "time_s": r.time_s(),
             "speed": if r.speed.is_finite() { Some(r.speed) } else { None },
@@ -251,6 +253,12 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
             }
         });
     rects.push(("mission_localisation", combo.response.rect));
+    let slam = m.config.localisation == Localisation::Slam;
+    let r = ui.add_enabled(slam, egui::Checkbox::new(&mut m.config.reproducible_slam, "same bits on every CPU")).on_hover_text(
+        "Graph SLAM with the reproducible (simplicial) factorisation: this run is then the same in the browser, natively and in \
+         `fitslam explore` with factorisation = \"reproducible\", at some cost in speed on long missions.",
+    );
+    rects.push(("mission_reproducible", r.rect));
     let pending = m.runner.as_ref().is_none_or(|r| r.config != m.config);
     // Always one line, so that the buttons below do not move when a setting changes.
     if pending {

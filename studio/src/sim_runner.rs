@@ -14,6 +14,7 @@
 use fitslam_core::Params;
 use fitslam_core::params::Strategy;
 use fitslam_core::sim::{EndReason, Localisation, Mission, MissionParams, StepOutcome, World, WorldSpec};
+use fitslam_core::slam::Factorisation;
 use std::collections::VecDeque;
 
 macro_rules! world_file {
@@ -124,6 +125,21 @@ pub struct MissionConfig {
     /// Sensor-noise (and random-strategy) seed, the same for every lane.
     pub seed: u64,
     pub localisation: Localisation,
+    /// Graph SLAM with the reproducible factorisation: the same bits on every CPU, in the
+    /// browser and in `fitslam explore` with `factorisation = "reproducible"` (slower on long
+    /// missions; README, "Same seed, same run").
+    pub reproducible_slam: bool,
+}
+
+impl MissionConfig {
+    /// The simulator parameters of this configuration.
+    pub fn mission_params(&self) -> MissionParams {
+        let mut p = MissionParams::default();
+        if self.reproducible_slam {
+            p.slam.graph.optimizer.factorisation = Factorisation::Reproducible;
+        }
+        p
+    }
 }
 
 impl Default for MissionConfig {
@@ -133,6 +149,7 @@ impl Default for MissionConfig {
             strategies: vec![Strategy::Fit, Strategy::Greedy, Strategy::Random],
             seed: 0,
             localisation: Localisation::GroundTruth,
+            reproducible_slam: false,
         }
     }
 }
@@ -232,7 +249,7 @@ impl SimRunner {
             let mission = Mission::new(
                 self.world.clone(),
                 self.params.clone(),
-                MissionParams::default(),
+                self.config.mission_params(),
                 s,
                 self.config.seed,
                 self.config.localisation,
@@ -418,7 +435,7 @@ mod tests {
     use super::*;
 
     fn config(strategies: Vec<Strategy>, seed: u64) -> MissionConfig {
-        MissionConfig { world: "tiny_test".into(), strategies, seed, localisation: Localisation::Odometry }
+        MissionConfig { world: "tiny_test".into(), strategies, seed, localisation: Localisation::Odometry, reproducible_slam: false }
     }
 
     /// A fake clock that never runs out of budget: `advance` then stops only at the target.
@@ -435,6 +452,7 @@ mod tests {
                 strategies: vec![Strategy::Greedy],
                 seed: 2,
                 localisation: Localisation::GroundTruth,
+                reproducible_slam: false,
             },
             &Params::default(),
         )
@@ -446,6 +464,17 @@ mod tests {
         assert_eq!(whole.end, format!("{:?}", lane.lanes[0].end.unwrap()));
         assert!(whole.metrics_csv.lines().count() > 10 && whole.trajectory_est_tum.lines().count() > 10);
         assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth, MissionParams::default()).is_err());
+    }
+
+    #[test]
+    fn the_reproducible_switch_sets_the_slam_factorisation_and_nothing_else() {
+        let mut c = config(vec![Strategy::Fit], 1);
+        assert_eq!(c.mission_params(), MissionParams::default());
+        c.reproducible_slam = true;
+        let mut expected = MissionParams::default();
+        expected.slam.graph.optimizer.factorisation = Factorisation::Reproducible;
+        assert_eq!(c.mission_params(), expected);
+        assert_ne!(expected, MissionParams::default());
     }
 
     #[test]

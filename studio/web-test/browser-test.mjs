@@ -161,10 +161,15 @@ async function sameRunAsNative() {
     let same = false;
     try {
       const dir = fs.mkdtempSync(path.join(os.tmpdir(), "fitslam-native-"));
+      const simParams = [];
+      if (m.reproducible_slam) {
+        fs.writeFileSync(path.join(dir, "sim.toml"), '[slam.graph.optimizer]\nfactorisation = "reproducible"\n');
+        simParams.push("--sim-params", path.join(dir, "sim.toml"));
+      }
       execFileSync(cli, ["explore", "--world", path.join(repo, "assets/worlds", `${m.world}.toml`), "--strategy", lane.strategy_id,
-        "--seed", String(m.seed), "--localisation", m.localisation_id.replaceAll("_", "-"),
-        "--time-limit-s", String(Math.ceil(lane.time_s) + 3), "--out", dir], { stdio: "pipe" });
-      const nativeLines = fs.readFileSync(path.join(dir, "metrics.csv"), "utf8").split("\n").filter((l) => l.length > 0);
+        "--seed", String(m.seed), "--localisation", m.localisation_id.replaceAll("_", "-"), ...simParams,
+        "--time-limit-s", String(Math.ceil(lane.time_s) + 3), "--out", path.join(dir, "out")], { stdio: "pipe" });
+      const nativeLines = fs.readFileSync(path.join(dir, "out", "metrics.csv"), "utf8").split("\n").filter((l) => l.length > 0);
       fs.rmSync(dir, { recursive: true, force: true });
       const k = wasmLines.findIndex((l, i) => l !== nativeLines[i]);
       same = wasmLines.length >= 2 && k === -1;
@@ -173,7 +178,8 @@ async function sameRunAsNative() {
     } catch (e) {
       detail = `native run failed (${cli}): ${String(e.message ?? e).split("\n")[0]}`;
     }
-    check(`${lane.strategy} lane, ${m.localisation}: the same metrics as the native CLI (seed ${m.seed})`, same, detail);
+    const factorisation = m.reproducible_slam ? ", reproducible factorisation" : "";
+    check(`${lane.strategy} lane, ${m.localisation}${factorisation}: the same metrics as the native CLI (seed ${m.seed})`, same, detail);
   }
   return s;
 }
@@ -368,9 +374,13 @@ try {
     if (s) {
       await page.mouse.click(...center(rect(s, "localisation_slam")));
       s = await settledState();
+      // The "same bits on every CPU" switch (reproducible factorisation): the CLI gets it too.
+      await page.mouse.click(...center(rect(s, "mission_reproducible")));
+      s = await settledState();
       await page.mouse.click(...center(rect(s, "mission_reset")));
-      s = await waitFor("graph SLAM lane after Reset",
-        (s) => s.stats.mission.localisation_id === "slam" && s.stats.mission.lanes.length === 1 && s.stats.mission.time_s === 0, 60000);
+      s = await waitFor("graph SLAM lane, reproducible factorisation, after Reset",
+        (s) => s.stats.mission.localisation_id === "slam" && s.stats.mission.reproducible_slam === true
+          && s.stats.mission.lanes.length === 1 && s.stats.mission.time_s === 0, 60000);
       if (s) s = await settledState();
     }
     if (s) {
