@@ -8,10 +8,11 @@
 //! every `camera_every_s` the camera observes landmarks, which build the landmark map. The goal
 //! is (re)chosen on arrival (after turning to Θ*), on failure (timeout → blacklist `Failed`),
 //! when the path ahead of the robot is blocked (checked after each scan, [`super::corridor`];
-//! the part already driven is not checked), and every `replan_period_s` (then the current goal is kept while it
-//! is still a reachable frontier candidate). Candidates the selector finds unreachable are
-//! blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted `Reselected`. The
-//! mission ends when no candidate is left (`Decision::chosen == None`) or at the time limit.
+//! the part already driven is not checked), and every `replan_period_s` (then the current goal
+//! is kept while it is still a reachable frontier candidate). Candidates the selector finds
+//! unreachable are blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted
+//! `Reselected`. The mission ends when no candidate is left (`Decision::chosen == None`) or at
+//! the time limit.
 //!
 //! Localisation: ground truth (covariance 0), dead-reckoned odometry with a propagated 3×3
 //! (x, y, θ) covariance, or keyframe graph SLAM ([`super::slam_frontend`]: odometry + IMU
