@@ -1,13 +1,15 @@
 //! Shortest paths on the thresholded, inflated grid (notes §4): 8-connected moves, octile costs,
 //! no corner cutting (a diagonal step needs both orthogonal neighbours passable), unknown cells
 //! impassable unless allowed. [`astar`] answers one query; [`dijkstra`] answers every goal at
-//! once with the same optimal lengths.
+//! once with the same optimal lengths. [`set_back`] ends a path short of unknown ground.
 
 mod astar;
 mod dijkstra;
+mod setback;
 
 pub use astar::astar;
 pub use dijkstra::{DistanceField, SearchBuffers, dijkstra, dijkstra_to, dijkstra_to_reusing, dijkstra_with_frontiers};
+pub use setback::{GoalSetback, known_around, set_back};
 
 use crate::grid::{Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
 use serde::{Deserialize, Serialize};

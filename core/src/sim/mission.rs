@@ -45,6 +45,7 @@ use crate::frontier::BlacklistReason;
 use crate::grid::OccupancyGrid;
 use crate::math;
 use crate::params::{Params, Strategy};
+use crate::path::GoalSetback;
 use crate::pose::{Pose2, wrap_pi};
 use crate::select::{DecisionInput, DropReason, GoalSelector, make_selector};
 use crate::slam::lie::so3_log;
@@ -102,6 +103,11 @@ pub struct MissionParams {
     pub metrics_period_s: f64,
     /// Stop before entering a ground-truth untraversable cell (a bumper). Default true.
     pub safety_stop: bool,
+    /// Each path ends short of unknown ground by a multiple of the position estimate's standard
+    /// deviation ([`crate::path::set_back`]): a robot unsure of its position could otherwise
+    /// drive past a frontier goal into ground no sensor has seen. 0 with a ground-truth pose.
+    /// Defaults 2 σ, at most 1 m.
+    pub goal_setback: GoalSetback,
     /// Footprint clearing before each decision, as robot costmaps do: the cells within the robot
     /// radius plus one cell of the estimated pose are free in the grid the planner gets (the
     /// robot stands on that ground), so registration speckle under the robot cannot block every
@@ -139,6 +145,7 @@ impl Default for MissionParams {
             goal_timeout_extra_s: 20.0,
             metrics_period_s: 1.0,
             safety_stop: true,
+            goal_setback: GoalSetback::default(),
             clear_footprint: true,
             time_limit_s: None,
             max_failed_decisions: 30,
@@ -193,6 +200,7 @@ impl MissionParams {
                 self.depth_rays[0], self.depth_rays[1]
             ));
         }
+        self.goal_setback.validate("goal_setback")?;
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;
         }
@@ -810,12 +818,7 @@ impl Mission {
     /// Chooses a goal. `keep_current`: periodic replanning keeps the current goal while it is
     /// still a reachable candidate. Returns `Some(NoFrontier)` at the end of the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
-        let mut grid = self.occupancy();
-        if self.mission.clear_footprint {
-            // Radius + one cell: the robot's own cell is then never inflated.
-            let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
-            crate::grid::fill_disc(&mut grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
-        }
+        let grid = self.decision_grid();
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }
@@ -878,7 +881,7 @@ impl Mission {
                         .filter(|c| math::hypot(c.x_m - goal.x_m, c.y_m - goal.y_m) <= r);
                     if let Some(c) = same {
                         self.failed_decisions = 0;
-                        self.follower = PathFollower::new(c.path_m.clone());
+                        self.follower = PathFollower::new(self.set_back(&c.path_m, &grid));
                         self.next_replan_s = self.time_s + self.mission.replan_period_s;
                         self.last_decision = Some(decision);
                         return None;
@@ -900,7 +903,9 @@ impl Mission {
             }
             let goal = decision.goal.unwrap_or(Pose2 { x_m: c.x_m, y_m: c.y_m, yaw_rad: self.est.yaw_rad });
             let rho = c.rho_m.unwrap_or(0.0);
-            self.follower = PathFollower::new(c.path_m.clone());
+            // The goal stays the candidate (blacklisting and re-selection compare candidates);
+            // only the path the robot drives is set back.
+            self.follower = PathFollower::new(self.set_back(&c.path_m, &grid));
             self.goal = Some(goal);
             self.goal_started_s = self.time_s;
             self.goal_deadline_s =
@@ -919,6 +924,34 @@ impl Mission {
         self.phase = Phase::Spinning(self.time_s + 2.0);
         self.next_replan_s = self.time_s + 2.0;
         None
+    }
+
+    /// The grid a decision made now would plan on: [`Self::occupancy`] with the footprint
+    /// cleared ([`MissionParams::clear_footprint`]).
+    pub fn decision_grid(&mut self) -> OccupancyGrid {
+        let mut grid = self.occupancy();
+        if self.mission.clear_footprint {
+            // Radius + one cell: the robot's own cell is then never inflated.
+            let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
+            crate::grid::fill_disc(&mut grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
+        }
+        grid
+    }
+
+    /// The path being driven: the chosen candidate's, set back ([`Self::goal_setback_m`]).
+    pub fn driven_path_m(&self) -> &[[f64; 2]] {
+        &self.follower.path_m
+    }
+
+    /// How far a path planned now ends short of unknown ground, metres
+    /// ([`MissionParams::goal_setback`] of the estimate's covariance).
+    pub fn goal_setback_m(&self) -> f64 {
+        self.mission.goal_setback.margin_m(self.est_cov[(0, 0)], self.est_cov[(1, 1)])
+    }
+
+    /// `path_m` ended [`Self::goal_setback_m`] short of unknown ground.
+    fn set_back(&self, path_m: &[[f64; 2]], grid: &OccupancyGrid) -> Vec<[f64; 2]> {
+        crate::path::set_back(path_m, grid, self.goal_setback_m())
     }
 
     fn unexplored_pct(&mut self) -> f64 {

@@ -1,6 +1,6 @@
 //! Whole-simulator tests: world files, ground truth, and tiny missions (fast in debug).
 
-use super::mission::{EndReason, Localisation, Mission, MissionParams};
+use super::mission::{EndReason, Localisation, Mission, MissionParams, StepOutcome};
 use super::world::{World, WorldSpec};
 use crate::params::{Params, Strategy};
 
@@ -187,7 +187,7 @@ fn a_tiny_mission_explores_to_completion_without_entering_untraversable_terrain(
     let mut m = tiny_mission(Strategy::Fit, 1, true, 300.0);
     let s = m.run();
     assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
-    assert_eq!(s.gt_violations, 0);
+    assert_eq!((s.gt_violations, s.safety_stops), (0, 0));
     assert!(s.unexplored_pct < 10.0, "{s:?}");
     assert!(s.goals_reached >= 1 && s.distance_m > 1.0, "{s:?}");
     let first = m.rows.first().unwrap().unexplored_pct;
@@ -207,6 +207,44 @@ fn no_strategy_drives_into_ground_truth_untraversable_terrain_even_without_the_s
             assert!(s.distance_m > 0.5, "{strategy:?} seed {seed} did not move: {s:?}");
         }
     }
+}
+
+/// Steps `m` to its end; at each new driven path, checks it against the margin and grid the
+/// decision had. Returns (paths, paths cut short of their candidate's).
+fn check_setbacks(m: &mut Mission) -> (usize, usize) {
+    let (mut paths, mut cut) = (0, 0);
+    let mut last: Vec<[f64; 2]> = Vec::new();
+    loop {
+        let (margin_m, grid) = (m.goal_setback_m(), m.decision_grid());
+        if matches!(m.step(), StepOutcome::Finished(_)) {
+            return (paths, cut);
+        }
+        let path = m.driven_path_m();
+        if path.is_empty() || path == last.as_slice() {
+            continue;
+        }
+        paths += 1;
+        last = path.to_vec();
+        let end = *path.last().unwrap();
+        assert!(path.len() == 1 || crate::path::known_around(&grid, end, margin_m), "t {} s: end {end:?}, margin {margin_m} m", m.time_s);
+        // The chosen candidate's path, or the kept goal's on a periodic replan.
+        let whole = m.last_decision.as_ref().is_some_and(|d| d.candidates.iter().any(|c| c.path_m == path));
+        assert!(whole || margin_m > 0.0, "t {} s: no margin, yet the path was cut", m.time_s);
+        cut += usize::from(!whole);
+    }
+}
+
+#[test]
+fn driven_paths_end_short_of_unknown_ground_by_the_position_uncertainty() {
+    // Ground truth: margin 0, every path exactly the candidate's.
+    let (paths, cut) = check_setbacks(&mut tiny_mission(Strategy::Fit, 1, true, 120.0));
+    assert!(paths >= 3 && cut == 0, "{paths} {cut}");
+    // Dead reckoning: the margin grows with the covariance and paths are cut.
+    let params = Params::default();
+    let mp = MissionParams { time_limit_s: Some(120.0), ..MissionParams::default() };
+    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 2, Localisation::Odometry).unwrap();
+    let (paths, cut) = check_setbacks(&mut m);
+    assert!(paths >= 3 && cut >= 1, "{paths} {cut}");
 }
 
 #[test]
@@ -252,7 +290,7 @@ fn tiny_slam_mission(seed: u64, time_limit_s: f64) -> Mission {
 fn a_tiny_slam_mission_explores_safely_with_bounded_error_and_loop_closures() {
     let mut m = tiny_slam_mission(1, 300.0);
     let s = m.run();
-    assert_eq!(s.gt_violations, 0, "{s:?}");
+    assert_eq!((s.gt_violations, s.safety_stops), (0, 0), "{s:?}");
     assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
     assert!(s.unexplored_pct < 10.0, "{s:?}");
     assert!(s.keyframes > 10 && s.landmarks_mapped > 10 && s.slam_errors == 0, "{s:?}");
