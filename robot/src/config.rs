@@ -14,6 +14,7 @@
 //! both sections.
 
 use fitslam_core::Params;
+use fitslam_core::path::GoalSetback;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -146,6 +147,11 @@ pub struct NodeConfig {
     pub goal_response_timeout_s: f64,
     /// Topic goals: reached within this distance, metres. Default 0.3.
     pub goal_tolerance_m: f64,
+    /// Goals end short of unknown ground, along the candidate's path, by this many standard
+    /// deviations of the pose topic's position (sqrt(σx² + σy²) of its covariance), so that an
+    /// error in the pose does not carry the robot past the frontier into ground no sensor has
+    /// seen. tf carries no covariance: no set-back. Defaults 2 σ, at most 1 m.
+    pub goal_setback: GoalSetback,
     /// Consecutive decisions with no goal (and none active) that end the mission. Default 2.
     pub done_after_empty_decisions: u32,
     /// Stop after this long even if frontiers remain, seconds; none by default.
@@ -186,6 +192,7 @@ impl Default for NodeConfig {
             goal_timeout_s: 120.0,
             goal_response_timeout_s: 5.0,
             goal_tolerance_m: 0.3,
+            goal_setback: GoalSetback::default(),
             done_after_empty_decisions: 2,
             max_mission_s: None,
             poll_period_s: 0.02,
@@ -246,6 +253,7 @@ impl NodeConfig {
         pos("goal_timeout_s", self.goal_timeout_s)?;
         pos("goal_response_timeout_s", self.goal_response_timeout_s)?;
         pos("goal_tolerance_m", self.goal_tolerance_m)?;
+        self.goal_setback.validate("node.goal_setback")?;
         pos("pose_timeout_s", self.pose_timeout_s)?;
         pos("poll_period_s", self.poll_period_s)?;
         if let Some(m) = self.max_mission_s {

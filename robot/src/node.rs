@@ -29,6 +29,7 @@ use crate::msgs;
 use crate::tf::{TfBuffer, normalise_frame};
 use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary};
 use fitslam_core::grid::{CellClass, GridGeometry, inflate_lethal};
+use fitslam_core::path::set_back;
 use fitslam_core::select::{Decision, DecisionInput, GoalSelector, make_selector};
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::utility::LandmarkVoxels;
@@ -86,7 +87,11 @@ pub struct LogLine {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ActiveGoal {
     pub id: u64,
+    /// The pose sent: on the frontier candidate's path, set back from unknown ground
+    /// (`goal_setback`).
     pub goal: Pose2,
+    /// The frontier candidate it serves (what is kept, replaced and blacklisted).
+    pub frontier_m: [f64; 2],
     pub sent_s: f64,
     /// When the server accepted it (topic goals: when sent).
     pub accepted_s: Option<f64>,
@@ -160,6 +165,9 @@ struct PoseSample {
     received_s: f64,
     /// Mean of the roll and pitch variances of the message's covariance, rad² (0 if absent).
     tilt_var_rad2: f64,
+    /// σx² + σy² of the message's covariance, m² (0 if absent; invariant under the yaw between
+    /// the message's frame and the map's).
+    position_var_m2: f64,
 }
 
 /// The exploration node's state.
@@ -435,7 +443,9 @@ impl Explorer {
         let c = &msg.pose.covariance;
         let tilt = 0.5 * (c[21] + c[28]);
         let tilt_var_rad2 = if tilt.is_finite() && tilt > 0.0 { tilt } else { 0.0 };
-        self.topic_pose = Some(PoseSample { pose, stamp_s, received_s: now_s, tilt_var_rad2 });
+        let position = c[0] + c[7];
+        let position_var_m2 = if position.is_finite() && position > 0.0 { position } else { 0.0 };
+        self.topic_pose = Some(PoseSample { pose, stamp_s, received_s: now_s, tilt_var_rad2, position_var_m2 });
     }
 
     /// `geometry_msgs/PolygonStamped`: the exploration boundary; an empty polygon clears it.
@@ -507,7 +517,7 @@ impl Explorer {
 
     fn end_goal(&mut self, reason: Option<BlacklistReason>, replan_now: bool) {
         if let (Some(g), Some(r)) = (self.goal.take(), reason) {
-            self.blacklist.add(g.goal.x_m, g.goal.y_m, r);
+            self.blacklist.add(g.frontier_m[0], g.frontier_m[1], r);
         }
         self.replan_now |= replan_now;
     }
@@ -530,6 +540,14 @@ impl Explorer {
             return Err(Phase::PoseStale);
         }
         Ok(pose)
+    }
+
+    /// σx² + σy² of the pose, m²: the pose topic's covariance; 0 from tf, which has none.
+    fn position_var_m2(&self) -> f64 {
+        match (self.cfg.pose_source, self.topic_pose) {
+            (PoseSource::Topic, Some(s)) => s.position_var_m2,
+            _ => 0.0,
+        }
     }
 
     /// Age of the pose, seconds (for the stale-pose message).
@@ -568,11 +586,11 @@ impl Explorer {
         self.set_map(grid, stamp_s, now_s);
     }
 
-    fn send(&mut self, goal: Pose2, now_s: f64) -> Command {
+    fn send(&mut self, (frontier_m, goal): ([f64; 2], Pose2), now_s: f64) -> Command {
         let id = self.next_goal_id;
         self.next_goal_id += 1;
         let accepted_s = (self.cfg.goal_interface == GoalInterface::Topic).then_some(now_s);
-        self.goal = Some(ActiveGoal { id, goal, sent_s: now_s, accepted_s });
+        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s });
         self.stats.goals_sent += 1;
         self.info(now_s, format!("goal {id}: ({:.2}, {:.2}) m, heading {:.0}°", goal.x_m, goal.y_m, goal.yaw_rad.to_degrees()));
         Command::SendGoal { id, goal }
@@ -706,16 +724,24 @@ impl Explorer {
         for [x, y] in decision.unreachable_m() {
             self.blacklist.add(x, y, BlacklistReason::NoPath);
         }
-        // The best-ranked candidate on a free cell of the latest inflated grid.
+        // The best-ranked candidate whose goal, set back along its path from unknown ground by
+        // the pose's uncertainty, is on a free cell of the latest inflated grid.
+        let margin_m = self.cfg.goal_setback.margin_m(self.position_var_m2(), 0.0);
         let mut picked = None;
         for i in decision.ranking() {
             let c = &decision.candidates[i];
-            let goal = match (decision.chosen == Some(i), decision.goal) {
+            let mut goal = match (decision.chosen == Some(i), decision.goal) {
                 (true, Some(g)) => g,
                 _ => Pose2::new(c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0)),
             };
+            if margin_m > 0.0
+                && let Some(map) = self.map.as_ref()
+                && let Some(&[x, y]) = set_back(&c.path_m, &map.grid, margin_m).last()
+            {
+                (goal.x_m, goal.y_m) = (x, y);
+            }
             if goal.is_finite() && self.goal_is_free(goal.x_m, goal.y_m) {
-                picked = Some(goal);
+                picked = Some(([c.x_m, c.y_m], goal));
                 break;
             }
             let text = format!("candidate at ({:.2}, {:.2}) is not free on the inflated map: skipped", goal.x_m, goal.y_m);
@@ -745,9 +771,9 @@ impl Explorer {
             (Some(new), Some(cur)) => {
                 self.empty_decisions = 0;
                 self.phase = Phase::Navigating;
-                let same = (new.x_m - cur.goal.x_m).hypot(new.y_m - cur.goal.y_m) <= radius;
-                let still_frontier =
-                    decision.candidates.iter().any(|c| c.is_scored() && (c.x_m - cur.goal.x_m).hypot(c.y_m - cur.goal.y_m) <= radius);
+                let [x, y] = cur.frontier_m;
+                let same = (new.0[0] - x).hypot(new.0[1] - y) <= radius;
+                let still_frontier = decision.candidates.iter().any(|c| c.is_scored() && (c.x_m - x).hypot(c.y_m - y) <= radius);
                 if !same && !still_frontier {
                     let text = format!("goal {} at ({:.2}, {:.2}) is no longer a frontier: replaced", cur.id, cur.goal.x_m, cur.goal.y_m);
                     self.info(now_s, text);

@@ -6,6 +6,7 @@ use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
 use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_core::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN};
+use fitslam_core::path::known_around;
 
 fn header(stamp_s: f64, frame: &str) -> Header {
     Header::new(Time::from_secs_f64(stamp_s), frame)
@@ -306,6 +307,40 @@ fn pose_topic_is_used_and_transformed_into_the_map_frame() {
     e.handle_pose(&p, 0.1);
     assert_eq!(e.stats().messages_late, 1);
     assert_eq!(goals(&e.tick(0.1)).len(), 1);
+}
+
+#[test]
+fn a_pose_covariance_sets_the_goal_back_from_unknown_ground() {
+    let w = corridor_two_frontiers(true);
+    let run = |var_m2: f64| {
+        let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
+        let mut e = Explorer::new(cfg, Params::default());
+        e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
+        e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
+        let mut p = msgs::PoseWithCovarianceStamped { header: header(1.0, "map"), ..Default::default() };
+        p.pose.pose = pose_of_pose2(w.robot);
+        (p.pose.covariance[0], p.pose.covariance[7]) = (var_m2, var_m2);
+        e.handle_pose(&p, 0.0);
+        let (id, goal) = goals(&e.tick(0.0))[0];
+        (e, id, goal)
+    };
+    // No covariance: the goal is the frontier candidate itself.
+    let (e, _, goal) = run(0.0);
+    let g = e.current_goal().unwrap();
+    assert_eq!(g.frontier_m, [goal.x_m, goal.y_m]);
+    assert!(!known_around(&w.grid, g.frontier_m, 0.4), "the candidate is on the edge of unknown ground");
+    // σx² = σy² = 0.02 m²: sqrt(0.04) = 0.2 m, 2 σ = 0.4 m of known ground all round the goal.
+    let (mut e, id, goal) = run(0.02);
+    let g = e.current_goal().unwrap();
+    assert!(known_around(&w.grid, [goal.x_m, goal.y_m], 0.4), "{goal:?}");
+    let back_m = (goal.x_m - g.frontier_m[0]).hypot(goal.y_m - g.frontier_m[1]);
+    assert!((0.3..1.0).contains(&back_m), "{back_m} m");
+    assert!(free_on_inflated(&w.grid, 0.25, goal));
+    // Kept and blacklisted as the frontier it serves.
+    assert!(e.tick(1.0).is_empty());
+    assert_eq!(e.current_goal().map(|g| g.id), Some(id));
+    e.on_goal_event(id, GoalEvent::Aborted("stuck".into()), 1.1);
+    assert_eq!(e.blacklist().contains(g.frontier_m[0], g.frontier_m[1]), Some(BlacklistReason::Failed));
 }
 
 #[test]
