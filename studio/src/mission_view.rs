@@ -536,29 +536,16 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
     let corners = [[bx0, by0], [bx1, by0], [bx1, by1], [bx0, by1]].map(|[x, y]| view.to_screen(x, y));
     painter.add(Shape::closed_line(corners.to_vec(), Stroke::new(1.2, Color32::from_rgb(255, 220, 0))));
 
-    // The last decision's candidates and the current path (the candidate nearest the goal).
-    if let Some(d) = &mission.last_decision {
-        if m.show_candidates {
-            for (k, c) in d.candidates.iter().enumerate() {
-                canvas::draw_candidate(&painter, &view, d, k, c, false, false);
-            }
+    // The last decision's candidates and the path being driven (the goal's candidate path, set
+    // back from unknown ground by the position uncertainty).
+    if m.show_candidates && let Some(d) = &mission.last_decision {
+        for (k, c) in d.candidates.iter().enumerate() {
+            canvas::draw_candidate(&painter, &view, d, k, c, false, false);
         }
-        if let Some(goal) = mission.goal {
-            let on_path = d
-                .candidates
-                .iter()
-                .filter(|c| c.path_m.len() >= 2)
-                .min_by(|a, b| {
-                    let da = (a.x_m - goal.x_m).hypot(a.y_m - goal.y_m);
-                    let db = (b.x_m - goal.x_m).hypot(b.y_m - goal.y_m);
-                    da.total_cmp(&db)
-                })
-                .filter(|c| (c.x_m - goal.x_m).hypot(c.y_m - goal.y_m) <= mission.blacklist.radius_m());
-            if let Some(c) = on_path {
-                let pts: Vec<Pos2> = c.path_m.iter().map(|p| view.to_screen(p[0], p[1])).collect();
-                painter.add(Shape::line(pts, Stroke::new(2.0, Color32::from_rgb(255, 215, 0))));
-            }
-        }
+    }
+    if mission.goal.is_some() && mission.driven_path_m().len() >= 2 {
+        let pts: Vec<Pos2> = mission.driven_path_m().iter().map(|p| view.to_screen(p[0], p[1])).collect();
+        painter.add(Shape::line(pts, Stroke::new(2.0, Color32::from_rgb(255, 215, 0))));
     }
     if let Some(goal) = mission.goal {
         canvas::draw_goal(&painter, &view, goal);
