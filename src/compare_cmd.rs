@@ -167,6 +167,7 @@ fn command_line() -> String {
 fn end_reason(r: Option<EndReason>) -> &'static str {
     match r {
         Some(EndReason::NoFrontier) => "no_frontier",
+        Some(EndReason::Trapped) => "trapped",
         Some(EndReason::TimeLimit) => "time_limit",
         Some(EndReason::Stuck) => "stuck",
         None => "none",

@@ -8,6 +8,8 @@
 //!    `min_cluster_cells` are dropped; the median cell of a piece is its candidate goal C_i.
 //! 3. [`blacklist`] — goals matched within a radius (no path, failed, re-selected) and the end
 //!    of mission: no non-blacklisted candidate left.
+//! 4. [`enclosed_within`] — whether a robot with no frontier left is walled in by its map
+//!    (trapped) rather than done.
 //!
 //! [`detect_frontiers`] runs 1 and 2. The grid it takes is the thresholded *and inflated*
 //! occupancy grid (notes §2): inflated lethal cells are not free, so candidates keep the robot's
@@ -16,11 +18,13 @@
 mod blacklist;
 mod boundary;
 mod cluster;
+mod enclosure;
 mod wfd;
 
 pub use blacklist::{Blacklist, BlacklistEntry, BlacklistReason, end_of_mission, filter_blacklisted, partition_blacklisted};
 pub use boundary::Boundary;
 pub use cluster::split_lengths;
+pub use enclosure::enclosed_within;
 pub use wfd::{cluster_frontier_cells, detect_frontiers, detect_frontiers_with, frontier_cells};
 
 use crate::grid::{Cell, GridGeometry};

@@ -118,6 +118,11 @@ pub struct MissionParams {
     /// Decisions in a row without a plan (each followed by 2 s of looking around) before the
     /// mission ends as [`EndReason::Stuck`]. Default 30.
     pub max_failed_decisions: u32,
+    /// A decision with no frontier goal ends the mission as [`EndReason::Trapped`] instead of
+    /// [`EndReason::NoFrontier`] when every free cell the robot can reach in its inflated map
+    /// lies within this distance, metres (a pocket a few robot lengths wide; a finished map's
+    /// reachable space spans what was explored). 0 turns the distinction off. Default 2.
+    pub trapped_radius_m: f64,
     /// The SLAM front end and back end ([`Localisation::Slam`] only).
     pub slam: SlamParams,
 }
@@ -149,6 +154,7 @@ impl Default for MissionParams {
             clear_footprint: true,
             time_limit_s: None,
             max_failed_decisions: 30,
+            trapped_radius_m: 2.0,
             slam: SlamParams::default(),
         }
     }
@@ -201,6 +207,7 @@ impl MissionParams {
             ));
         }
         self.goal_setback.validate("goal_setback")?;
+        crate::params::check_non_negative("trapped_radius_m", self.trapped_radius_m)?;
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;
         }
@@ -244,6 +251,10 @@ pub struct StampedPose {
 pub enum EndReason {
     /// No non-blacklisted reachable frontier candidate left.
     NoFrontier,
+    /// No frontier candidate left, but only because the robot's map walls it in: every free
+    /// cell it can reach lies within [`MissionParams::trapped_radius_m`]
+    /// ([`crate::frontier::enclosed_within`]; e.g. a ring of registration speckle).
+    Trapped,
     TimeLimit,
     /// `max_failed_decisions` decisions in a row found no plan (e.g. the robot's own cell stayed
     /// untraversable in its map): the robot is stuck.
@@ -890,7 +901,7 @@ impl Mission {
             }
             let Some(chosen) = decision.chosen else {
                 self.last_decision = Some(decision);
-                return Some(EndReason::NoFrontier);
+                return Some(if self.trapped(&grid) { EndReason::Trapped } else { EndReason::NoFrontier });
             };
             let c = &decision.candidates[chosen];
             // A goal chosen again right where the robot already went: blacklist and retry.
@@ -947,6 +958,14 @@ impl Mission {
     /// ([`MissionParams::goal_setback`] of the estimate's covariance).
     pub fn goal_setback_m(&self) -> f64 {
         self.mission.goal_setback.margin_m(self.est_cov[(0, 0)], self.est_cov[(1, 1)])
+    }
+
+    /// Whether the robot is walled in by `grid` (inflated as the planner inflates it): every free
+    /// cell it reaches lies within [`MissionParams::trapped_radius_m`].
+    fn trapped(&self, grid: &OccupancyGrid) -> bool {
+        let r = self.mission.trapped_radius_m;
+        let Some(robot) = grid.geometry.cell_of(self.est.x_m, self.est.y_m) else { return false };
+        r > 0.0 && crate::frontier::enclosed_within(&crate::grid::inflate_lethal(grid, self.params.robot.radius_m), robot, r)
     }
 
     /// `path_m` ended [`Self::goal_setback_m`] short of unknown ground.
