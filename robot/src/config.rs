@@ -154,6 +154,11 @@ pub struct NodeConfig {
     pub goal_setback: GoalSetback,
     /// Consecutive decisions with no goal (and none active) that end the mission. Default 2.
     pub done_after_empty_decisions: u32,
+    /// … unless every free cell the robot can reach on the inflated map lies within this
+    /// distance, metres: walled in by its map (e.g. lethal speckle from a registration error), the
+    /// robot is trapped, not done; the node warns and waits for the map to change. 0 turns the
+    /// check off. Default 2.
+    pub trapped_radius_m: f64,
     /// Stop after this long even if frontiers remain, seconds; none by default.
     pub max_mission_s: Option<f64>,
     /// How often the inputs are polled, seconds. Default 0.02.
@@ -194,6 +199,7 @@ impl Default for NodeConfig {
             goal_tolerance_m: 0.3,
             goal_setback: GoalSetback::default(),
             done_after_empty_decisions: 2,
+            trapped_radius_m: 2.0,
             max_mission_s: None,
             poll_period_s: 0.02,
             domain_id: None,
@@ -254,6 +260,7 @@ impl NodeConfig {
         pos("goal_response_timeout_s", self.goal_response_timeout_s)?;
         pos("goal_tolerance_m", self.goal_tolerance_m)?;
         self.goal_setback.validate("node.goal_setback")?;
+        fitslam_core::params::check_non_negative("node.trapped_radius_m", self.trapped_radius_m)?;
         pos("pose_timeout_s", self.pose_timeout_s)?;
         pos("poll_period_s", self.poll_period_s)?;
         if let Some(m) = self.max_mission_s {

@@ -18,7 +18,8 @@
 //! Goals that end Aborted, Rejected, Canceled (by someone else) or time out are blacklisted
 //! (`Failed`); reached goals are blacklisted as `Reselected` (notes §3: a goal selected before
 //! and still a frontier goal now is not selected again). The mission ends after
-//! `done_after_empty_decisions` consecutive decisions with no goal and none running.
+//! `done_after_empty_decisions` consecutive decisions with no goal and none running, unless the
+//! robot is walled in by its map (`trapped_radius_m`): then it warns and waits.
 //!
 //! Costs per cycle: one selector run (notes §7) plus, once per new map, one inflation
 //! (O(cells · disc)); per poll: O(1) goal checks.
@@ -27,7 +28,7 @@ use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{self, ConvertError};
 use crate::msgs;
 use crate::tf::{TfBuffer, normalise_frame};
-use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary};
+use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary, enclosed_within};
 use fitslam_core::grid::{CellClass, GridGeometry, inflate_lethal};
 use fitslam_core::path::set_back;
 use fitslam_core::select::{Decision, DecisionInput, GoalSelector, make_selector};
@@ -542,6 +543,17 @@ impl Explorer {
         Ok(pose)
     }
 
+    /// Whether every free cell the robot can reach on the latest inflated map lies within
+    /// `trapped_radius_m` of it ([`enclosed_within`]).
+    fn trapped(&mut self, robot: Pose2) -> bool {
+        let r = self.cfg.trapped_radius_m;
+        if r <= 0.0 {
+            return false;
+        }
+        let Some(grid) = self.inflated() else { return false };
+        grid.geometry.cell_of(robot.x_m, robot.y_m).is_some_and(|c| enclosed_within(grid, c, r))
+    }
+
     /// σx² + σy² of the pose, m²: the pose topic's covariance; 0 from tf, which has none.
     fn position_var_m2(&self) -> f64 {
         match (self.cfg.pose_source, self.topic_pose) {
@@ -749,6 +761,15 @@ impl Explorer {
         }
         let radius = self.params.frontier.blacklist_radius_m;
         match (picked, self.goal) {
+            (None, None) if self.trapped(robot) => {
+                self.empty_decisions = 0;
+                self.phase = Phase::Planning;
+                let text = format!(
+                    "no frontier goal, but every free cell the robot can reach lies within {} m: walled in by its map, not done; waiting for the map to change",
+                    self.cfg.trapped_radius_m
+                );
+                self.warn("trapped", now_s, text);
+            }
             (None, None) => {
                 self.empty_decisions += 1;
                 self.phase = Phase::Planning;

@@ -266,6 +266,40 @@ fn reaching_a_goal_blacklists_it_as_reselected_and_a_closed_world_ends_the_missi
 }
 
 #[test]
+fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
+    // The corridor world with a ring of lethal cells 0.6 m around the robot (as registration
+    // speckle makes one): no frontier is reachable, and every reachable cell is within 2 m.
+    let trapped = |cfg: NodeConfig| {
+        let w = corridor_two_frontiers(true);
+        let mut grid = w.grid.clone();
+        let g = grid.geometry;
+        for (i, v) in grid.data.iter_mut().enumerate() {
+            let (x, y) = g.center_of(g.cell_at(i));
+            if ((x - w.robot.x_m).hypot(y - w.robot.y_m) - 0.6).abs() < 0.1 {
+                *v = LETHAL;
+            }
+        }
+        let mut e = Explorer::new(cfg, Params::default());
+        e.handle_map(&map_msg(&grid, 1.0), 0.0);
+        feed_pose(&mut e, w.robot, 0.0);
+        let mut cmds = e.tick(0.0);
+        feed_pose(&mut e, w.robot, 1.0);
+        cmds.extend(e.tick(1.0));
+        feed_pose(&mut e, w.robot, 2.0);
+        cmds.extend(e.tick(2.0));
+        (e, cmds)
+    };
+    let (mut e, cmds) = trapped(NodeConfig::default());
+    assert!(cmds.is_empty(), "{cmds:?}");
+    assert!(!e.is_done() && e.phase() == Phase::Planning);
+    assert!(log_has(&mut e, "walled in by its map, not done"));
+    // With the check off, two empty decisions end the mission as before.
+    let (e, cmds) = trapped(NodeConfig { trapped_radius_m: 0.0, ..NodeConfig::default() });
+    assert_eq!(cmds, vec![Command::MissionComplete]);
+    assert!(e.is_done());
+}
+
+#[test]
 fn time_limit_cancels_the_goal_and_ends() {
     let cfg = NodeConfig { max_mission_s: Some(10.0), ..NodeConfig::default() };
     let (mut e, w) = corridor_explorer(cfg);
