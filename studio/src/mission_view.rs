@@ -538,7 +538,9 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
 
     // The last decision's candidates and the path being driven (the goal's candidate path, set
     // back from unknown ground by the position uncertainty).
-    if m.show_candidates && let Some(d) = &mission.last_decision {
+    if m.show_candidates
+        && let Some(d) = &mission.last_decision
+    {
         for (k, c) in d.candidates.iter().enumerate() {
             canvas::draw_candidate(&painter, &view, d, k, c, false, false);
         }

@@ -11,8 +11,10 @@
 //! the part already driven is not checked), and every `replan_period_s` (then the current goal
 //! is kept while it is still a reachable frontier candidate). Candidates the selector finds
 //! unreachable are blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted
-//! `Reselected`. The mission ends when no candidate is left (`Decision::chosen == None`) or at
-//! the time limit.
+//! `Reselected`. The path the robot drives ends short of unknown ground by its position
+//! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. The mission ends when
+//! no candidate is left (`Decision::chosen == None`; `Trapped` rather than `NoFrontier` if the
+//! robot's map walls it in, [`crate::frontier::enclosed_within`]) or at the time limit.
 //!
 //! Localisation: ground truth (covariance 0), dead-reckoned odometry with a propagated 3×3
 //! (x, y, θ) covariance, or keyframe graph SLAM ([`super::slam_frontend`]: odometry + IMU
@@ -827,7 +829,8 @@ impl Mission {
     }
 
     /// Chooses a goal. `keep_current`: periodic replanning keeps the current goal while it is
-    /// still a reachable candidate. Returns `Some(NoFrontier)` at the end of the mission.
+    /// still a reachable candidate. Returns `Some(NoFrontier)` (or `Some(Trapped)`) at the end of
+    /// the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
         let grid = self.decision_grid();
         if let Some(fe) = self.slam.as_mut() {
