@@ -181,13 +181,14 @@ fn summary_csv(figures: &[RunFigures]) -> String {
         s.push(',');
         s.push_str(m.csv);
     }
-    s.push_str(",goals_reached,goals_failed,decisions\n");
+    s.push_str(",goals_reached,goals_failed,decisions,trap_recoveries\n");
     for f in figures {
         let _ = write!(s, "{},{},{}", name(f.strategy), f.seed, end_reason(f.summary.end_reason));
         for m in &METRICS {
             let _ = write!(s, ",{:.6e}", (m.get)(f));
         }
-        let _ = writeln!(s, ",{},{},{}", f.summary.goals_reached, f.summary.goals_failed, f.summary.decisions);
+        let _ =
+            writeln!(s, ",{},{},{},{}", f.summary.goals_reached, f.summary.goals_failed, f.summary.decisions, f.summary.trap_recoveries);
     }
     s
 }

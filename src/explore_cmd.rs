@@ -88,7 +88,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
     println!(
-        "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, {} safety stops, end {:?}",
+        "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, {} safety stops, {} trap recoveries, end {:?}",
         args.out.display(),
         strategy,
         args.seed,
@@ -99,6 +99,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
         summary.goals_reached,
         summary.gt_violations,
         summary.safety_stops,
+        summary.trap_recoveries,
         summary.end_reason
     );
     Ok(())

@@ -156,9 +156,16 @@ pub struct NodeConfig {
     pub done_after_empty_decisions: u32,
     /// … unless every free cell the robot can reach on the inflated map lies within this
     /// distance, metres: walled in by its map (e.g. lethal speckle from a registration error), the
-    /// robot is trapped, not done; the node warns and waits for the map to change. 0 turns the
+    /// robot is trapped, not done; the node warns, recovers (`trap_recoveries`) or waits for the
+    /// map to change. 0 turns the
     /// check off. Default 2.
     pub trapped_radius_m: f64,
+    /// With `map_source: clouds`, times a trapped node recovers before it only waits: as Nav2's
+    /// clear-costmap recovery does, it forgets its cloud map within `trapped_radius_m` + the
+    /// robot's radius + the traversability disc radius of the robot
+    /// (`fitslam_core::frontier::recovery_radius_m`), and the next clouds map that ground again.
+    /// (An occupancy map comes from elsewhere and is not cleared here.) Default 2.
+    pub trap_recoveries: u32,
     /// Stop after this long even if frontiers remain, seconds; none by default.
     pub max_mission_s: Option<f64>,
     /// How often the inputs are polled, seconds. Default 0.02.
@@ -200,6 +207,7 @@ impl Default for NodeConfig {
             goal_setback: GoalSetback::default(),
             done_after_empty_decisions: 2,
             trapped_radius_m: 2.0,
+            trap_recoveries: 2,
             max_mission_s: None,
             poll_period_s: 0.02,
             domain_id: None,

@@ -28,7 +28,7 @@ use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{self, ConvertError};
 use crate::msgs;
 use crate::tf::{TfBuffer, normalise_frame};
-use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary, enclosed_within};
+use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary, enclosed_within, recovery_radius_m};
 use fitslam_core::grid::{CellClass, GridGeometry, inflate_lethal};
 use fitslam_core::path::set_back;
 use fitslam_core::select::{Decision, DecisionInput, GoalSelector, make_selector};
@@ -125,6 +125,8 @@ pub struct Stats {
     pub maps: u64,
     pub messages_rejected: u64,
     pub messages_late: u64,
+    /// Cloud maps forgotten around a trapped robot ([`NodeConfig::trap_recoveries`]).
+    pub trap_recoveries: u64,
     /// Wall time of the last decision, milliseconds.
     pub last_decision_ms: f64,
 }
@@ -554,6 +556,20 @@ impl Explorer {
         grid.geometry.cell_of(robot.x_m, robot.y_m).is_some_and(|c| enclosed_within(grid, c, r))
     }
 
+    /// With a cloud map and recoveries left ([`NodeConfig::trap_recoveries`]), forgets the map
+    /// around `robot`; returns the points forgotten and the radius, metres.
+    fn recover_from_trap(&mut self, robot: Pose2) -> Option<(u64, f64)> {
+        if self.stats.trap_recoveries >= u64::from(self.cfg.trap_recoveries) {
+            return None;
+        }
+        let m = self.cloud_mapper.as_mut()?;
+        let r = recovery_radius_m(self.cfg.trapped_radius_m, &self.params);
+        let points = m.map.forget_disc(robot.x_m, robot.y_m, r);
+        m.dirty = true;
+        self.stats.trap_recoveries += 1;
+        Some((points, r))
+    }
+
     /// σx² + σy² of the pose, m²: the pose topic's covariance; 0 from tf, which has none.
     fn position_var_m2(&self) -> f64 {
         match (self.cfg.pose_source, self.topic_pose) {
@@ -764,10 +780,17 @@ impl Explorer {
             (None, None) if self.trapped(robot) => {
                 self.empty_decisions = 0;
                 self.phase = Phase::Planning;
-                let text = format!(
-                    "no frontier goal, but every free cell the robot can reach lies within {} m: walled in by its map, not done; waiting for the map to change",
+                let walled = format!(
+                    "no frontier goal, but every free cell the robot can reach lies within {} m: walled in by its map, not done",
                     self.cfg.trapped_radius_m
                 );
+                let text = match self.recover_from_trap(robot) {
+                    Some((points, r)) => format!(
+                        "{walled}; recovery {} of {}: forgot the {points} cloud points within {r:.2} m of the robot, mapping them again",
+                        self.stats.trap_recoveries, self.cfg.trap_recoveries
+                    ),
+                    None => format!("{walled}; waiting for the map to change"),
+                };
                 self.warn("trapped", now_s, text);
             }
             (None, None) => {

@@ -1,7 +1,8 @@
 //! Enclosure: whether every free cell the robot can reach lies within a disc around it. A robot
 //! that finds no frontier has finished exploring only if it could get somewhere: walled in by its
 //! own map (a ring of lethal registration speckle on ground that is traversable in truth) it is
-//! trapped, and "no frontier" would misreport the end of its mission.
+//! trapped, and "no frontier" would misreport the end of its mission. To recover, it forgets its
+//! map within [`recovery_radius_m`] and maps that ground again (the caller's part).
 //!
 //! The same flood as [`super::wfd`] (4-connected over free cells of the inflated grid from the
 //! robot's cell, so exactly what the planner reaches without crossing unknown cells), stopped at
@@ -10,6 +11,7 @@
 
 use crate::grid::{Cell, CellClass, OccupancyGrid};
 use crate::math;
+use crate::params::Params;
 
 /// Whether every free cell 4-connected to `robot` through free cells of `grid` has its centre
 /// within `radius_m` of `robot`'s centre. The robot's own cell counts as reached whatever its
@@ -56,11 +58,24 @@ pub fn enclosed_within(grid: &OccupancyGrid, robot: Cell, radius_m: f64) -> bool
     true
 }
 
+/// How far around itself a robot walled in within `trapped_radius_m` forgets its map to recover
+/// (a clear-costmap recovery), metres: the pocket, plus the robot's radius (the inflation that
+/// closed it) and the traversability disc radius (the points that shape a cell's estimate).
+pub fn recovery_radius_m(trapped_radius_m: f64, params: &Params) -> f64 {
+    trapped_radius_m + params.robot.radius_m + params.traversability.disc_radius_m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::grid::{FREE, GridGeometry, LETHAL, UNKNOWN};
     use proptest::prelude::*;
+
+    #[test]
+    fn the_recovery_forgets_the_pocket_the_inflation_and_a_disc() {
+        // Defaults: 2 m pocket + 0.25 m robot radius + 0.15 m disc radius.
+        assert!((recovery_radius_m(2.0, &Params::default()) - 2.4).abs() < 1e-12);
+    }
 
     /// 21 × 21 free cells of 0.1 m with the robot at the centre cell (10, 10), centre (1.05, 1.05).
     fn free() -> OccupancyGrid {

@@ -24,7 +24,7 @@ mod wfd;
 pub use blacklist::{Blacklist, BlacklistEntry, BlacklistReason, end_of_mission, filter_blacklisted, partition_blacklisted};
 pub use boundary::Boundary;
 pub use cluster::split_lengths;
-pub use enclosure::enclosed_within;
+pub use enclosure::{enclosed_within, recovery_radius_m};
 pub use wfd::{cluster_frontier_cells, detect_frontiers, detect_frontiers_with, frontier_cells};
 
 use crate::grid::{Cell, GridGeometry};

@@ -12,9 +12,11 @@
 //! is kept while it is still a reachable frontier candidate). Candidates the selector finds
 //! unreachable are blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted
 //! `Reselected`. The path the robot drives ends short of unknown ground by its position
-//! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. The mission ends when
-//! no candidate is left (`Decision::chosen == None`; `Trapped` rather than `NoFrontier` if the
-//! robot's map walls it in, [`crate::frontier::enclosed_within`]) or at the time limit.
+//! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A robot its map walls
+//! in ([`crate::frontier::enclosed_within`]) with no candidate left forgets its map around itself
+//! and turns a full circle, at most `trap_recoveries` times. The mission ends when no candidate
+//! is left (`Decision::chosen == None`; `Trapped` rather than `NoFrontier` if the map still walls
+//! the robot in after its recoveries) or at the time limit.
 //!
 //! Localisation: ground truth (covariance 0), dead-reckoned odometry with a propagated 3×3
 //! (x, y, θ) covariance, or keyframe graph SLAM ([`super::slam_frontend`]: odometry + IMU
@@ -125,6 +127,12 @@ pub struct MissionParams {
     /// lies within this distance, metres (a pocket a few robot lengths wide; a finished map's
     /// reachable space spans what was explored). 0 turns the distinction off. Default 2.
     pub trapped_radius_m: f64,
+    /// Times a trapped robot recovers before the mission ends [`EndReason::Trapped`]: as Nav2's
+    /// clear-costmap recovery does, it forgets its map within
+    /// [`crate::frontier::recovery_radius_m`] of itself (with SLAM in the keyframe clouds too, so
+    /// that no re-registration brings it back) and turns a full circle in place to map it again.
+    /// 0: no recovery. Default 2.
+    pub trap_recoveries: u32,
     /// The SLAM front end and back end ([`Localisation::Slam`] only).
     pub slam: SlamParams,
 }
@@ -157,6 +165,7 @@ impl Default for MissionParams {
             time_limit_s: None,
             max_failed_decisions: 30,
             trapped_radius_m: 2.0,
+            trap_recoveries: 2,
             slam: SlamParams::default(),
         }
     }
@@ -255,7 +264,8 @@ pub enum EndReason {
     NoFrontier,
     /// No frontier candidate left, but only because the robot's map walls it in: every free
     /// cell it can reach lies within [`MissionParams::trapped_radius_m`]
-    /// ([`crate::frontier::enclosed_within`]; e.g. a ring of registration speckle).
+    /// ([`crate::frontier::enclosed_within`]; e.g. a ring of registration speckle), still after
+    /// [`MissionParams::trap_recoveries`] recoveries.
     Trapped,
     TimeLimit,
     /// `max_failed_decisions` decisions in a row found no plan (e.g. the robot's own cell stayed
@@ -291,6 +301,8 @@ pub struct Summary {
     pub blacklist_len: usize,
     pub gt_violations: u64,
     pub safety_stops: u64,
+    /// Recoveries from a trap ([`MissionParams::trap_recoveries`]).
+    pub trap_recoveries: u64,
     pub planning_errors: u64,
     pub landmarks_mapped: usize,
     pub scans: u64,
@@ -310,7 +322,8 @@ enum Phase {
     Driving,
     /// At the goal position, turning to Θ*.
     Turning(f64),
-    /// Turning in place (initial look-around or after a planning error) until the time.
+    /// Turning in place (initial look-around, after a planning error or a trap recovery) until
+    /// the time.
     Spinning(f64),
 }
 
@@ -376,6 +389,7 @@ pub struct Mission {
     goals_failed: u64,
     violations: u64,
     safety_stops: u64,
+    trap_recoveries: u64,
     planning_errors: u64,
     /// Decisions in a row that found no plan.
     failed_decisions: u32,
@@ -459,6 +473,7 @@ impl Mission {
             goals_failed: 0,
             violations: 0,
             safety_stops: 0,
+            trap_recoveries: 0,
             planning_errors: 0,
             failed_decisions: 0,
             scans: 0,
@@ -488,6 +503,12 @@ impl Mission {
         m.sense_landmarks();
         m.record_metrics();
         Ok(m)
+    }
+
+    /// The robot's point map, for tests that plant what a sensing glitch would.
+    #[cfg(test)]
+    pub(crate) fn map_mut(&mut self) -> &mut TraversabilityMap {
+        &mut self.tmap
     }
 
     /// A wall clock in milliseconds used only to fill `plan_ms` (core has no clock).
@@ -829,8 +850,8 @@ impl Mission {
     }
 
     /// Chooses a goal. `keep_current`: periodic replanning keeps the current goal while it is
-    /// still a reachable candidate. Returns `Some(NoFrontier)` (or `Some(Trapped)`) at the end of
-    /// the mission.
+    /// still a reachable candidate. Returns `Some(NoFrontier)` (or `Some(Trapped)`, once the
+    /// recoveries are spent) at the end of the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
         let grid = self.decision_grid();
         if let Some(fe) = self.slam.as_mut() {
@@ -904,7 +925,14 @@ impl Mission {
             }
             let Some(chosen) = decision.chosen else {
                 self.last_decision = Some(decision);
-                return Some(if self.trapped(&grid) { EndReason::Trapped } else { EndReason::NoFrontier });
+                if !self.trapped(&grid) {
+                    return Some(EndReason::NoFrontier);
+                }
+                if self.trap_recoveries >= u64::from(self.mission.trap_recoveries) {
+                    return Some(EndReason::Trapped);
+                }
+                self.recover_from_trap();
+                return None;
             };
             let c = &decision.candidates[chosen];
             // A goal chosen again right where the robot already went: blacklist and retry.
@@ -969,6 +997,22 @@ impl Mission {
         let r = self.mission.trapped_radius_m;
         let Some(robot) = grid.geometry.cell_of(self.est.x_m, self.est.y_m) else { return false };
         r > 0.0 && crate::frontier::enclosed_within(&crate::grid::inflate_lethal(grid, self.params.robot.radius_m), robot, r)
+    }
+
+    /// Forgets the map around the robot (in the keyframe clouds too) and turns a full circle to
+    /// map it again ([`MissionParams::trap_recoveries`]).
+    fn recover_from_trap(&mut self) {
+        self.trap_recoveries += 1;
+        let r = crate::frontier::recovery_radius_m(self.mission.trapped_radius_m, &self.params);
+        let (x, y) = (self.est.x_m, self.est.y_m);
+        match self.slam.as_mut() {
+            Some(fe) => fe.forget_disc(&mut self.tmap, x, y, r),
+            None => self.tmap.forget_disc(x, y, r),
+        };
+        self.goal = None;
+        let full_turn_s = std::f64::consts::TAU / self.mission.drive.max_turn_rate_radps;
+        self.phase = Phase::Spinning(self.time_s + full_turn_s);
+        self.next_replan_s = self.time_s + full_turn_s;
     }
 
     /// `path_m` ended [`Self::goal_setback_m`] short of unknown ground.
@@ -1045,6 +1089,7 @@ impl Mission {
             blacklist_len: self.blacklist.len(),
             gt_violations: self.violations,
             safety_stops: self.safety_stops,
+            trap_recoveries: self.trap_recoveries,
             planning_errors: self.planning_errors,
             landmarks_mapped: self.slam.as_ref().map_or(self.landmark_sums.len(), |f| f.backend().landmark_count()),
             scans: self.scans,

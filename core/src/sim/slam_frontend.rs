@@ -47,7 +47,8 @@
 //! `cloud_voxel_m` 3D voxel per keyframe, as f32. When a full optimisation moves some keyframe
 //! by more than `reregister_shift_m` (|Δt| + `reregister_lever_m` · |Δφ|, the lever standing for
 //! a typical point range) from the pose its clouds were registered with, the traversability map
-//! is rebuilt from every keyframe cloud with the new poses ([`reregister`]).
+//! is rebuilt from every keyframe cloud with the new poses ([`reregister`]). Points forgotten by a
+//! trapped robot's recovery ([`SlamFrontend::forget_disc`]) stay out of every later rebuild.
 //!
 //! Cost per tick O(1); per keyframe one window optimisation (O(window)), plus one full sparse
 //! Cholesky every `marginal_every_keyframes`; per stored point O(1) (a hash-set lookup); a
@@ -60,6 +61,8 @@ use serde::{Deserialize, Serialize};
 
 use super::camera::CameraObservation;
 use crate::cloud::PointCloud;
+use crate::grid::GridGeometry;
+use crate::math;
 use crate::slam::lie::{hat, so3_exp, so3_log};
 use crate::slam::optimizer::OptimizerParams;
 use crate::slam::{GraphSlam, GraphSlamParams, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
@@ -157,12 +160,42 @@ pub struct KeyframeClouds {
     tilt_var_rad2: Vec<f64>,
     /// Voxels already holding a point of the latest keyframe (membership only, never iterated).
     occupied: HashSet<[i32; 3]>,
+    /// Discs whose points stored before them [`reregister`] leaves out ([`Self::forget_disc`]).
+    forgotten: Vec<ForgottenDisc>,
+}
+
+/// Points stored before `before` whose map cell's centre lies within `radius_m` of `centre_m`
+/// (world frame) are forgotten.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ForgottenDisc {
+    centre_m: [f64; 2],
+    radius_m: f64,
+    before: usize,
 }
 
 impl KeyframeClouds {
     /// No keyframe yet.
     pub fn new(voxel_m: f64) -> Self {
-        Self { voxel_m, points: Vec::new(), starts: Vec::new(), tilt_var_rad2: Vec::new(), occupied: HashSet::new() }
+        Self { voxel_m, points: Vec::new(), starts: Vec::new(), tilt_var_rad2: Vec::new(), occupied: HashSet::new(), forgotten: Vec::new() }
+    }
+
+    /// Forgets, for every later [`reregister`], the points stored so far that it would put in a
+    /// map cell whose centre lies within `radius_m` of (`x_m`, `y_m`), world frame (as
+    /// [`TraversabilityMap::forget_disc`] does to the map itself). Points stored later are kept.
+    pub fn forget_disc(&mut self, x_m: f64, y_m: f64, radius_m: f64) {
+        self.forgotten.push(ForgottenDisc { centre_m: [x_m, y_m], radius_m, before: self.points.len() });
+    }
+
+    /// Whether the stored point `index`, registered at world (`x_m`, `y_m`), is forgotten on the
+    /// grid `g`.
+    fn is_forgotten(&self, index: usize, x_m: f64, y_m: f64, g: &GridGeometry) -> bool {
+        self.forgotten.iter().any(|f| {
+            index < f.before
+                && g.cell_of(x_m, y_m).is_some_and(|c| {
+                    let (cx, cy) = g.center_of(c);
+                    math::hypot(cx - f.centre_m[0], cy - f.centre_m[1]) <= f.radius_m
+                })
+        })
     }
 
     /// Starts the cloud of a new keyframe (later points belong to it) whose roll/pitch variance
@@ -208,20 +241,24 @@ impl KeyframeClouds {
     }
 }
 
-/// Rebuilds `map` from every keyframe cloud registered with `world_from_keyframe` (keyframes
+/// Rebuilds `map` from every keyframe cloud registered with `world_from_keyframe`, less the
+/// forgotten points ([`KeyframeClouds::forget_disc`]) (keyframes
 /// beyond the shorter of the two are skipped), each point with its height noise
 /// ([`height_variance`]); the next `update` recomputes every cell. Returns the number of points
 /// inserted. O(points).
 pub fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_from_keyframe: &[Se3]) -> usize {
     map.clear();
     let mut n = 0;
+    let g = map.geometry();
     for (k, pose) in world_from_keyframe.iter().enumerate().take(clouds.keyframes()) {
         let r = pose.rotation_matrix();
         let t = pose.translation;
         let tilt_var = clouds.tilt_var_rad2[k];
-        let pts = clouds.points_of(k).iter().map(|p| {
+        let start = clouds.starts[k];
+        let pts = clouds.points_of(k).iter().enumerate().filter_map(|(j, p)| {
             let q = Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
-            (Point3::from(r * q + t), height_variance(tilt_var, &q))
+            let w = r * q + t;
+            (!clouds.is_forgotten(start + j, w.x, w.y, &g)).then(|| (Point3::from(w), height_variance(tilt_var, &q)))
         });
         n += map.insert_points_with_variance(pts).inserted;
     }
@@ -502,6 +539,14 @@ impl SlamFrontend {
         }
     }
 
+    /// Forgets the points within `radius_m` of (`x_m`, `y_m`) in `map` and in the keyframe clouds
+    /// stored so far ([`TraversabilityMap::forget_disc`], [`KeyframeClouds::forget_disc`]), so
+    /// that a later re-registration does not bring them back. Returns the map's forgotten points.
+    pub fn forget_disc(&mut self, map: &mut TraversabilityMap, x_m: f64, y_m: f64, radius_m: f64) -> u64 {
+        self.clouds.forget_disc(x_m, y_m, radius_m);
+        map.forget_disc(x_m, y_m, radius_m)
+    }
+
     /// Rebuilds `map` from the keyframe clouds with the current keyframe poses.
     pub fn reregister_map(&self, map: &mut TraversabilityMap) -> usize {
         reregister(map, &self.clouds, &self.registered)
@@ -624,6 +669,35 @@ mod tests {
         assert!((var_sum - 1e-6 * 0.1).abs() < 1e-12, "{var_sum}"); // points stored as f32
         // Fewer poses than clouds: the unposed keyframe is skipped.
         assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0, 0.0)]), 16);
+    }
+
+    #[test]
+    fn forgotten_points_stay_out_of_every_later_reregistration() {
+        let g = GridGeometry::new(0.0, 0.0, 0.05, 80, 80);
+        let mut map = TraversabilityMap::new(g).unwrap();
+        let mut clouds = KeyframeClouds::new(0.05);
+        // Keyframe 0 at (1, 1): a 4 × 4 patch of 5 cm cells, points at ±0.025 / ±0.075 m.
+        let patch = |clouds: &mut KeyframeClouds| {
+            for i in 0..4 {
+                for j in 0..4 {
+                    clouds.push(&Vector3::new(-0.075 + 0.05 * i as f64, -0.075 + 0.05 * j as f64, 0.0));
+                }
+            }
+        };
+        clouds.start_keyframe(0.0);
+        patch(&mut clouds);
+        let at = |x: f64, y: f64| Se3::new(UnitQuaternion::identity(), Vector3::new(x, y, 0.0));
+        // Forget around (1.0, 0.95) with 0.06 m: the cells centred at (0.975|1.025, 0.925|0.975)
+        // are within √(0.025² + 0.025²) ≈ 0.035 m, the next ones ≥ √(0.075² + 0.025²) ≈ 0.079 m.
+        clouds.forget_disc(1.0, 0.95, 0.06);
+        assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0)]), 12);
+        // Points stored after the forget are kept, even in the disc: a second keyframe's patch
+        // registered on top of the first.
+        clouds.start_keyframe(0.0);
+        patch(&mut clouds);
+        assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0), at(1.0, 1.0)]), 28);
+        // The disc is in the world: keyframe 0 moved 1 m in x no longer has points in it.
+        assert_eq!(reregister(&mut map, &clouds, &[at(2.0, 1.0), at(1.0, 1.0)]), 32);
     }
 
     #[test]

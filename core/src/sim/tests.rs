@@ -361,3 +361,36 @@ fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
     assert_eq!((s.planning_errors, s.gt_violations), (0, 0), "{s:?}");
     assert_ne!(s.end_reason, Some(EndReason::Stuck));
 }
+
+/// A ring of planted points 0.8 m around the start (a wall 0.4 m high, as registration speckle
+/// would look) walls the robot in: with no recovery the mission ends trapped at its first decision;
+/// with one, the robot forgets its map around itself, turns, maps the ground again (the ring is
+/// not in the world) and explores the whole world.
+#[test]
+fn a_trapped_robot_forgets_its_map_around_itself_and_explores_on() {
+    let ring = |m: &mut Mission| {
+        let (x0, y0) = (m.gt.x_m, m.gt.y_m);
+        let z = m.world.field.height_at(x0, y0).unwrap() + 0.4;
+        let pts = (0..3000).map(|k| {
+            let (a, r) = (k as f64 * std::f64::consts::TAU / 1000.0, 0.8 + 0.02 * (k / 1000) as f64);
+            nalgebra::Point3::new(x0 + r * a.cos(), y0 + r * a.sin(), z)
+        });
+        m.map_mut().insert_points(pts);
+    };
+    let params = Params::default();
+    let run = |recoveries: u32| {
+        let mp = MissionParams { trap_recoveries: recoveries, time_limit_s: Some(300.0), ..MissionParams::default() };
+        let mut m = Mission::new(tiny_world(&params), params.clone(), mp, Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
+        ring(&mut m);
+        let s = m.run();
+        (s, m.rows)
+    };
+    let (s, _) = run(0);
+    assert_eq!((s.end_reason, s.trap_recoveries, s.goals_reached), (Some(EndReason::Trapped), 0, 0), "{s:?}");
+    let (s, rows) = run(2);
+    assert_eq!((s.end_reason, s.trap_recoveries), (Some(EndReason::NoFrontier), 1), "{s:?}");
+    assert_eq!((s.gt_violations, s.safety_stops), (0, 0), "{s:?}");
+    assert!(s.unexplored_pct < 10.0 && s.goals_reached >= 1, "{s:?}");
+    // Forgetting makes known ground unknown again: the only time the unexplored share grows.
+    assert!(rows.windows(2).any(|w| w[1].unexplored_pct > w[0].unexplored_pct + 1.0));
+}

@@ -248,6 +248,25 @@ impl TraversabilityMap {
         self.stale_known.mark_all();
     }
 
+    /// Forgets the points of every cell whose centre lies within `radius_m` of (`x_m`, `y_m`)
+    /// (a clear-costmap recovery: mapped again by the next scans). The disc sums are rebuilt from
+    /// the moments at the next estimate and every cell is re-estimated. Returns the number of
+    /// points forgotten. O(radius² / resolution²), plus the rebuild if any point went.
+    pub fn forget_disc(&mut self, x_m: f64, y_m: f64, radius_m: f64) -> u64 {
+        let g = self.geometry;
+        let mut forgotten = 0;
+        for (i, _) in crate::grid::cells_in_disc(&g, x_m, y_m, radius_m) {
+            forgotten += self.moments[i].count;
+            self.moments[i] = CellMoments::EMPTY;
+        }
+        if forgotten > 0 {
+            self.discs = None;
+            self.stale_estimate.mark_all();
+            self.stale_known.mark_all();
+        }
+        forgotten
+    }
+
     /// Builds the disc sums for `radius_m` from the cell moments unless the map has them; a
     /// rebuild makes every cell stale. O(cells × disc cells) when building, else O(1).
     pub(super) fn ensure_discs(&mut self, radius_m: f64) {

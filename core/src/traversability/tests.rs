@@ -289,6 +289,46 @@ fn incremental_update_equals_full_compute() {
 }
 
 #[test]
+fn a_forgotten_disc_is_as_if_its_points_never_came() {
+    // A wall spike at (0.5, 0.5) on a flat floor, forgotten with a 0.2 m disc around it: the 5 × 5
+    // points of each 5 cm cell whose centre is within 0.2 m go (centres at 0.025 + 0.05 k), and
+    // the layers (and known flags) then equal those of a map that never had them, bit for bit.
+    let p = TraversabilityParams::default();
+    let mut pts = surface(|_, _| 0.0);
+    pts.push(Point3::new(0.51, 0.51, 0.4));
+    let n = N_CELLS * N_CELLS;
+    let (mut known, mut fresh_known) = (vec![false; n], vec![false; n]);
+    let mut map = TraversabilityMap::new(geometry()).unwrap();
+    map.insert_points(pts.iter().copied());
+    let mut layers = map.compute(&p);
+    map.update(&p, &mut layers);
+    map.refresh_known(&p, |i, k| known[i] = k);
+    let known_before = known.iter().filter(|&&k| k).count();
+    let g = geometry();
+    let near = |i: usize| {
+        let (cx, cy) = g.center_of(g.cell_at(i));
+        (cx - 0.5).hypot(cy - 0.5) <= 0.2
+    };
+    let kept: Vec<_> = pts.iter().copied().filter(|q| !near(g.index(g.cell_of(q.x, q.y).unwrap()).unwrap())).collect();
+    let cells = (0..n).filter(|&i| near(i)).count();
+    // Centres 0.025 + 0.05 k: offsets (a, b) · 0.025 m with odd a, b and a² + b² ≤ 64, 13 per quadrant.
+    assert_eq!(cells, 52);
+    assert_eq!(map.forget_disc(0.5, 0.5, 0.2), (cells * 25 + 1) as u64);
+    assert_eq!(map.point_count(), kept.len() as u64);
+    assert_eq!(map.update(&p, &mut layers), n, "every cell is re-estimated");
+    let mut fresh = TraversabilityMap::new(geometry()).unwrap();
+    fresh.insert_points(kept.iter().copied());
+    assert_same(&layers, &fresh.compute(&p));
+    map.refresh_known(&p, |i, k| known[i] = k);
+    fresh.refresh_known(&p, |i, k| fresh_known[i] = k);
+    assert_eq!(known, fresh_known);
+    assert!(known.iter().filter(|&&k| k).count() < known_before, "the forgotten cells became unknown");
+    assert_eq!(map.forget_disc(0.5, 0.5, 0.2), 0, "nothing left there");
+    assert_eq!(map.forget_disc(f64::NAN, 0.5, 0.2), 0);
+    assert_eq!(map.forget_disc(0.5, 0.5, -1.0), 0);
+}
+
+#[test]
 fn bad_parameters_do_not_panic() {
     let pts = surface(|x, _| 0.1 * x);
     let p = TraversabilityParams {

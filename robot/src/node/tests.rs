@@ -299,6 +299,52 @@ fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
     assert!(e.is_done());
 }
 
+/// A cloud map: a flat floor of radius 2.5 m around the robot at the origin, and in the first
+/// cloud a ring of points 0.4 m up, 0.6 m around it (lethal speckle). Trapped, the node forgets
+/// its map around the robot; the next cloud (floor only) maps the ground again and a goal
+/// follows. With no recovery left it only waits.
+#[test]
+fn a_trapped_node_forgets_its_cloud_map_around_the_robot() {
+    let floor: Vec<Point3<f64>> = (-125..=125)
+        .flat_map(|i| (-125..=125).map(move |j| Point3::new(i as f64 * 0.02, j as f64 * 0.02, 0.0)))
+        .filter(|p| p.x.hypot(p.y) < 2.5)
+        .collect();
+    let ring = (0..2000).map(|k| {
+        let a = k as f64 * std::f64::consts::TAU / 2000.0;
+        Point3::new(0.6 * a.cos(), 0.6 * a.sin(), 0.4)
+    });
+    let first: Vec<_> = floor.iter().copied().chain(ring).collect();
+    let run = |recoveries: u32| {
+        let cfg = NodeConfig {
+            map_source: MapSource::Clouds,
+            cloud_map: crate::config::CloudMapConfig { origin_x_m: -4.0, origin_y_m: -4.0, size_x_m: 8.0, size_y_m: 8.0 },
+            trap_recoveries: recoveries,
+            ..NodeConfig::default()
+        };
+        let mut e = Explorer::new(cfg, Params::default());
+        feed_pose(&mut e, Pose2::new(0.0, 0.0, 0.0), 0.0);
+        e.handle_cloud(&cloud_of_points(&first, header(0.0, "map")), 0.0);
+        let mut cmds = e.tick(0.0);
+        let trapped_log = e.drain_log();
+        feed_pose(&mut e, Pose2::new(0.0, 0.0, 0.0), 1.0);
+        e.handle_cloud(&cloud_of_points(&floor, header(1.0, "map")), 1.0);
+        cmds.extend(e.tick(1.0));
+        (e, cmds, trapped_log)
+    };
+    let (e, cmds, log) = run(2);
+    assert!(log.iter().any(|l| l.text.contains("walled in by its map") && l.text.contains("recovery 1 of 2: forgot the")), "{log:?}");
+    assert_eq!(e.stats().trap_recoveries, 1);
+    let g = goals(&cmds);
+    assert_eq!(g.len(), 1, "{cmds:?}");
+    assert!(g[0].1.x_m.hypot(g[0].1.y_m) > 1.5, "{g:?}");
+    // The ring's cells are free again: only the new cloud's points are there.
+    assert_eq!(e.map().unwrap().at_world(0.6, 0.0), Some(&FREE));
+    let (e, cmds, log) = run(0);
+    assert!(log.iter().any(|l| l.text.contains("waiting for the map to change")), "{log:?}");
+    assert!(cmds.is_empty() && !e.is_done() && e.phase() == Phase::Planning, "{cmds:?}");
+    assert_eq!(e.stats().trap_recoveries, 0);
+}
+
 #[test]
 fn time_limit_cancels_the_goal_and_ends() {
     let cfg = NodeConfig { max_mission_s: Some(10.0), ..NodeConfig::default() };
