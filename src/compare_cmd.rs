@@ -260,7 +260,7 @@ fn summary_md(world: &str, strategies: &[StrategyArg], figures: &[RunFigures], c
     let _ = writeln!(
         md,
         "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds. \
-         *finished* = runs that ended with no frontier left (the others hit the time limit or got stuck: see summary.csv). \
+         *finished* = runs that ended with no frontier left (the others hit the time limit, got stuck, or stayed walled in by their map after their recoveries: `trapped`; see summary.csv, which also counts each run's `trap_recoveries`). \
          tr(cov) is the trace of the current pose's covariance (m² + rad²: the 6×6 SLAM marginal with `slam` localisation, the (x, y, θ) one with `odometry`); mean tr(cov) is its average over the run.\n",
         strategies.len(),
         seeds.len(),
