@@ -164,6 +164,8 @@ struct CloudMapper {
 #[derive(Clone, Copy)]
 struct PoseSample {
     pose: Pose2,
+    /// Height of the base frame in the map frame, metres.
+    z_m: f64,
     stamp_s: f64,
     received_s: f64,
     /// Mean of the roll and pitch variances of the message's covariance, rad² (0 if absent).
@@ -448,7 +450,8 @@ impl Explorer {
         let tilt_var_rad2 = if tilt.is_finite() && tilt > 0.0 { tilt } else { 0.0 };
         let position = c[0] + c[7];
         let position_var_m2 = if position.is_finite() && position > 0.0 { position } else { 0.0 };
-        self.topic_pose = Some(PoseSample { pose, stamp_s, received_s: now_s, tilt_var_rad2, position_var_m2 });
+        let z_m = map_from_body.translation.z;
+        self.topic_pose = Some(PoseSample { pose, z_m, stamp_s, received_s: now_s, tilt_var_rad2, position_var_m2 });
     }
 
     /// `geometry_msgs/PolygonStamped`: the exploration boundary; an empty polygon clears it.
@@ -543,6 +546,17 @@ impl Explorer {
             return Err(Phase::PoseStale);
         }
         Ok(pose)
+    }
+
+    /// The ground's height under the robot in the map frame, metres: the base frame's (exact for
+    /// a frame on the ground such as `base_footprint`; `base_link` adds its mounting height),
+    /// where u2 puts the camera `camera_height_m` above. 0 without a pose.
+    fn ground_z_m(&self) -> f64 {
+        let z = match self.cfg.pose_source {
+            PoseSource::Tf => self.tf.lookup(&self.cfg.map_frame, &self.cfg.base_frame).map(|l| l.transform.translation.z),
+            PoseSource::Topic => self.topic_pose.map(|s| s.z_m),
+        };
+        z.filter(|z| z.is_finite()).unwrap_or(0.0)
     }
 
     /// Whether every free cell the robot can reach on the latest inflated map lies within
@@ -734,6 +748,7 @@ impl Explorer {
         };
         let Some(map) = self.map.as_ref() else { return };
         let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);
+        input.ground_z_m = self.ground_z_m();
         if let Some(b) = &self.boundary {
             input = input.with_boundary(b);
         }

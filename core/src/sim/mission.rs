@@ -862,7 +862,9 @@ impl Mission {
             Ok(v) => v,
             Err(_) => LandmarkVoxels::empty(self.params.u2.voxel_m),
         };
-        let ground_z_m = self.world.field.height_at(self.est.x_m, self.est.y_m).unwrap_or(0.0);
+        // The camera's ground for u2: the estimated body's height (with SLAM its estimate, without
+        // it the terrain under the estimated position, as in `body_poses`).
+        let ground_z_m = self.body_poses().1.0.z;
         for _attempt in 0..4 {
             let t0 = self.clock.as_mut().map(|c| c());
             let input = DecisionInput {

@@ -389,6 +389,38 @@ fn pose_topic_is_used_and_transformed_into_the_map_frame() {
     assert_eq!(goals(&e.tick(0.1)).len(), 1);
 }
 
+/// u2's camera rides at the robot's height: the same scene lifted 3 m (landmarks and pose) gives
+/// the same path information; the landmarks lifted alone (the robot still at 0) do not.
+#[test]
+fn the_camera_sits_above_the_robots_height_in_the_map() {
+    let w = corridor_two_frontiers(true);
+    let info = |landmarks_dz: f64, robot_z: f64| {
+        let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
+        let mut e = Explorer::new(cfg, Params::default());
+        e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
+        let lifted: Vec<_> = w.landmarks.points.iter().map(|p| Point3::new(p.x, p.y, p.z + landmarks_dz)).collect();
+        e.handle_landmarks(&cloud_of_points(&lifted, header(1.0, "map")), 0.0);
+        let mut p = msgs::PoseWithCovarianceStamped { header: header(1.0, "map"), ..Default::default() };
+        p.pose.pose = pose_of_pose2(w.robot);
+        p.pose.pose.position.z = robot_z;
+        e.handle_pose(&p, 0.0);
+        let _ = e.tick(0.0);
+        let d = e.last_decision().expect("a decision");
+        d.candidates.iter().map(|c| c.path_info_raw).collect::<Vec<_>>()
+    };
+    let same = |a: &[Option<f64>], b: &[Option<f64>]| {
+        a.len() == b.len()
+            && a.iter().zip(b).all(|(x, y)| match (x, y) {
+                (Some(x), Some(y)) => (x - y).abs() <= 1e-9 * x.abs().max(1.0),
+                _ => x == y,
+            })
+    };
+    let flat = info(0.0, 0.0);
+    assert!(flat.iter().any(|i| i.is_some_and(|v| v > 0.0)), "{flat:?}");
+    assert!(same(&info(3.0, 3.0), &flat));
+    assert!(!same(&info(3.0, 0.0), &flat));
+}
+
 #[test]
 fn a_pose_covariance_sets_the_goal_back_from_unknown_ground() {
     let w = corridor_two_frontiers(true);
