@@ -571,7 +571,8 @@ impl Explorer {
     }
 
     /// With a cloud map and recoveries left ([`NodeConfig::trap_recoveries`]), forgets the map
-    /// around `robot`; returns the points forgotten and the radius, metres.
+    /// around `robot` and the `NoPath` blacklist entries judged on it; returns the points
+    /// forgotten and the radius, metres.
     fn recover_from_trap(&mut self, robot: Pose2) -> Option<(u64, f64)> {
         if self.stats.trap_recoveries >= u64::from(self.cfg.trap_recoveries) {
             return None;
@@ -580,6 +581,8 @@ impl Explorer {
         let r = recovery_radius_m(self.cfg.trapped_radius_m, &self.params);
         let points = m.map.forget_disc(robot.x_m, robot.y_m, r);
         m.dirty = true;
+        // "No path" was judged on the map just forgotten.
+        self.blacklist.remove_reason(BlacklistReason::NoPath);
         self.stats.trap_recoveries += 1;
         Some((points, r))
     }

@@ -80,6 +80,14 @@ impl Blacklist {
         self.contains(x_m, y_m)
     }
 
+    /// Removes every entry added for `reason` (e.g. the `NoPath` ones once the map they were
+    /// judged on is forgotten); returns how many. The others keep their order.
+    pub fn remove_reason(&mut self, reason: BlacklistReason) -> usize {
+        let before = self.entries.len();
+        self.entries.retain(|e| e.reason != reason);
+        before - self.entries.len()
+    }
+
     /// Every entry, in insertion order.
     pub fn entries(&self) -> &[BlacklistEntry] {
         &self.entries
@@ -160,6 +168,22 @@ mod tests {
         b.add(2.0, 3.0, BlacklistReason::Failed);
         assert!(b.contains(2.0, 3.0).is_some());
         assert!(b.contains(2.0, 3.000001).is_none());
+    }
+
+    #[test]
+    fn removing_a_reason_keeps_the_others_in_order() {
+        let mut b = Blacklist::new(0.5);
+        b.add(0.0, 0.0, BlacklistReason::NoPath);
+        b.add(1.0, 0.0, BlacklistReason::Failed);
+        b.add(2.0, 0.0, BlacklistReason::NoPath);
+        b.add(3.0, 0.0, BlacklistReason::Reselected);
+        assert_eq!(b.remove_reason(BlacklistReason::NoPath), 2);
+        assert_eq!(
+            b.entries().iter().map(|e| (e.x_m, e.reason)).collect::<Vec<_>>(),
+            [(1.0, BlacklistReason::Failed), (3.0, BlacklistReason::Reselected)]
+        );
+        assert_eq!(b.contains(0.0, 0.0), None);
+        assert_eq!(b.remove_reason(BlacklistReason::NoPath), 0);
     }
 
     #[test]

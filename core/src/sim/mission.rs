@@ -1001,8 +1001,9 @@ impl Mission {
         r > 0.0 && crate::frontier::enclosed_within(&crate::grid::inflate_lethal(grid, self.params.robot.radius_m), robot, r)
     }
 
-    /// Forgets the map around the robot (in the keyframe clouds too) and turns a full circle to
-    /// map it again ([`MissionParams::trap_recoveries`]).
+    /// Forgets the map around the robot (in the keyframe clouds too) and the `NoPath` blacklist
+    /// entries judged on it, and turns a full circle to map it again
+    /// ([`MissionParams::trap_recoveries`]).
     fn recover_from_trap(&mut self) {
         self.trap_recoveries += 1;
         let r = crate::frontier::recovery_radius_m(self.mission.trapped_radius_m, &self.params);
@@ -1011,6 +1012,8 @@ impl Mission {
             Some(fe) => fe.forget_disc(&mut self.tmap, x, y, r),
             None => self.tmap.forget_disc(x, y, r),
         };
+        // "No path" was judged on the map just forgotten.
+        self.blacklist.remove_reason(BlacklistReason::NoPath);
         self.goal = None;
         let full_turn_s = std::f64::consts::TAU / self.mission.drive.max_turn_rate_radps;
         self.phase = Phase::Spinning(self.time_s + full_turn_s);
