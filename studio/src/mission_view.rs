@@ -488,12 +488,16 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
     ui.horizontal_wrapped(|ui| {
         ui.colored_label(strategy_color(lane.strategy), egui::RichText::new(strategy_label(lane.strategy)).strong());
         ui.label(format!(
-            "t {:.1} s · {:.1} % unexplored · tr(cov) {:.3} · {:.1} m · {} decisions{}",
+            "t {:.1} s · {:.1} % unexplored · tr(cov) {:.3} · {:.1} m · {} decisions{}{}",
             mission.time_s,
             last.map(|r| r.unexplored_pct).unwrap_or(100.0),
             last.map(|r| r.cov_trace).unwrap_or(0.0),
             mission.distance_m,
             lane.decisions,
+            match lane.trap_recoveries {
+                0 => String::new(),
+                n => format!(" · {n} trap recover{} (map forgotten around the robot)", if n == 1 { "y" } else { "ies" }),
+            },
             match lane.end {
                 Some(e) => format!(" · ended: {e:?}"),
                 None => String::new(),

@@ -162,6 +162,8 @@ pub struct Lane {
     pub end: Option<EndReason>,
     /// Decisions made so far (for "step to the next decision").
     pub decisions: u64,
+    /// Times the robot, walled in by its map, forgot it around itself (`trap_recoveries`).
+    pub trap_recoveries: u64,
 }
 
 impl Lane {
@@ -173,7 +175,8 @@ impl Lane {
         if let StepOutcome::Finished(r) = self.mission.step() {
             self.end = Some(r);
         }
-        self.decisions = self.mission.summary().decisions;
+        let s = self.mission.summary();
+        (self.decisions, self.trap_recoveries) = (s.decisions, s.trap_recoveries);
     }
 }
 
@@ -256,7 +259,7 @@ impl SimRunner {
             )
             .map_err(|e| format!("{} / {}: {e}", self.config.world, strategy_label(s)))?;
             let decisions = mission.summary().decisions;
-            let mut lane = Lane { strategy: s, mission, end: None, decisions };
+            let mut lane = Lane { strategy: s, mission, end: None, decisions, trap_recoveries: 0 };
             lane.mission.set_clock(Box::new(|| web_time::Instant::now().duration_since(clock_origin()).as_secs_f64() * 1e3));
             lanes.push(lane);
         }
