@@ -157,8 +157,7 @@ pub struct NodeConfig {
     /// … unless every free cell the robot can reach on the inflated map lies within this
     /// distance, metres: walled in by its map (e.g. lethal speckle from a registration error), the
     /// robot is trapped, not done; the node warns, recovers (`trap_recoveries`) or waits for the
-    /// map to change. 0 turns the
-    /// check off. Default 2.
+    /// map to change. 0 turns the check off. Default 2.
     pub trapped_radius_m: f64,
     /// With `map_source: clouds`, times a trapped node recovers before it only waits: as Nav2's
     /// clear-costmap recovery does, it forgets its cloud map within `trapped_radius_m` + the

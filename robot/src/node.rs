@@ -19,7 +19,8 @@
 //! (`Failed`); reached goals are blacklisted as `Reselected` (notes §3: a goal selected before
 //! and still a frontier goal now is not selected again). The mission ends after
 //! `done_after_empty_decisions` consecutive decisions with no goal and none running, unless the
-//! robot is walled in by its map (`trapped_radius_m`): then it warns and waits.
+//! robot is walled in by its map (`trapped_radius_m`): then it warns and, on a cloud map it builds
+//! itself, forgets that map around the robot (`trap_recoveries`), else waits.
 //!
 //! Costs per cycle: one selector run (notes §7) plus, once per new map, one inflation
 //! (O(cells · disc)); per poll: O(1) goal checks.

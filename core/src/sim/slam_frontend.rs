@@ -189,13 +189,13 @@ impl KeyframeClouds {
     /// Whether the stored point `index`, registered at world (`x_m`, `y_m`), is forgotten on the
     /// grid `g`.
     fn is_forgotten(&self, index: usize, x_m: f64, y_m: f64, g: &GridGeometry) -> bool {
-        self.forgotten.iter().any(|f| {
-            index < f.before
-                && g.cell_of(x_m, y_m).is_some_and(|c| {
-                    let (cx, cy) = g.center_of(c);
-                    math::hypot(cx - f.centre_m[0], cy - f.centre_m[1]) <= f.radius_m
-                })
-        })
+        // Most points (every one before the first recovery) are older than no disc: no cell lookup.
+        if !self.forgotten.iter().any(|f| index < f.before) {
+            return false;
+        }
+        let Some(c) = g.cell_of(x_m, y_m) else { return false };
+        let (cx, cy) = g.center_of(c);
+        self.forgotten.iter().any(|f| index < f.before && math::hypot(cx - f.centre_m[0], cy - f.centre_m[1]) <= f.radius_m)
     }
 
     /// Starts the cloud of a new keyframe (later points belong to it) whose roll/pitch variance

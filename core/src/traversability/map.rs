@@ -243,9 +243,7 @@ impl TraversabilityMap {
     /// the geometry and the local origin; the next [`Self::update`] recomputes everything.
     pub fn clear(&mut self) {
         self.moments.fill(CellMoments::EMPTY);
-        self.discs = None;
-        self.stale_estimate.mark_all();
-        self.stale_known.mark_all();
+        self.drop_discs();
     }
 
     /// Forgets the points of every cell whose centre lies within `radius_m` of (`x_m`, `y_m`)
@@ -260,11 +258,17 @@ impl TraversabilityMap {
             self.moments[i] = CellMoments::EMPTY;
         }
         if forgotten > 0 {
-            self.discs = None;
-            self.stale_estimate.mark_all();
-            self.stale_known.mark_all();
+            self.drop_discs();
         }
         forgotten
+    }
+
+    /// Drops the disc sums after points were removed (they are rebuilt from the moments at the
+    /// next estimate) and makes every cell stale.
+    fn drop_discs(&mut self) {
+        self.discs = None;
+        self.stale_estimate.mark_all();
+        self.stale_known.mark_all();
     }
 
     /// Builds the disc sums for `radius_m` from the cell moments unless the map has them; a
