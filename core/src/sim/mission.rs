@@ -505,10 +505,20 @@ impl Mission {
         Ok(m)
     }
 
-    /// The robot's point map, for tests that plant what a sensing glitch would.
+    /// Registers `points_m` (true world frame) as if sensed now, as a sensing glitch would.
     #[cfg(test)]
-    pub(crate) fn map_mut(&mut self) -> &mut TraversabilityMap {
-        &mut self.tmap
+    pub(crate) fn plant_points(&mut self, points_m: impl IntoIterator<Item = Point3<f64>>) {
+        self.points.clear();
+        self.points.extend(points_m);
+        self.register_sensed_points();
+    }
+
+    /// Rebuilds the map from the keyframe clouds now, as a loop closure would (no-op without SLAM).
+    #[cfg(test)]
+    pub(crate) fn reregister_now(&mut self) {
+        if let Some(fe) = &self.slam {
+            fe.reregister_map(&mut self.tmap);
+        }
     }
 
     /// A wall clock in milliseconds used only to fill `plan_ms` (core has no clock).
@@ -788,7 +798,7 @@ impl Mission {
 
     /// LiDAR sweep + depth-camera ground rays + footprint, registered with the estimate.
     fn sense_geometry(&mut self) {
-        let ((gp, gr), (ep, er)) = self.body_poses();
+        let ((gp, gr), _) = self.body_poses();
         self.points.clear();
         let sensor = gp + gr * Vector3::new(0.0, 0.0, self.mission.lidar.mount_height_m);
         scan(&self.world.field, &self.caster, sensor, &gr, &self.mission.lidar, &mut self.rng, &mut self.points);
@@ -800,7 +810,15 @@ impl Mission {
         });
         // The ground under the wheels (proprioceptive): the footprint, every 5 cm.
         footprint_points(&self.world.field, gp, &gr, self.mission.drive.body_half_m, 0.05, &mut self.points);
-        // Register with the estimate: p_est = T_est · T_gt⁻¹ · p.
+        self.register_sensed_points();
+        self.last_scan = (self.est, self.time_s);
+        self.scans += 1;
+    }
+
+    /// Registers `self.points` (sensed now, true world frame) with the estimate into the map:
+    /// p_est = T_est · T_gt⁻¹ · p; with SLAM, kept in the keyframe's cloud too.
+    fn register_sensed_points(&mut self) {
+        let ((gp, gr), (ep, er)) = self.body_poses();
         let (gt_inv, gp_c) = (gr.inverse(), gp.coords);
         if let Some(fe) = self.slam.as_mut() {
             // Kept in the keyframe's cloud too, for re-registration.
@@ -814,8 +832,6 @@ impl Mission {
             let pts = self.points.iter().map(|p| if same { *p } else { ep + er * (gt_inv * (p.coords - gp_c)) });
             self.tmap.insert_points(pts);
         }
-        self.last_scan = (self.est, self.time_s);
-        self.scans += 1;
     }
 
     /// Periodic landmark observations (without SLAM: averaged into the landmark map; with SLAM

@@ -368,29 +368,60 @@ fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
 /// not in the world) and explores the whole world.
 #[test]
 fn a_trapped_robot_forgets_its_map_around_itself_and_explores_on() {
-    let ring = |m: &mut Mission| {
-        let (x0, y0) = (m.gt.x_m, m.gt.y_m);
-        let z = m.world.field.height_at(x0, y0).unwrap() + 0.4;
-        let pts = (0..3000).map(|k| {
-            let (a, r) = (k as f64 * std::f64::consts::TAU / 1000.0, 0.8 + 0.02 * (k / 1000) as f64);
-            nalgebra::Point3::new(x0 + r * a.cos(), y0 + r * a.sin(), z)
-        });
-        m.map_mut().insert_points(pts);
-    };
-    let params = Params::default();
-    let run = |recoveries: u32| {
-        let mp = MissionParams { trap_recoveries: recoveries, time_limit_s: Some(300.0), ..MissionParams::default() };
-        let mut m = Mission::new(tiny_world(&params), params.clone(), mp, Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
-        ring(&mut m);
-        let s = m.run();
-        (s, m.rows)
-    };
-    let (s, _) = run(0);
+    let (s, ..) = run_in_a_planted_ring(0, Localisation::GroundTruth);
     assert_eq!((s.end_reason, s.trap_recoveries, s.goals_reached), (Some(EndReason::Trapped), 0, 0), "{s:?}");
-    let (s, rows) = run(2);
+    let (s, m, _) = run_in_a_planted_ring(2, Localisation::GroundTruth);
     assert_eq!((s.end_reason, s.trap_recoveries), (Some(EndReason::NoFrontier), 1), "{s:?}");
     assert_eq!((s.gt_violations, s.safety_stops), (0, 0), "{s:?}");
     assert!(s.unexplored_pct < 10.0 && s.goals_reached >= 1, "{s:?}");
     // Forgetting makes known ground unknown again: the only time the unexplored share grows.
-    assert!(rows.windows(2).any(|w| w[1].unexplored_pct > w[0].unexplored_pct + 1.0));
+    assert!(m.rows.windows(2).any(|w| w[1].unexplored_pct > w[0].unexplored_pct + 1.0));
+}
+
+#[test]
+fn a_trapped_slam_robot_forgets_its_clouds_too_so_no_reregistration_brings_the_ring_back() {
+    let (s, ..) = run_in_a_planted_ring(0, Localisation::Slam);
+    assert_eq!((s.end_reason, s.trap_recoveries), (Some(EndReason::Trapped), 0), "{s:?}");
+    let (s, mut m, start) = run_in_a_planted_ring(2, Localisation::Slam);
+    assert_eq!((s.end_reason, s.trap_recoveries), (Some(EndReason::NoFrontier), 1), "{s:?}");
+    assert_eq!((s.gt_violations, s.safety_stops), (0, 0), "{s:?}");
+    assert!(s.unexplored_pct < 10.0 && s.goals_reached >= 1, "{s:?}");
+    // A loop closure now rebuilds the map from every keyframe cloud, the planted one included:
+    // the ring must stay forgotten (it comes back when only the map forgets it).
+    m.reregister_now();
+    let lethal = lethal_cells_on_the_ring(&mut m, start);
+    assert!(lethal <= 5, "{lethal} of the ring's cells are lethal again after a re-registration");
+}
+
+/// The planted ring: a 0.4 m wall of points 0.80–0.84 m around the start, all around.
+const RING_RADII_M: (f64, f64) = (0.8, 0.84);
+
+/// A tiny-world fit mission (seed 1, 300 s at most) walled in at its start by a planted ring of
+/// points, as registration speckle would wall it; the summary, the finished mission and the start.
+fn run_in_a_planted_ring(trap_recoveries: u32, localisation: Localisation) -> (super::Summary, Mission, [f64; 2]) {
+    let params = Params::default();
+    let mp = MissionParams { trap_recoveries, time_limit_s: Some(300.0), ..MissionParams::default() };
+    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Fit, 1, localisation).unwrap();
+    let (x0, y0) = (m.gt.x_m, m.gt.y_m);
+    let z = m.world.field.height_at(x0, y0).unwrap() + 0.4;
+    let pts = (0..3000).map(|k| {
+        let (a, r) = (k as f64 * std::f64::consts::TAU / 1000.0, RING_RADII_M.0 + 0.02 * (k / 1000) as f64);
+        nalgebra::Point3::new(x0 + r * a.cos(), y0 + r * a.sin(), z)
+    });
+    m.plant_points(pts);
+    (m.run(), m, [x0, y0])
+}
+
+/// Lethal cells of `m`'s occupancy whose centres lie on the planted ring (its radii ± 2 cm
+/// around `start`).
+fn lethal_cells_on_the_ring(m: &mut Mission, [x0, y0]: [f64; 2]) -> usize {
+    let grid = m.occupancy();
+    let g = grid.geometry;
+    (0..g.len())
+        .filter(|&i| {
+            let (x, y) = g.center_of(g.cell_at(i));
+            let r = (x - x0).hypot(y - y0);
+            r >= RING_RADII_M.0 - 0.02 && r <= RING_RADII_M.1 + 0.02 && grid.data[i] >= crate::grid::LETHAL_THRESHOLD
+        })
+        .count()
 }
