@@ -94,7 +94,7 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
         Residual2d::Log => Se2Residual::Log,
         Residual2d::Vector => Se2Residual::Vector,
     };
-    let first_tag = bytes
+    let first_tag = fitslam_core::io::without_bom(&bytes)
         .split(|b| b.is_ascii_whitespace())
         .find(|t| !t.is_empty())
         .map(|t| String::from_utf8_lossy(t).into_owned())
@@ -105,6 +105,11 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
         (Input::Victoria, p)
     } else {
         let file = read_g2o(&bytes).with_context(|| format!("{}", args.g2o.display()))?;
+        if !file.skipped.is_empty() {
+            let tags: Vec<String> =
+                file.skipped.iter().map(|s| format!("{} × {} (first on line {})", s.tag, s.lines, s.first_line)).collect();
+            eprintln!("warning: {}: skipped lines with tags it does not read: {}", args.g2o.display(), tags.join(", "));
+        }
         let p = file.to_problem(gauge, residual).with_context(|| format!("{}", args.g2o.display()))?;
         (Input::G2o(file), p)
     };
@@ -176,19 +181,19 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
             "time_ms": time_ms,
             "last_marginal": marginal,
         });
-        println!("{v}");
+        outln!("{v}")?;
     } else {
-        println!("file          {}", args.g2o.display());
-        println!("poses         {}  landmarks {}  factors {}", problem.poses.len(), problem.landmarks.len(), problem.graph.len());
-        println!("chi2          {:.9} -> {:.9}", summary.initial_chi2, summary.final_chi2);
-        println!("iterations    {}  ({:?})", summary.iterations, summary.termination);
-        println!("time          {time_ms:.3} ms");
+        outln!("file          {}", args.g2o.display())?;
+        outln!("poses         {}  landmarks {}  factors {}", problem.poses.len(), problem.landmarks.len(), problem.graph.len())?;
+        outln!("chi2          {:.9} -> {:.9}", summary.initial_chi2, summary.final_chi2)?;
+        outln!("iterations    {}  ({:?})", summary.iterations, summary.termination)?;
+        outln!("time          {time_ms:.3} ms")?;
         if !marginal.is_empty() {
             let d = (marginal.len() as f64).sqrt() as usize;
-            println!("last pose marginal ({d}x{d}, tangent (dt, dphi), body frame):");
+            outln!("last pose marginal ({d}x{d}, tangent (dt, dphi), body frame):")?;
             for r in 0..d {
                 let row: Vec<String> = (0..d).map(|c| format!("{:>13.6e}", marginal[r * d + c])).collect();
-                println!("  {}", row.join(" "));
+                outln!("  {}", row.join(" "))?;
             }
         }
     }

@@ -266,6 +266,60 @@ fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
     );
 }
 
+/// Lines with tags the reader does not know are skipped, as g2o and GTSAM skip them, and named in
+/// one warning; a file saved with a byte-order mark reads as without.
+#[test]
+fn optimize_skips_unknown_tags_with_a_warning_and_reads_past_a_byte_order_mark() {
+    let dir = scratch("optimize-tags");
+    let graph = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1.2 0 0 1 0 0 1 0 1\n";
+    let plain = dir.join("plain.g2o");
+    std::fs::write(&plain, graph).unwrap();
+    let extra = dir.join("extra.g2o");
+    std::fs::write(
+        &extra,
+        format!(
+            "\u{feff}TUTORIAL_PARAMS_SE2_OFFSET 0 0 0 0\n{graph}EDGE_SE2_PRIOR 1 0 0 0 1 0 0 1 0 1\nEDGE_SE2_PRIOR 0 0 0 0 1 0 0 1 0 1\n"
+        ),
+    )
+    .unwrap();
+    let (a, b) =
+        (run(&["optimize", "--g2o", plain.to_str().unwrap(), "--json"]), run(&["optimize", "--g2o", extra.to_str().unwrap(), "--json"]));
+    assert!(a.status.success() && b.status.success(), "{}", String::from_utf8_lossy(&b.stderr));
+    let chi2 = |o: &Output| {
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        (v["initial_chi2"].as_f64().unwrap(), v["final_chi2"].as_f64().unwrap())
+    };
+    assert_eq!(chi2(&a), chi2(&b));
+    assert!((chi2(&a).0 - 0.04).abs() < 1e-12, "{:?}", chi2(&a));
+    assert!(a.stderr.is_empty(), "{}", String::from_utf8_lossy(&a.stderr));
+    let warning = String::from_utf8_lossy(&b.stderr);
+    assert_eq!(warning.lines().count(), 1, "{warning}");
+    assert!(
+        warning.contains("extra.g2o: skipped lines with tags it does not read: TUTORIAL_PARAMS_SE2_OFFSET × 1 (first on line 1), EDGE_SE2_PRIOR × 2 (first on line 5)"),
+        "{warning}"
+    );
+}
+
+/// A reader that stops early closes the pipe: the tool ends quietly instead of panicking.
+#[test]
+fn a_closed_stdout_ends_the_tool_quietly() {
+    use std::io::Read as _;
+    let (map, lm) = (asset("maps/jacksboro/map.yaml"), asset("maps/jacksboro/landmarks.ply"));
+    let mut child = Command::new(BIN)
+        .args(["select", "--map", &map, "--landmarks", &lm, "--pose", "3,3,0", "--json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 16];
+    child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+    // stdout is closed here: the JSON (≈ 90 kB) is more than a pipe holds, so a write fails.
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.status.success(), "{:?}: {stderr}", out.status);
+}
+
 /// `fitslam --help` describes every subcommand with its own line (a doc comment attached to the
 /// wrong variant once described `traversability` under `params` and left it blank).
 #[test]

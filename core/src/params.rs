@@ -263,6 +263,7 @@ pub enum ParamsError {
 impl Params {
     /// Parses TOML text; `source_name` (usually the file name) is quoted in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
+        let text = crate::io::without_bom_str(text);
         let p: Params = from_toml_over_default(text).map_err(|e: toml::de::Error| {
             // One line: "line N: message" (the crate's own Display draws a multi-line caret).
             let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
@@ -279,6 +280,7 @@ impl Params {
 
     /// Parses YAML text; `source_name` is quoted in errors.
     pub fn from_yaml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
+        let text = crate::io::without_bom_str(text);
         let p: Params = serde_yaml::from_str(text)
             .map_err(|e| ParamsError::Yaml { source_name: source_name.into(), message: e.to_string().replace('\n', " ") })?;
         p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
@@ -408,6 +410,7 @@ pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), S
 /// merge refuses (a wrong type, an unknown key) is parsed once more straight into `T`, whose
 /// error carries the position in `text`.
 pub fn from_toml_over_default<T: Default + Serialize + DeserializeOwned>(text: &str) -> Result<T, toml::de::Error> {
+    let text = crate::io::without_bom_str(text);
     let given: toml::Table = toml::from_str(text)?;
     let mut merged = toml::Table::try_from(T::default()).map_err(<toml::de::Error as serde::de::Error>::custom)?;
     merge_into(&mut merged, given);

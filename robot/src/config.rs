@@ -236,6 +236,7 @@ impl ConfigFile {
     /// Parses and validates YAML text; `source_name` is quoted in errors. An empty file is
     /// all defaults.
     pub fn from_yaml(text: &str, source_name: &str) -> Result<Self, ConfigError> {
+        let text = fitslam_core::io::without_bom_str(text);
         let cfg: ConfigFile = if text.trim().is_empty() {
             ConfigFile::default()
         } else {
@@ -321,6 +322,8 @@ mod tests {
         assert_eq!(c.fitslam.u2.beta, 0.4);
         // Round trip.
         assert_eq!(ConfigFile::from_yaml(&c.to_yaml(), "y.yaml").unwrap(), c);
+        // A file an editor saved with a byte-order mark.
+        assert_eq!(ConfigFile::from_yaml(&format!("\u{feff}{}", c.to_yaml()), "z.yaml").unwrap(), c);
     }
 
     #[test]

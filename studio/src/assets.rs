@@ -88,7 +88,7 @@ fn file(name: &str, bytes: &[u8], intent: Intent) -> IncomingFile {
 
 /// The start pose written in a scene.toml (`start = [x, y, yaw]`).
 fn start_pose(scene_toml: &[u8]) -> Option<Pose2> {
-    let v: toml::Value = toml::from_str(std::str::from_utf8(scene_toml).ok()?).ok()?;
+    let v: toml::Value = toml::from_str(std::str::from_utf8(fitslam_core::io::without_bom(scene_toml)).ok()?).ok()?;
     let s = v.get("start")?.as_array()?;
     let num = |k: usize| s.get(k).and_then(|x| x.as_float().or_else(|| x.as_integer().map(|i| i as f64)));
     Some(Pose2::new(num(0)?, num(1)?, num(2).unwrap_or(0.0)))

@@ -29,8 +29,8 @@ use nalgebra::{Matrix3, Point3};
 
 /// Loads a CSV point cloud; `name` is used in messages.
 pub fn load_csv(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
-    let text =
-        std::str::from_utf8(bytes).map_err(|e| CloudError::Header { name: name.to_string(), detail: format!("not UTF-8 text ({e})") })?;
+    let text = std::str::from_utf8(super::without_bom(bytes))
+        .map_err(|e| CloudError::Header { name: name.to_string(), detail: format!("not UTF-8 text ({e})") })?;
     // (1-based line number, content without comment and surrounding blanks)
     let mut lines = text.lines().enumerate().filter_map(|(i, raw)| {
         let content = raw.split('#').next().unwrap_or("").trim();

@@ -81,7 +81,7 @@ impl MapYaml {
     /// Does not check the yaw (see [`load_map`]), so a caller can still read the image name.
     pub fn parse(bytes: &[u8], name: &str) -> Result<Self, MapError> {
         let yaml_err = |detail: String| MapError::Yaml { name: name.to_string(), detail };
-        let text = std::str::from_utf8(bytes).map_err(|e| yaml_err(format!("not UTF-8 ({e})")))?;
+        let text = std::str::from_utf8(super::without_bom(bytes)).map_err(|e| yaml_err(format!("not UTF-8 ({e})")))?;
         let doc: Value = serde_yaml::from_str(text).map_err(|e| yaml_err(e.to_string()))?;
         let map = doc.as_mapping().ok_or_else(|| yaml_err("the document is not a mapping of keys".to_string()))?;
         let get = |key: &'static str| map.get(key).filter(|v| !v.is_null()).ok_or(MapError::MissingKey { name: name.to_string(), key });

@@ -34,6 +34,17 @@ pub mod ply;
 #[cfg(test)]
 mod tests;
 
+/// `bytes` without a leading UTF-8 byte-order mark. Some editors (Notepad, Excel's "CSV UTF-8")
+/// start text files with one; YAML, TOML and CSV readers skip it, and so do the text loaders here.
+pub fn without_bom(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes)
+}
+
+/// `text` without a leading byte-order mark (U+FEFF), as [`without_bom`].
+pub fn without_bom_str(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
 pub use csv::{load_csv, write_csv};
 pub use image::{write_png_gray8, write_png_rgb8};
 #[cfg(feature = "las")]

@@ -201,6 +201,7 @@ fn wrong_count(name: &str, declared: u64, found: u64) -> CloudError {
 
 /// Loads a PCD point cloud; `name` is used in messages.
 pub fn load_pcd(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
+    let bytes = super::without_bom(bytes);
     let header = parse_header(bytes, name)?;
     let map = FieldMap::find(header.fields.iter().map(|f| f.name.as_str()), name, "FIELDS", "field")?;
     let data = &bytes[header.data_start..];

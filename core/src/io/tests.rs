@@ -112,3 +112,49 @@ fn bench_autzen_load() {
     }
     println!("same cloud as double PLY: {:.2} ms per load", start.elapsed().as_secs_f64() / runs as f64 * 1e3);
 }
+
+/// Some editors start text files with a UTF-8 byte-order mark: every text loader reads such a
+/// file as the same file without it (a CSV header was once read by position instead, swapping
+/// its columns, and a map YAML was refused).
+#[test]
+fn a_byte_order_mark_is_read_past_by_every_text_loader() {
+    fn with_bom(text: &str) -> Vec<u8> {
+        [b"\xEF\xBB\xBF".as_slice(), text.as_bytes()].concat()
+    }
+    let csv = "z,x,y\n0.1,10,20\n0.2,12,21\n";
+    let plain = load_csv(csv.as_bytes(), "c.csv").unwrap();
+    assert_eq!(plain.points[0], Point3::new(10.0, 20.0, 0.1));
+    assert_eq!(load_csv(&with_bom(csv), "c.csv").unwrap(), plain);
+
+    let pcd =
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+    assert_eq!(load_pcd(&with_bom(pcd), "c.pcd").unwrap(), load_pcd(pcd.as_bytes(), "c.pcd").unwrap());
+
+    let yaml = "image: m.pgm\nresolution: 0.05\norigin: [1.0, -2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+    assert_eq!(MapYaml::parse(&with_bom(yaml), "m.yaml").unwrap(), MapYaml::parse(yaml.as_bytes(), "m.yaml").unwrap());
+
+    let g2o = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n";
+    let read_g2o = crate::slam::g2o::read_g2o;
+    assert_eq!(read_g2o(&with_bom(g2o)).unwrap(), read_g2o(g2o.as_bytes()).unwrap());
+    assert!(read_g2o(&with_bom(g2o)).unwrap().skipped.is_empty());
+
+    let victoria = "ODOMETRY 0 1 1 0 0.1 1 0 0 1 0 1\n";
+    let read_victoria = crate::slam::victoria::read_victoria;
+    assert_eq!(read_victoria(&with_bom(victoria)).unwrap(), read_victoria(victoria.as_bytes()).unwrap());
+
+    for (text, name) in [("[u1]\nalpha = 0.5\n", "p.toml"), ("u1:\n  alpha: 0.5\n", "p.yaml")] {
+        let p = crate::Params::from_bytes(&with_bom(text), name).unwrap();
+        assert_eq!(p, crate::Params::from_bytes(text.as_bytes(), name).unwrap());
+        assert_ne!(p, crate::Params::default(), "{name} was read");
+    }
+
+    let sim = "max_failed_decisions = 7\n";
+    let bom_sim = String::from_utf8(with_bom(sim)).unwrap();
+    let m = crate::sim::MissionParams::from_toml(&bom_sim, "m.toml").unwrap();
+    assert_eq!((m.max_failed_decisions, &m), (7, &crate::sim::MissionParams::from_toml(sim, "m.toml").unwrap()));
+
+    let world = include_str!("../../../assets/worlds/tiny_test.toml");
+    let bom_world = String::from_utf8(with_bom(world)).unwrap();
+    let spec = crate::sim::WorldSpec::from_toml;
+    assert_eq!(spec(&bom_world, "w.toml").unwrap(), spec(world, "w.toml").unwrap());
+}

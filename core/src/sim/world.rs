@@ -239,6 +239,7 @@ impl LandmarkSpec {
 impl WorldSpec {
     /// Parses a world file; `name` is quoted in errors.
     pub fn from_toml(text: &str, name: &str) -> Result<Self, WorldError> {
+        let text = crate::io::without_bom_str(text);
         let spec: WorldSpec = toml::from_str(text).map_err(|e: toml::de::Error| {
             let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             let message = e.message().trim().replace('\n', " ");

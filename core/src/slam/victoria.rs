@@ -84,7 +84,7 @@ fn auto_covariance(v: [f64; 6], line: usize) -> Result<Matrix3<f64>, VictoriaErr
 /// Parses the Victoria Park text format.
 pub fn read_victoria(bytes: &[u8]) -> Result<VictoriaPark, VictoriaError> {
     let mut out = VictoriaPark::default();
-    for (n, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+    for (n, raw) in crate::io::without_bom(bytes).split(|&b| b == b'\n').enumerate() {
         let line = n + 1;
         let text = std::str::from_utf8(raw).map_err(|_| VictoriaError::NotUtf8 { line })?;
         let mut it = text.split_ascii_whitespace();
