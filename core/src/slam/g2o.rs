@@ -8,8 +8,8 @@
 //!
 //! Information matrices are upper triangles, row by row; the SE(3) one is in (t, R) order, which
 //! is our tangent order (GTSAM permutes it to (R, t)). Quaternions are normalised on reading (as
-//! GTSAM does). `#` starts a comment. Other tags are errors (naming the tag and line), not
-//! silently skipped.
+//! GTSAM does). `#` starts a comment. Lines with other tags are skipped, as g2o and GTSAM skip
+//! them, and listed in [`G2oFile::skipped`] (tag, count, first line) for the caller to report.
 //!
 //! Reading is one pass over the bytes, O(size); errors name the 1-based line. To a [`Problem`]:
 //! vertices become variables by increasing id; an edge whose vertices are missing initialises
@@ -134,6 +134,19 @@ pub struct G2oFile {
     pub offsets: BTreeMap<u64, Se3>,
     /// Whether the file is 3D (SE3:QUAT); `None` if it has no vertex or edge.
     pub is_3d: Option<bool>,
+    /// Tags not read, in order of first appearance (e.g. `EDGE_SE2_PRIOR`, `PARAMS_CAMERACALIB`).
+    pub skipped: Vec<SkippedTag>,
+}
+
+/// Lines skipped by [`read_g2o`] for one tag it does not read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SkippedTag {
+    /// The tag (its first 40 characters).
+    pub tag: String,
+    /// How many lines had it.
+    pub lines: usize,
+    /// The first of them (1-based).
+    pub first_line: usize,
 }
 
 struct Fields<'a> {
@@ -246,7 +259,8 @@ const TAGS: [(&str, usize, Option<bool>); 10] = [
 pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
     let mut file = G2oFile::default();
     let mut seen = BTreeSet::new();
-    for (n, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+    let mut skipped_index: BTreeMap<String, usize> = BTreeMap::new();
+    for (n, raw) in crate::io::without_bom(bytes).split(|&b| b == b'\n').enumerate() {
         let line = n + 1;
         let text = std::str::from_utf8(raw).map_err(|_| G2oError::NotUtf8 { line })?;
         let text = text.split('#').next().unwrap_or("");
@@ -254,7 +268,15 @@ pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
         let Some(tag) = tokens.next() else { continue };
         let rest: Vec<&str> = tokens.collect();
         let Some(&(tag, fields, three_d)) = TAGS.iter().find(|t| t.0 == tag) else {
-            return Err(G2oError::UnknownTag { line, tag: tag.to_string() });
+            let tag: String = tag.chars().take(40).collect();
+            match skipped_index.get(&tag) {
+                Some(&k) => file.skipped[k].lines += 1,
+                None => {
+                    skipped_index.insert(tag.clone(), file.skipped.len());
+                    file.skipped.push(SkippedTag { tag, lines: 1, first_line: line });
+                }
+            }
+            continue;
         };
         let f = Fields::new(line, tag, rest, fields)?;
         if let Some(three) = three_d {
@@ -465,7 +487,7 @@ impl G2oFile {
                 None => None,
             })
             .collect();
-        G2oFile { vertices, edges: self.edges.clone(), fixed: self.fixed.clone(), offsets: self.offsets.clone(), is_3d: self.is_3d }
+        G2oFile { vertices, ..self.clone() }
     }
 }
 
@@ -518,7 +540,11 @@ mod tests {
             read_g2o(b"\nEDGE_SE2 0 1 0 0 0 1 0 0 1 0\n"),
             Err(G2oError::FieldCount { line: 2, tag: "EDGE_SE2", expected: 11, found: 10 })
         );
-        assert_eq!(read_g2o(b"VERTEX_XY 1 2 3\nEDGE_PRIOR_SE2 1\n"), Err(G2oError::UnknownTag { line: 2, tag: "EDGE_PRIOR_SE2".into() }));
+        // Other tags are skipped, as g2o and GTSAM skip them, and listed.
+        let f = read_g2o(b"VERTEX_XY 1 2 3\nEDGE_PRIOR_SE2 1\nTUTORIAL_PARAMS 0\nEDGE_PRIOR_SE2 2 1 1\n").unwrap();
+        assert_eq!(f.vertices.len(), 1);
+        let skipped = |tag: &str, lines, first_line| SkippedTag { tag: tag.into(), lines, first_line };
+        assert_eq!(f.skipped, vec![skipped("EDGE_PRIOR_SE2", 2, 2), skipped("TUTORIAL_PARAMS", 1, 3)]);
         assert_eq!(read_g2o(b"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_XY 1 2 3\n"), Err(G2oError::MixedDimensions { line: 2 }));
         let offset = b"PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n";
         assert_eq!(read_g2o(&[&offset[..], offset].concat()), Err(G2oError::DuplicateOffset { line: 2, id: 0 }));
