@@ -145,7 +145,7 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
     let png = io::write_png_rgb8(g.width, g.height, &fitslam_core::traversability::score_to_rgb(&layers))?;
     load::write(&args.out.join("score.png"), &png)?;
     let count = |v: i8| grid.data.iter().filter(|&&c| c == v).count();
-    println!(
+    outln!(
         "{}: {} rocks, {} LiDAR points, {} × {} cells ({} free, {} lethal, {} unknown), {} landmarks",
         args.out.display(),
         rocks.len(),
@@ -156,6 +156,6 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
         count(100),
         count(-1),
         landmarks.len()
-    );
+    )?;
     Ok(())
 }

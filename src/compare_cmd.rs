@@ -142,7 +142,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     write_figures(&args.out, &setup.world.spec.name, &strategies, &figures)?;
     let md = summary_md(&setup.world.spec.name, &strategies, &figures, &command_line(), localisation);
     load::write(&args.out.join("summary.md"), md.as_bytes())?;
-    println!(
+    outln!(
         "{}: {} runs ({} strategies × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png",
         args.out.display(),
         figures.len(),
@@ -150,7 +150,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         args.seeds,
         wall_s,
         run_wall_s
-    );
+    )?;
     Ok(())
 }
 

@@ -87,7 +87,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
     let run = run_and_write(&setup, strategy, args.seed, localisation_of(args.mission.localisation), &args.out, &progress);
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
-    println!(
+    outln!(
         "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, {} safety stops, {} trap recoveries, end {:?}",
         args.out.display(),
         strategy,
@@ -101,7 +101,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
         summary.safety_stops,
         summary.trap_recoveries,
         summary.end_reason
-    );
+    )?;
     Ok(())
 }
 

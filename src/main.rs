@@ -1,6 +1,15 @@
 //! `fitslam`: the command-line face of fitslam-core. Thin: it reads files, calls the core, and
 //! prints or writes the result. Errors print one line and exit non-zero.
 
+/// `println!` that returns the write's error instead of panicking on it: a reader that stops
+/// early (`fitslam select … | head`) closes the pipe, and `main` then ends quietly.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)
+    }};
+}
+
 mod asset_cmd;
 mod compare_cmd;
 mod explore_cmd;
@@ -55,11 +64,18 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if closed_stdout(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {}", one_line(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// Whether `e` is a write to a pipe whose reader has gone: the reader wanted no more, which is
+/// not a failure.
+fn closed_stdout(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }
 
 /// The error and its causes on one line, `a: b: c`, leaving out a cause whose text the message

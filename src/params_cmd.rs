@@ -17,6 +17,9 @@ pub struct ParamsArgs {
 
 pub fn run(args: &ParamsArgs) -> Result<()> {
     let p = load::params(args.params.as_deref())?;
-    print!("{}", if args.yaml { p.to_yaml() } else { p.to_toml() });
+    {
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), "{}", if args.yaml { p.to_yaml() } else { p.to_toml() })?;
+    }
     Ok(())
 }

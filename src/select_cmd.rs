@@ -75,9 +75,9 @@ pub fn run(args: &SelectArgs) -> Result<()> {
     let mut selector = make_selector(&params.selector);
     let decision = selector.select(&input, &params).map_err(|e| anyhow::anyhow!("{}: {e}", args.map.display()))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&JsonDecision::from(&decision))?);
+        outln!("{}", serde_json::to_string_pretty(&JsonDecision::from(&decision))?)?;
     } else {
-        print_table(&decision);
+        print_table(&decision)?;
     }
     Ok(())
 }
@@ -166,9 +166,9 @@ impl<'a> From<&'a CandidateReport> for JsonCandidate<'a> {
     }
 }
 
-fn print_table(d: &Decision) {
+fn print_table(d: &Decision) -> std::io::Result<()> {
     let opt = |v: Option<f64>, p: usize| v.map_or_else(|| "-".to_string(), |x| format!("{x:.p$}"));
-    println!(
+    outln!(
         "strategy {:?}; robot ({:.2}, {:.2}, {:.2} rad){}; {} candidates",
         d.strategy,
         d.robot.x_m,
@@ -176,11 +176,20 @@ fn print_table(d: &Decision) {
         d.robot.yaw_rad,
         if d.start_snapped { ", start snapped to the nearest free cell" } else { "" },
         d.candidates.len()
-    );
-    println!(
+    )?;
+    outln!(
         "{:>4} {:>4} {:>8} {:>8} {:>7} {:>8} {:>7} {:>6} {:>6} {:>6}  note",
-        "rank", "idx", "x_m", "y_m", "rho_m", "dE_bits", "theta*", "u1", "I_p", "u2"
-    );
+        "rank",
+        "idx",
+        "x_m",
+        "y_m",
+        "rho_m",
+        "dE_bits",
+        "theta*",
+        "u1",
+        "I_p",
+        "u2"
+    )?;
     let mut order = d.ranking();
     order.extend((0..d.candidates.len()).filter(|&i| d.candidates[i].rank.is_none()));
     for i in order {
@@ -190,7 +199,7 @@ fn print_table(d: &Decision) {
             (false, Some(r)) => format!("{r:?}"),
             (false, None) => String::new(),
         };
-        println!(
+        outln!(
             "{:>4} {:>4} {:>8.2} {:>8.2} {:>7} {:>8} {:>7} {:>6} {:>6} {:>6}  {}",
             c.rank.map_or("-".into(), |r| r.to_string()),
             i,
@@ -203,10 +212,11 @@ fn print_table(d: &Decision) {
             opt(c.path_info, 3),
             opt(c.u2, 3),
             note
-        );
+        )?;
     }
     match d.chosen_candidate() {
-        Some(c) => println!("goal: ({:.2}, {:.2}) heading {:.1}°", c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0).to_degrees()),
-        None => println!("goal: none (no reachable frontier left: end of mission)"),
+        Some(c) => outln!("goal: ({:.2}, {:.2}) heading {:.1}°", c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0).to_degrees())?,
+        None => outln!("goal: none (no reachable frontier left: end of mission)")?,
     }
+    Ok(())
 }

@@ -49,7 +49,7 @@ pub fn run(args: &TraversabilityArgs) -> Result<()> {
     load::write(&png_path, &png)?;
     let known = layers.known_cells();
     let free = grid.data.iter().filter(|&&v| v == 0).count();
-    println!(
+    outln!(
         "{}: {} points → {} × {} cells at {} m; {} known, {} free ({:.1}% of known); wrote {}, {}, {}",
         args.cloud.display(),
         cloud.len(),
@@ -62,7 +62,7 @@ pub fn run(args: &TraversabilityArgs) -> Result<()> {
         args.out.display(),
         dir.join(&pgm_name).display(),
         png_path.display()
-    );
+    )?;
     Ok(())
 }
 
