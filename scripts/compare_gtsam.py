@@ -125,19 +125,24 @@ def add_point_landmarks(path, graph, initial):
     """Adds the file's point landmarks (VERTEX_XY / EDGE_SE2_XY, VERTEX_TRACKXYZ /
     EDGE_SE3_TRACKXYZ through PARAMS_SE3OFFSET) as Symbol('l', id) points and CustomFactors, a
     missing landmark initialised at its first sighting (as fitslam does)."""
-    with open(path) as f:
+    with open(path, encoding="utf-8-sig") as f:
         rows = [t for t in (line.split("#")[0].split() for line in f) if t]
     offsets = {}
     for t in rows:
         if t[0] == "PARAMS_SE3OFFSET":
             x, y, z, qx, qy, qz, qw = (float(v) for v in t[2:9])
-            offsets[int(t[1])] = gtsam.Pose3(gtsam.Rot3.Quaternion(qw, qx, qy, qz), np.array([x, y, z]))
+            # Rot3.Quaternion does not normalise (readG2o does, for vertices and edges).
+            n = np.linalg.norm([qw, qx, qy, qz])
+            rot = gtsam.Rot3.Quaternion(qw / n, qx / n, qy / n, qz / n)
+            offsets[int(t[1])] = gtsam.Pose3(rot, np.array([x, y, z]))
+    # Every VERTEX line first: a landmark listed after an edge to it starts where its line says.
     for t in rows:
         if t[0] in ("VERTEX_XY", "VERTEX_TRACKXYZ"):
             key = gtsam.symbol("l", int(t[1]))
             if not initial.exists(key):
                 initial.insert(key, np.array([float(v) for v in t[2:]]))
-        elif t[0] in ("EDGE_SE2_XY", "EDGE_SE3_TRACKXYZ"):
+    for t in rows:
+        if t[0] in ("EDGE_SE2_XY", "EDGE_SE3_TRACKXYZ"):
             i, key = int(t[1]), gtsam.symbol("l", int(t[2]))
             if t[0] == "EDGE_SE2_XY":
                 d, z = 2, np.array([float(v) for v in t[3:5]])
