@@ -266,6 +266,20 @@ fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
     );
 }
 
+/// By default `optimize` damps as GTSAM does and so reaches GTSAM's minimum on MIT from the
+/// composed odometry (770.238983900, scripts/compare_gtsam.py, BENCHMARKS.md), where Nielsen's
+/// schedule is still at χ² ≈ 1.2e5 after 100 iterations.
+#[test]
+fn optimize_reaches_gtsams_minimum_on_mit_by_default() {
+    let out = run(&["optimize", "--g2o", &asset("data/slam/MIT.g2o"), "--json"]);
+    assert!(out.status.success() && out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let chi2 = v["final_chi2"].as_f64().unwrap();
+    assert!((chi2 / 770.2389839 - 1.0).abs() < 1e-6, "{v}");
+    let nielsen = run(&["optimize", "--g2o", &asset("data/slam/MIT.g2o"), "--lambda-schedule", "nielsen", "--json"]);
+    assert!(String::from_utf8_lossy(&nielsen.stderr).contains("no convergence after 100 iterations"));
+}
+
 /// Lines with tags the reader does not know are skipped, as g2o and GTSAM skip them, and named in
 /// one warning; a file saved with a byte-order mark reads as without.
 #[test]
