@@ -36,6 +36,11 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
     let explorable_at = |x: f64, y: f64| w.explorable[g.index(g.cell_of(x, y).unwrap()).unwrap()];
     assert!(explorable_at(2.0, 2.0) && explorable_at(10.0, 8.0), "all four rooms reachable through doors");
     assert!(!explorable_at(10.0, 1.9), "the table is not explorable");
+    // A start inside a wall (x = 5 m) is refused by name: a thick wall's top is flat, and the
+    // robot would explore it.
+    let inside = WorldSpec { start: [5.0, 5.0, 0.0], ..spec };
+    let e = World::build(&inside, &params.traversability, params.traversability.tau, files).unwrap_err().to_string();
+    assert!(e.contains("start (5, 5) is inside a wall: an occupied or unknown pixel of rooms.pgm"), "{e}");
 }
 
 #[test]

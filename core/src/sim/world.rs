@@ -418,6 +418,15 @@ impl World {
                 let image = fetch(&yaml.image)?;
                 let grid = crate::io::load_map(&yaml_bytes, file, &image, &yaml.image)?;
                 let g = grid.geometry;
+                // A thick wall's top is flat, hence traversable: refuse a start on one by name.
+                if let Some(i) = g.cell_of(spec.start[0], spec.start[1]).and_then(|c| g.index(c))
+                    && grid.data[i] != FREE
+                {
+                    return Err(WorldError::Invalid(format!(
+                        "start ({}, {}) is inside a wall: an occupied or unknown pixel of {}",
+                        spec.start[0], spec.start[1], yaml.image
+                    )));
+                }
                 Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() }
             }
         };
