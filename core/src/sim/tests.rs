@@ -27,6 +27,11 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
     // The benchmark world of BENCHMARKS.md (Mission) parses too.
     let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
     WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
+    // And the worlds of the known limits (README).
+    for name in ["doorway_07m.toml", "pit_ledge_16m.toml", "steep_dem.toml"] {
+        let path = format!("{}/../benches/worlds/limits/{name}", env!("CARGO_MANIFEST_DIR"));
+        WorldSpec::from_toml(&std::fs::read_to_string(path).unwrap(), name).unwrap();
+    }
     // The indoor world: walls are GT lethal, the start room is explorable, rooms connect by doors.
     let spec = WorldSpec::from_toml(&String::from_utf8(files("indoor_rooms.toml").unwrap()).unwrap(), "indoor").unwrap();
     let w = World::build(&spec, &params.traversability, params.traversability.tau, files).unwrap();
