@@ -510,7 +510,8 @@ impl Mission {
     pub(crate) fn plant_points(&mut self, points_m: impl IntoIterator<Item = Point3<f64>>) {
         self.points.clear();
         self.points.extend(points_m);
-        self.register_sensed_points();
+        let poses = self.body_poses();
+        self.register_sensed_points(poses);
     }
 
     /// Rebuilds the map from the keyframe clouds now, as a loop closure would (no-op without SLAM).
@@ -798,7 +799,8 @@ impl Mission {
 
     /// LiDAR sweep + depth-camera ground rays + footprint, registered with the estimate.
     fn sense_geometry(&mut self) {
-        let ((gp, gr), _) = self.body_poses();
+        let poses = self.body_poses();
+        let (gp, gr) = poses.0;
         self.points.clear();
         let sensor = gp + gr * Vector3::new(0.0, 0.0, self.mission.lidar.mount_height_m);
         scan(&self.world.field, &self.caster, sensor, &gr, &self.mission.lidar, &mut self.rng, &mut self.points);
@@ -810,15 +812,15 @@ impl Mission {
         });
         // The ground under the wheels (proprioceptive): the footprint, every 5 cm.
         footprint_points(&self.world.field, gp, &gr, self.mission.drive.body_half_m, 0.05, &mut self.points);
-        self.register_sensed_points();
+        self.register_sensed_points(poses);
         self.last_scan = (self.est, self.time_s);
         self.scans += 1;
     }
 
     /// Registers `self.points` (sensed now, true world frame) with the estimate into the map:
-    /// p_est = T_est · T_gt⁻¹ · p; with SLAM, kept in the keyframe's cloud too.
-    fn register_sensed_points(&mut self) {
-        let ((gp, gr), (ep, er)) = self.body_poses();
+    /// p_est = T_est · T_gt⁻¹ · p, with ([`Self::body_poses`]) the true and estimated body poses
+    /// now; with SLAM, kept in the keyframe's cloud too.
+    fn register_sensed_points(&mut self, ((gp, gr), (ep, er)): (BodyPose, BodyPose)) {
         let (gt_inv, gp_c) = (gr.inverse(), gp.coords);
         if let Some(fe) = self.slam.as_mut() {
             // Kept in the keyframe's cloud too, for re-registration.

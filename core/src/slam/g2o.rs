@@ -487,7 +487,14 @@ impl G2oFile {
                 None => None,
             })
             .collect();
-        G2oFile { vertices, ..self.clone() }
+        G2oFile {
+            vertices,
+            edges: self.edges.clone(),
+            fixed: self.fixed.clone(),
+            offsets: self.offsets.clone(),
+            is_3d: self.is_3d,
+            skipped: self.skipped.clone(),
+        }
     }
 }
 
