@@ -51,7 +51,7 @@ use crate::math;
 use crate::params::{Params, Strategy};
 use crate::path::GoalSetback;
 use crate::pose::{Pose2, wrap_pi};
-use crate::select::{DecisionInput, DropReason, GoalSelector, make_selector};
+use crate::select::{DecisionInput, DropReason, GoalSelector, SelectError, make_selector};
 use crate::slam::lie::so3_log;
 use crate::slam::{CovarianceTraces, Se3};
 use crate::traversability::{TraversabilityLayers, TraversabilityMap};
@@ -112,10 +112,12 @@ pub struct MissionParams {
     /// drive past a frontier goal into ground no sensor has seen. 0 with a ground-truth pose.
     /// Defaults 2 σ, at most 1 m.
     pub goal_setback: GoalSetback,
-    /// Footprint clearing before each decision, as robot costmaps do: the cells within the robot
-    /// radius plus one cell of the estimated pose are free in the grid the planner gets (the
-    /// robot stands on that ground), so registration speckle under the robot cannot block every
-    /// plan. Default true.
+    /// Footprint clearing, as robot costmaps do, when the planner finds the robot blocked (no
+    /// free cell of the inflated grid within its radius plus one cell): the decision is made
+    /// again with the cells within that distance of the estimated pose free (the robot stands on
+    /// that ground), so registration speckle under the robot cannot block every plan. Only
+    /// then: cleared on every decision, a lethal edge just ahead of the robot would be planned
+    /// through. Default true.
     pub clear_footprint: bool,
     /// Overrides the world's time limit, seconds.
     pub time_limit_s: Option<f64>,
@@ -370,6 +372,8 @@ pub struct Mission {
     goal_deadline_s: f64,
     next_replan_s: f64,
     last_reached: Option<[f64; 2]>,
+    /// The grid the last decision planned on ([`Self::planning_grid`]).
+    planning_grid: Option<OccupancyGrid>,
     last_scan: (Pose2, f64),
     last_camera_s: f64,
     next_metrics_s: f64,
@@ -457,6 +461,7 @@ impl Mission {
             goal_deadline_s: 0.0,
             next_replan_s: 0.0,
             last_reached: None,
+            planning_grid: None,
             last_scan: (start, 0.0),
             last_camera_s: f64::NEG_INFINITY,
             next_metrics_s: 0.0,
@@ -871,7 +876,16 @@ impl Mission {
     /// still a reachable candidate. Returns `Some(NoFrontier)` (or `Some(Trapped)`, once the
     /// recoveries are spent) at the end of the mission.
     fn decide(&mut self, keep_current: bool) -> Option<EndReason> {
-        let grid = self.decision_grid();
+        let mut grid = self.occupancy();
+        let end = self.decide_on(&mut grid, keep_current);
+        self.planning_grid = Some(grid);
+        end
+    }
+
+    /// [`Self::decide`] on `grid`, the robot's map (its footprint cleared here if the robot is
+    /// blocked in it).
+    fn decide_on(&mut self, grid: &mut OccupancyGrid, keep_current: bool) -> Option<EndReason> {
+        let mut cleared = false;
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }
@@ -886,7 +900,7 @@ impl Mission {
         for _attempt in 0..4 {
             let t0 = self.clock.as_mut().map(|c| c());
             let input = DecisionInput {
-                grid: &grid,
+                grid,
                 landmarks: &voxels,
                 robot: self.est,
                 boundary: Some(&self.world.boundary),
@@ -902,6 +916,12 @@ impl Mission {
             self.decisions += 1;
             let decision = match result {
                 Ok(d) => d,
+                // Blocked in its own map (speckle under the robot): plan again on its footprint.
+                Err(SelectError::RobotBlocked { .. }) if self.mission.clear_footprint && !cleared => {
+                    self.clear_footprint(grid);
+                    cleared = true;
+                    continue;
+                }
                 Err(_) => {
                     // Typically the robot's cell is not free in its own map yet: look around.
                     self.planning_errors += 1;
@@ -936,7 +956,7 @@ impl Mission {
                         .filter(|c| math::hypot(c.x_m - goal.x_m, c.y_m - goal.y_m) <= r);
                     if let Some(c) = same {
                         self.failed_decisions = 0;
-                        self.follower = PathFollower::new(self.set_back(&c.path_m, &grid));
+                        self.follower = PathFollower::new(self.set_back(&c.path_m, grid));
                         self.next_replan_s = self.time_s + self.mission.replan_period_s;
                         self.last_decision = Some(decision);
                         return None;
@@ -944,8 +964,9 @@ impl Mission {
                 }
             }
             let Some(chosen) = decision.chosen else {
+                let start = decision.robot_cell;
                 self.last_decision = Some(decision);
-                if !self.trapped(&grid) {
+                if !self.trapped(grid, start) {
                     return Some(EndReason::NoFrontier);
                 }
                 if self.trap_recoveries >= u64::from(self.mission.trap_recoveries) {
@@ -967,7 +988,7 @@ impl Mission {
             let rho = c.rho_m.unwrap_or(0.0);
             // The goal stays the candidate (blacklisting and re-selection compare candidates);
             // only the path the robot drives is set back.
-            self.follower = PathFollower::new(self.set_back(&c.path_m, &grid));
+            self.follower = PathFollower::new(self.set_back(&c.path_m, grid));
             self.goal = Some(goal);
             self.goal_started_s = self.time_s;
             self.goal_deadline_s =
@@ -988,16 +1009,18 @@ impl Mission {
         None
     }
 
-    /// The grid a decision made now would plan on: [`Self::occupancy`] with the footprint
-    /// cleared ([`MissionParams::clear_footprint`]).
-    pub fn decision_grid(&mut self) -> OccupancyGrid {
-        let mut grid = self.occupancy();
-        if self.mission.clear_footprint {
-            // Radius + one cell: the robot's own cell is then never inflated.
-            let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
-            crate::grid::fill_disc(&mut grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
-        }
-        grid
+    /// The grid the last decision planned on: the robot's map, thresholded, with its footprint
+    /// cleared if the robot was blocked in it ([`MissionParams::clear_footprint`]); `None`
+    /// before the first decision.
+    pub fn planning_grid(&self) -> Option<&OccupancyGrid> {
+        self.planning_grid.as_ref()
+    }
+
+    /// Frees the cells of `grid` within the robot radius plus one cell of the estimated pose
+    /// ([`MissionParams::clear_footprint`]): the robot's own cell is then never inflated.
+    fn clear_footprint(&self, grid: &mut OccupancyGrid) {
+        let clear_m = self.params.robot.radius_m + grid.geometry.resolution_m;
+        crate::grid::fill_disc(grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
     }
 
     /// The path being driven: the chosen candidate's, set back ([`Self::goal_setback_m`]).
@@ -1012,11 +1035,11 @@ impl Mission {
     }
 
     /// Whether the robot is walled in by `grid` (inflated as the planner inflates it): every free
-    /// cell it reaches lies within [`MissionParams::trapped_radius_m`].
-    fn trapped(&self, grid: &OccupancyGrid) -> bool {
+    /// cell it reaches from `start` (the planner's start cell) lies within
+    /// [`MissionParams::trapped_radius_m`].
+    fn trapped(&self, grid: &OccupancyGrid, start: crate::grid::Cell) -> bool {
         let r = self.mission.trapped_radius_m;
-        let Some(robot) = grid.geometry.cell_of(self.est.x_m, self.est.y_m) else { return false };
-        r > 0.0 && crate::frontier::enclosed_within(&crate::grid::inflate_lethal(grid, self.params.robot.radius_m), robot, r)
+        r > 0.0 && crate::frontier::enclosed_within(&crate::grid::inflate_lethal(grid, self.params.robot.radius_m), start, r)
     }
 
     /// Forgets the map around the robot (in the keyframe clouds too) and the `NoPath` blacklist

@@ -225,7 +225,8 @@ fn check_setbacks(m: &mut Mission) -> (usize, usize) {
     let (mut paths, mut cut) = (0, 0);
     let mut last: Vec<[f64; 2]> = Vec::new();
     loop {
-        let (margin_m, grid) = (m.goal_setback_m(), m.decision_grid());
+        // A decision is made at the start of a step, so with the margin of the covariance now.
+        let margin_m = m.goal_setback_m();
         if matches!(m.step(), StepOutcome::Finished(_)) {
             return (paths, cut);
         }
@@ -233,10 +234,11 @@ fn check_setbacks(m: &mut Mission) -> (usize, usize) {
         if path.is_empty() || path == last.as_slice() {
             continue;
         }
+        let grid = m.planning_grid().expect("a path comes from a decision");
         paths += 1;
         last = path.to_vec();
         let end = *path.last().unwrap();
-        assert!(path.len() == 1 || crate::path::known_around(&grid, end, margin_m), "t {} s: end {end:?}, margin {margin_m} m", m.time_s);
+        assert!(path.len() == 1 || crate::path::known_around(grid, end, margin_m), "t {} s: end {end:?}, margin {margin_m} m", m.time_s);
         // The chosen candidate's path, or the kept goal's on a periodic replan.
         let whole = m.last_decision.as_ref().is_some_and(|d| d.candidates.iter().any(|c| c.path_m == path));
         assert!(whole || margin_m > 0.0, "t {} s: no margin, yet the path was cut", m.time_s);
@@ -434,4 +436,37 @@ fn lethal_cells_on_the_ring(m: &mut Mission, [x0, y0]: [f64; 2]) -> usize {
             r >= RING_RADII_M.0 - 0.02 && r <= RING_RADII_M.1 + 0.02 && grid.data[i] >= crate::grid::LETHAL_THRESHOLD
         })
         .count()
+}
+
+/// A robot next to a step it does not touch (0.3 m from the box at x = 2.5, facing it) is not
+/// blocked, so its map is planned on as it is: the box's lethal cells within its footprint
+/// clearing (radius + one cell) stay lethal, and every point of its path is free on the inflated
+/// map. Cleared on every decision, the path would start through the step's inflation.
+#[test]
+fn a_robot_not_blocked_plans_on_its_map_as_it_is() {
+    let params = Params::default();
+    let spec = WorldSpec::from_toml(&TINY.replace("start = [1.0, 1.0, 0.0]", "start = [2.05, 2.6, 0.0]"), "w.toml").unwrap();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
+    let mp = MissionParams { time_limit_s: Some(120.0), ..MissionParams::default() };
+    let mut m = Mission::new(world, params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
+    while m.driven_path_m().is_empty() {
+        assert!(matches!(m.step(), StepOutcome::Running));
+    }
+    let grid = m.planning_grid().unwrap().clone();
+    let g = grid.geometry;
+    let clear_m = params.robot.radius_m + g.resolution_m;
+    let lethal_near: Vec<usize> = (0..g.len())
+        .filter(|&i| {
+            let (x, y) = g.center_of(g.cell_at(i));
+            grid.data[i] == crate::grid::LETHAL && crate::math::hypot(x - 2.05, y - 2.6) <= clear_m
+        })
+        .collect();
+    assert!(!lethal_near.is_empty(), "the step's lethal cells within the clearing radius stay lethal");
+    let inflated = crate::grid::inflate_lethal(&grid, params.robot.radius_m);
+    for p in m.driven_path_m() {
+        let i = g.index(g.cell_of(p[0], p[1]).unwrap()).unwrap();
+        assert_eq!(inflated.data[i], crate::grid::FREE, "path point {p:?} at t {} s", m.time_s);
+    }
+    let s = m.run();
+    assert_eq!((s.gt_violations, s.safety_stops, s.planning_errors), (0, 0, 0), "{s:?}");
 }
