@@ -455,13 +455,11 @@ fn a_robot_not_blocked_plans_on_its_map_as_it_is() {
     let grid = m.planning_grid().unwrap().clone();
     let g = grid.geometry;
     let clear_m = params.robot.radius_m + g.resolution_m;
-    let lethal_near: Vec<usize> = (0..g.len())
-        .filter(|&i| {
-            let (x, y) = g.center_of(g.cell_at(i));
-            grid.data[i] == crate::grid::LETHAL && crate::math::hypot(x - 2.05, y - 2.6) <= clear_m
-        })
-        .collect();
-    assert!(!lethal_near.is_empty(), "the step's lethal cells within the clearing radius stay lethal");
+    let lethal_near = (0..g.len()).any(|i| {
+        let (x, y) = g.center_of(g.cell_at(i));
+        grid.data[i] == crate::grid::LETHAL && crate::math::hypot(x - 2.05, y - 2.6) <= clear_m
+    });
+    assert!(lethal_near, "the step's lethal cells within the clearing radius stay lethal");
     let inflated = crate::grid::inflate_lethal(&grid, params.robot.radius_m);
     for p in m.driven_path_m() {
         let i = g.index(g.cell_of(p[0], p[1]).unwrap()).unwrap();
