@@ -11,13 +11,27 @@
 //! word at a time. O(cells + R · r) for R runs and r the radius in cells. Unknown cells stay
 //! unknown unless a disc covers them (then lethal: they are within reach of an obstacle).
 
-use super::{LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
+use super::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid};
 
 /// Returns a copy of `grid` with every cell within `radius_m` of a lethal cell set to [`LETHAL`].
 pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
     let mut out = OccupancyGrid { geometry: grid.geometry, data: Vec::new() };
     inflate_lethal_into(grid, radius_m, &mut out);
     out
+}
+
+/// Frees again, in `inflated` (`raw` inflated), every cell of `traversed` (flat indices) that is
+/// free in `raw`: a robot's centre may return to cells it has driven on, whatever lethal cells
+/// appeared near them since. Cells lethal or unknown in `raw` itself stay as they are; indices
+/// outside the grid are skipped. O(traversed).
+pub fn free_traversed(raw: &OccupancyGrid, traversed: &[usize], inflated: &mut OccupancyGrid) {
+    for &i in traversed {
+        if let (Some(&v), Some(out)) = (raw.data.get(i), inflated.data.get_mut(i))
+            && CellClass::of(v) == CellClass::Free
+        {
+            *out = FREE;
+        }
+    }
 }
 
 /// [`inflate_lethal`] into `out`, reusing its storage (a planner that decides again and again
@@ -136,6 +150,23 @@ fn next_bit(bits: &[u64], from: usize, set: bool) -> usize {
 mod tests {
     use super::*;
     use crate::grid::{Cell, FREE, Grid, GridGeometry};
+
+    #[test]
+    fn traversed_cells_free_before_inflation_are_free_after_it() {
+        let g = GridGeometry::new(0.0, 0.0, 0.1, 11, 11);
+        let mut grid = Grid::filled(g, FREE);
+        grid.data[5 * 11 + 5] = LETHAL;
+        grid.data[5 * 11 + 8] = crate::grid::UNKNOWN;
+        let mut inflated = inflate_lethal(&grid, 0.25);
+        assert_eq!(inflated.data[5 * 11 + 6], LETHAL);
+        // A trail over the lethal cell, a cell its inflation covers, an unknown cell and an index
+        // outside the grid.
+        free_traversed(&grid, &[5 * 11 + 5, 5 * 11 + 6, 5 * 11 + 8, 121], &mut inflated);
+        assert_eq!(inflated.data[5 * 11 + 5], LETHAL, "lethal before inflation: stays");
+        assert_eq!(inflated.data[5 * 11 + 6], FREE, "free before inflation: freed");
+        assert_eq!(inflated.data[5 * 11 + 8], crate::grid::UNKNOWN, "unknown: stays unknown");
+        assert_eq!(inflated.data[5 * 11 + 4], LETHAL, "off the trail: unchanged");
+    }
 
     #[test]
     fn single_obstacle_inflates_to_a_disc() {

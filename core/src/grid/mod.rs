@@ -5,7 +5,7 @@ mod inflate;
 mod occupancy;
 
 pub use geometry::{Cell, GridGeometry};
-pub use inflate::{inflate_lethal, inflate_lethal_into};
+pub use inflate::{free_traversed, inflate_lethal, inflate_lethal_into};
 pub use occupancy::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid, UNKNOWN, cells_in_disc, fill_disc};
 
 use serde::{Deserialize, Serialize};

@@ -1,7 +1,8 @@
 //! The planning pipeline shared by every selector (notes §3–5, §7: the baselines use the same
 //! traversability map, frontiers, clusters, blacklist and planner as FIT-SLAM).
 //!
-//! 1. [`prepare`]: inflate the thresholded grid by the robot radius; find the robot's cell
+//! 1. [`prepare`]: inflate the thresholded grid by the robot radius (the cells the robot has
+//!    driven on that are free before inflation stay free: `DecisionInput::traversed`); find the robot's cell
 //!    (error if the pose is non-finite or outside the map); if that cell is not free on the
 //!    inflated grid, snap to the nearest free cell within `radius_m` + one cell (centre to centre,
 //!    ties by flat index) and record it, else error.
@@ -23,7 +24,7 @@
 use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
 use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
-use crate::grid::{Cell, CellClass, OccupancyGrid, inflate_lethal_into};
+use crate::grid::{Cell, CellClass, OccupancyGrid, free_traversed, inflate_lethal_into};
 use crate::params::{Params, Strategy, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
@@ -66,6 +67,9 @@ pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers
     if input.grid.data.len() != g.len() {
         return Err(SelectError::GridSizeMismatch { data_len: input.grid.data.len(), cells: g.len() });
     }
+    if let Some(&index) = input.traversed.iter().find(|&&i| i >= g.len()) {
+        return Err(SelectError::TraversedOutsideGrid { index, cells: g.len() });
+    }
     if !input.robot.is_finite() {
         return Err(SelectError::RobotPoseNotFinite);
     }
@@ -76,6 +80,7 @@ pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers
         g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
     let mut inflated = OccupancyGrid { geometry: g, data: std::mem::take(&mut buffers.inflated) };
     inflate_lethal_into(input.grid, params.robot.radius_m, &mut inflated);
+    free_traversed(input.grid, input.traversed, &mut inflated);
     let free = |c: Cell| g.index(c).is_some_and(|i| CellClass::of(inflated.data[i]) == CellClass::Free);
     if free(requested) {
         return Ok(Prepared { inflated, robot_cell: requested, requested_robot_cell: requested, start_snapped: false });

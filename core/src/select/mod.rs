@@ -66,12 +66,16 @@ pub struct DecisionInput<'a> {
     /// Height of the (flat) ground in the map frame, metres; cameras sit `camera_height_m` above
     /// it. Default 0.
     pub ground_z_m: f64,
+    /// Cells (flat indices into `grid`) the robot's centre has driven on: each one free in `grid`
+    /// stays free after inflation ([`crate::grid::free_traversed`]), so the robot can go back the
+    /// way it came. Default empty.
+    pub traversed: &'a [usize],
 }
 
 impl<'a> DecisionInput<'a> {
     /// An input with no boundary and the ground at z = 0.
     pub fn new(grid: &'a OccupancyGrid, landmarks: &'a LandmarkVoxels, robot: Pose2, blacklist: &'a Blacklist) -> Self {
-        Self { grid, landmarks, robot, boundary: None, blacklist, ground_z_m: 0.0 }
+        Self { grid, landmarks, robot, boundary: None, blacklist, ground_z_m: 0.0, traversed: &[] }
     }
 
     /// The same input with an exploration boundary.
@@ -89,6 +93,8 @@ pub enum SelectError {
     InvalidParams(String),
     #[error("grid has {data_len} values but its geometry has {cells} cells")]
     GridSizeMismatch { data_len: usize, cells: usize },
+    #[error("traversed cell {index} is outside the grid's {cells} cells")]
+    TraversedOutsideGrid { index: usize, cells: usize },
     #[error("robot pose is not finite")]
     RobotPoseNotFinite,
     #[error("robot at ({x_m}, {y_m}) m is outside the map")]

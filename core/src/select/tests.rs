@@ -309,3 +309,47 @@ fn a_selector_reusing_its_buffers_decides_as_a_fresh_one() {
         }
     }
 }
+
+#[test]
+fn a_robot_goes_back_through_a_doorway_it_drove_through() {
+    // 4 m × 2 m at 0.1 m: a wall on column 20 with a 0.3 m doorway (rows 9–11), the room on
+    // the left, free ground to column 30 on the right and unknown beyond (the frontier).
+    let geometry = GridGeometry::new(0.0, 0.0, 0.1, 40, 20);
+    let mut grid = Grid::filled(geometry, FREE);
+    for row in 0..20 {
+        for col in 31..40 {
+            grid.data[row * 40 + col] = UNKNOWN;
+        }
+        if !(9..=11).contains(&row) {
+            grid.data[row * 40 + 20] = LETHAL;
+        }
+    }
+    let (lv, bl, p) = (LandmarkVoxels::empty(0.25), Blacklist::new(0.5), params());
+    let robot = Pose2::new(1.05, 1.05, 0.0);
+    // Inflated by 0.25 m the doorway is shut: no frontier reachable.
+    let d = Greedy::default().select(&DecisionInput::new(&grid, &lv, robot, &bl), &p).unwrap();
+    assert_eq!(d.chosen, None);
+    // The robot came in along row 10: its trail keeps the doorway's cells open.
+    let trail: Vec<usize> = (10..=30).map(|col| 10 * 40 + col).collect();
+    let input = DecisionInput { traversed: &trail, ..DecisionInput::new(&grid, &lv, robot, &bl) };
+    let d = Greedy::default().select(&input, &p).unwrap();
+    let c = &d.candidates[d.chosen.expect("a frontier beyond the doorway")];
+    assert!(c.x_m > 3.0);
+    // Every cell the path's polyline crosses (sampled every 1 cm) is free after inflation or a
+    // trail cell free before it, and the path goes through the doorway.
+    let inflated = crate::grid::inflate_lethal(&grid, p.robot.radius_m);
+    let mut crossed = Vec::new();
+    for w in c.path_m.windows(2) {
+        let n = (((w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])) / 0.01).ceil().max(1.0) as usize;
+        crossed.extend((0..=n).map(|k| {
+            let t = k as f64 / n as f64;
+            geometry.index(geometry.cell_of(w[0][0] + t * (w[1][0] - w[0][0]), w[0][1] + t * (w[1][1] - w[0][1])).unwrap()).unwrap()
+        }));
+    }
+    assert!(crossed.iter().all(|&i| inflated.data[i] == FREE || (trail.contains(&i) && grid.data[i] == FREE)));
+    assert!(crossed.contains(&(10 * 40 + 20)), "through the doorway");
+    // A trail cell outside the grid is an error.
+    let bad = [800];
+    let input = DecisionInput { traversed: &bad, ..DecisionInput::new(&grid, &lv, robot, &bl) };
+    assert_eq!(Greedy::default().select(&input, &p).unwrap_err(), SelectError::TraversedOutsideGrid { index: 800, cells: 800 });
+}

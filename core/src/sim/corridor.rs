@@ -2,8 +2,10 @@
 //! obstacle on the way).
 //!
 //! The path is sampled every cell length along each segment. A sample within the robot radius r
-//! of the robot is skipped (the robot's own footprint); a sample outside the grid blocks; and a
-//! sample is blocked by a lethal cell (score < τ, not NaN) whose centre lies within r of it. The
+//! of the robot is skipped (the robot's own footprint); a sample outside the grid blocks; a
+//! sample on a cell of the robot's trail (a cell its centre has driven on) is blocked only if
+//! that cell itself is lethal; and any other sample is blocked by a lethal cell (score < τ, not
+//! NaN) whose centre lies within r of it. The
 //! cells are looked at in the sample's (2⌈r/res⌉ + 1)² square, row by row, and the first lethal
 //! one within r answers.
 //!
@@ -25,8 +27,10 @@ pub struct CorridorCheck {
 impl CorridorCheck {
     /// Whether the polyline `ahead` (world metres) is blocked for a robot of radius `radius_m` at
     /// `robot_m`. `score(i)` gives cell `i`'s traversability score (NaN when unknown); a score
-    /// below `tau` is lethal. Only the cells in the squares of the samples up to the first
-    /// blocked one are asked for, and a cell that is not lethal only once per call.
+    /// below `tau` is lethal. `on_trail[i]` says whether the robot's centre has driven on cell
+    /// `i` (empty or short: no cell). Only the cells in the squares of the samples up to the
+    /// first blocked one are asked for, and a cell that is not lethal only once per call.
+    #[allow(clippy::too_many_arguments)]
     pub fn blocked(
         &mut self,
         g: &GridGeometry,
@@ -34,6 +38,7 @@ impl CorridorCheck {
         robot_m: [f64; 2],
         radius_m: f64,
         tau: f32,
+        on_trail: &[bool],
         mut score: impl FnMut(usize) -> f32,
     ) -> bool {
         let rc = (radius_m / g.resolution_m).ceil() as i32;
@@ -58,6 +63,15 @@ impl CorridorCheck {
                     continue;
                 }
                 let Some(c) = g.cell_of(x, y) else { return true };
+                if let Some(i) = g.index(c).filter(|&i| on_trail.get(i) == Some(&true)) {
+                    if self.marks[i] != self.pass {
+                        if score(i) < tau {
+                            return true;
+                        }
+                        self.marks[i] = self.pass;
+                    }
+                    continue;
+                }
                 for dr in -rc..=rc {
                     for dc in -rc..=rc {
                         let cell = Cell::new(c.col + dc, c.row + dr);
@@ -89,7 +103,15 @@ mod tests {
     use proptest::prelude::*;
 
     /// The definition, read whole: every sample against every cell within r.
-    fn blocked_by_definition(g: &GridGeometry, path: &[[f64; 2]], robot: [f64; 2], r: f64, tau: f32, scores: &[f32]) -> bool {
+    fn blocked_by_definition(
+        g: &GridGeometry,
+        path: &[[f64; 2]],
+        robot: [f64; 2],
+        r: f64,
+        tau: f32,
+        trail: &[bool],
+        scores: &[f32],
+    ) -> bool {
         for w in path.windows(2) {
             let (a, b) = (w[0], w[1]);
             let n = (math::hypot(b[0] - a[0], b[1] - a[1]) / g.resolution_m).ceil().max(1.0) as usize;
@@ -99,8 +121,13 @@ mod tests {
                 if math::hypot(x - robot[0], y - robot[1]) < r {
                     continue;
                 }
-                if g.cell_of(x, y).is_none() {
-                    return true;
+                let Some(c) = g.cell_of(x, y) else { return true };
+                let own = g.index(c).unwrap();
+                if trail[own] {
+                    if scores[own] < tau {
+                        return true;
+                    }
+                    continue;
                 }
                 let lethal_within = (0..g.len()).any(|i| {
                     let (cx, cy) = g.center_of(g.cell_at(i));
@@ -127,7 +154,7 @@ mod tests {
         let path = [[-0.5, 0.05], [0.75, 0.05]];
         let mut check = CorridorCheck::default();
         let mut asked = 0;
-        let blocked = check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, |i| {
+        let blocked = check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &[], |i| {
             asked += 1;
             scores[i]
         });
@@ -137,12 +164,33 @@ mod tests {
         // columns 4–19 (the grid's last) × rows 7–13.
         assert_eq!(asked, 16 * 7);
         lethal(&mut scores, 0.25, 0.15); // 0.1 m off the path, ahead
-        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, |i| scores[i]));
+        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &[], |i| scores[i]));
         // The robot past it, at the path's end: what is behind it no longer matters.
-        assert!(!check.blocked(&g, [[0.7, 0.05], [0.75, 0.05]], [0.7, 0.05], 0.25, 0.5, |i| scores[i]));
+        assert!(!check.blocked(&g, [[0.7, 0.05], [0.75, 0.05]], [0.7, 0.05], 0.25, 0.5, &[], |i| scores[i]));
         // Leaving the grid blocks; an empty path does not.
-        assert!(check.blocked(&g, [[0.5, 0.5], [1.5, 0.5]], [0.5, 0.5], 0.25, 0.5, |_| 1.0));
-        assert!(!check.blocked(&g, [], [0.0, 0.0], 0.25, 0.5, |_| 0.0));
+        assert!(check.blocked(&g, [[0.5, 0.5], [1.5, 0.5]], [0.5, 0.5], 0.25, 0.5, &[], |_| 1.0));
+        assert!(!check.blocked(&g, [], [0.0, 0.0], 0.25, 0.5, &[], |_| 0.0));
+    }
+
+    #[test]
+    fn on_its_trail_the_robot_is_blocked_only_by_the_trail_cell_itself() {
+        let g = geometry();
+        let mut scores = vec![1.0f32; g.len()];
+        let idx = |x: f64, y: f64| g.index(g.cell_of(x, y).unwrap()).unwrap();
+        // A doorway jamb 0.15 m beside the path y = 0.05, ahead of the robot.
+        scores[idx(0.25, 0.2)] = 0.0;
+        let path = [[-0.5, 0.05], [0.75, 0.05]];
+        let mut check = CorridorCheck::default();
+        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &[], |i| scores[i]));
+        // The robot drove along y = 0.05 before: the jamb no longer blocks...
+        let mut trail = vec![false; g.len()];
+        for k in 0..13 {
+            trail[idx(-0.45 + 0.1 * k as f64, 0.05)] = true;
+        }
+        assert!(!check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &trail, |i| scores[i]));
+        // ...but a trail cell its map now holds lethal does.
+        scores[idx(0.35, 0.05)] = 0.2;
+        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &trail, |i| scores[i]));
     }
 
     proptest! {
@@ -154,6 +202,7 @@ mod tests {
             path in prop::collection::vec((-1.2f64..1.2, -1.2f64..1.2), 1..6),
             robot in (-1.0f64..1.0, -1.0f64..1.0),
             r in 0.05f64..0.4,
+            trail_cells in prop::collection::vec(0usize..400, 0..60),
         ) {
             let g = geometry();
             let mut scores = vec![0.9f32; g.len()];
@@ -161,13 +210,15 @@ mod tests {
             for &i in &lethal { scores[i] = 0.1; }
             let path: Vec<[f64; 2]> = path.into_iter().map(|(x, y)| [x, y]).collect();
             let robot = [robot.0, robot.1];
+            let mut trail = vec![false; g.len()];
+            for &i in &trail_cells { trail[i] = true; }
             let mut check = CorridorCheck::default();
             let mut asked = vec![0u32; g.len()];
-            let got = check.blocked(&g, path.iter().copied(), robot, r, 0.5, |i| { asked[i] += 1; scores[i] });
-            prop_assert_eq!(got, blocked_by_definition(&g, &path, robot, r, 0.5, &scores));
+            let got = check.blocked(&g, path.iter().copied(), robot, r, 0.5, &trail, |i| { asked[i] += 1; scores[i] });
+            prop_assert_eq!(got, blocked_by_definition(&g, &path, robot, r, 0.5, &trail, &scores));
             prop_assert!(asked.iter().zip(&scores).all(|(&n, &s)| n <= 1 || s < 0.5), "only lethal cells are asked twice");
             // A second call on the same marks answers the same.
-            prop_assert_eq!(check.blocked(&g, path.iter().copied(), robot, r, 0.5, |i| scores[i]), got);
+            prop_assert_eq!(check.blocked(&g, path.iter().copied(), robot, r, 0.5, &trail, |i| scores[i]), got);
         }
     }
 }

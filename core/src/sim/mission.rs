@@ -12,7 +12,10 @@
 //! is kept while it is still a reachable frontier candidate). Candidates the selector finds
 //! unreachable are blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted
 //! `Reselected`. The path the robot drives ends short of unknown ground by its position
-//! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A robot its map walls
+//! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A decision that finds
+//! no goal is made again with the cells the robot's centre has driven on open to the planner
+//! (and, for that path, to the path check) while its map holds them free (`reuse_trail`), so
+//! that lethal cells mapped later beside a doorway it came through cannot shut it in. A robot its map walls
 //! in ([`crate::frontier::enclosed_within`]) with no candidate left forgets its map around itself
 //! and turns a full circle, at most `trap_recoveries` times. The mission ends when no candidate
 //! is left (`Decision::chosen == None`; `Trapped` rather than `NoFrontier` if the map still walls
@@ -119,6 +122,15 @@ pub struct MissionParams {
     /// then: cleared on every decision, a lethal edge just ahead of the robot would be planned
     /// through. Default true.
     pub clear_footprint: bool,
+    /// The robot may go back the way it came: when a decision finds no goal, it is made again
+    /// with every cell the estimated centre has driven on, while free in the thresholded map,
+    /// free in the planner's inflated grid (and in the trap check), and the path check then
+    /// ignores lethal cells beside such cells for that path. The robot was there, so the
+    /// inflation of lethal cells mapped since (a doorway's jambs, seen better from inside the
+    /// room) must not shut it in; cells its map holds lethal themselves stay closed. Only then:
+    /// open at every decision, the trail would lead paths along edges the robot once stopped
+    /// at (measured on the pit world, session 22). Default true.
+    pub reuse_trail: bool,
     /// Overrides the world's time limit, seconds.
     pub time_limit_s: Option<f64>,
     /// Decisions in a row without a plan (each followed by 2 s of looking around) before the
@@ -164,6 +176,7 @@ impl Default for MissionParams {
             safety_stop: true,
             goal_setback: GoalSetback::default(),
             clear_footprint: true,
+            reuse_trail: true,
             time_limit_s: None,
             max_failed_decisions: 30,
             trapped_radius_m: 2.0,
@@ -362,6 +375,13 @@ pub struct Mission {
     /// each decision ([`Self::layers`] brings them all up to date).
     layers: TraversabilityLayers,
     corridor: CorridorCheck,
+    /// Cells (flat indices) the estimated centre has driven on, in the order first reached
+    /// ([`MissionParams::reuse_trail`]).
+    trail: Vec<usize>,
+    /// Membership of `trail`, per cell.
+    on_trail: Vec<bool>,
+    /// Whether the path being driven was planned with the trail open.
+    path_on_trail: bool,
     /// Landmark map: id → (sum of world positions, count).
     landmark_sums: BTreeMap<u64, (Vector3<f64>, u32)>,
     pub blacklist: Blacklist,
@@ -451,6 +471,9 @@ impl Mission {
             tmap,
             layers,
             corridor: CorridorCheck::default(),
+            trail: Vec::new(),
+            on_trail: vec![false; g.len()],
+            path_on_trail: false,
             landmark_sums: BTreeMap::new(),
             blacklist,
             // A full turn in place first: the LiDAR is blind within ~1.1 m, the camera sees it.
@@ -613,7 +636,9 @@ impl Mission {
         self.gt = next;
         self.distance_m += ds.abs();
         self.time_s = ((self.time_s + dt) * 1e6).round() / 1e6;
+        let before = self.est;
         self.localise(ds, dth, dt);
+        self.mark_trail(before);
 
         // Phase transitions.
         match self.phase {
@@ -866,7 +891,8 @@ impl Mission {
         let (tmap, layers, params) = (&mut self.tmap, &mut self.layers, &self.params);
         let ahead = self.follower.remaining(self.est);
         let robot_m = [self.est.x_m, self.est.y_m];
-        self.corridor.blocked(&g, ahead, robot_m, params.robot.radius_m, params.traversability.tau as f32, |i| {
+        let on_trail: &[bool] = if self.path_on_trail { &self.on_trail } else { &[] };
+        self.corridor.blocked(&g, ahead, robot_m, params.robot.radius_m, params.traversability.tau as f32, on_trail, |i| {
             tmap.refresh_cells([i], &params.traversability, layers);
             layers.score.data[i]
         })
@@ -885,7 +911,7 @@ impl Mission {
     /// [`Self::decide`] on `grid`, the robot's map (its footprint cleared here if the robot is
     /// blocked in it).
     fn decide_on(&mut self, grid: &mut OccupancyGrid, keep_current: bool) -> Option<EndReason> {
-        let mut cleared = false;
+        let (mut cleared, mut use_trail) = (false, false);
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }
@@ -906,6 +932,7 @@ impl Mission {
                 boundary: Some(&self.world.boundary),
                 blacklist: &self.blacklist,
                 ground_z_m,
+                traversed: if use_trail { &self.trail } else { &[] },
             };
             let result = self.selector.select(&input, &self.params);
             if let (Some(t0), Some(c)) = (t0, self.clock.as_mut()) {
@@ -957,6 +984,7 @@ impl Mission {
                     if let Some(c) = same {
                         self.failed_decisions = 0;
                         self.follower = PathFollower::new(self.set_back(&c.path_m, grid));
+                        self.path_on_trail = use_trail;
                         self.next_replan_s = self.time_s + self.mission.replan_period_s;
                         self.last_decision = Some(decision);
                         return None;
@@ -964,6 +992,11 @@ impl Mission {
                 }
             }
             let Some(chosen) = decision.chosen else {
+                // No goal: plan again with the cells the robot drove on open.
+                if self.mission.reuse_trail && !use_trail && !self.trail.is_empty() {
+                    use_trail = true;
+                    continue;
+                }
                 let start = decision.robot_cell;
                 self.last_decision = Some(decision);
                 if !self.trapped(grid, start) {
@@ -989,6 +1022,7 @@ impl Mission {
             // The goal stays the candidate (blacklisting and re-selection compare candidates);
             // only the path the robot drives is set back.
             self.follower = PathFollower::new(self.set_back(&c.path_m, grid));
+            self.path_on_trail = use_trail;
             self.goal = Some(goal);
             self.goal_started_s = self.time_s;
             self.goal_deadline_s =
@@ -1023,6 +1057,12 @@ impl Mission {
         crate::grid::fill_disc(grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
     }
 
+    /// The cells (flat indices into the map) the estimated centre has driven on, in the order
+    /// first reached ([`MissionParams::reuse_trail`]; empty when it is off).
+    pub fn trail(&self) -> &[usize] {
+        &self.trail
+    }
+
     /// The path being driven: the chosen candidate's, set back ([`Self::goal_setback_m`]).
     pub fn driven_path_m(&self) -> &[[f64; 2]] {
         &self.follower.path_m
@@ -1039,7 +1079,47 @@ impl Mission {
     /// [`MissionParams::trapped_radius_m`].
     fn trapped(&self, grid: &OccupancyGrid, start: crate::grid::Cell) -> bool {
         let r = self.mission.trapped_radius_m;
-        r > 0.0 && crate::frontier::enclosed_within(&crate::grid::inflate_lethal(grid, self.params.robot.radius_m), start, r)
+        if r <= 0.0 {
+            return false;
+        }
+        let mut inflated = crate::grid::inflate_lethal(grid, self.params.robot.radius_m);
+        crate::grid::free_traversed(grid, &self.trail, &mut inflated);
+        crate::frontier::enclosed_within(&inflated, start, r)
+    }
+
+    /// Adds to the trail ([`MissionParams::reuse_trail`]) the cells of the segment from the
+    /// previous tick's estimated centre to this one's, sampled every half cell, so that a small
+    /// correction of the estimate leaves no gap, and 4-connected (a diagonal step adds the cell
+    /// beside it, as the frontier flood is 4-connected); after a jump longer than
+    /// `MAX_TRAIL_STEP_M` (a loop closure) only the new cell.
+    fn mark_trail(&mut self, from: Pose2) {
+        const MAX_TRAIL_STEP_M: f64 = 0.25;
+        if !self.mission.reuse_trail {
+            return;
+        }
+        let g = self.layers.geometry();
+        let (dx, dy) = (self.est.x_m - from.x_m, self.est.y_m - from.y_m);
+        let d = math::hypot(dx, dy);
+        let n = if d <= MAX_TRAIL_STEP_M { (2.0 * d / g.resolution_m).ceil() as usize } else { 0 };
+        let mut last = if n == 0 { None } else { g.cell_of(from.x_m, from.y_m) };
+        for k in 0..=n {
+            let t = if n == 0 { 1.0 } else { k as f64 / n as f64 };
+            let Some(c) = g.cell_of(from.x_m + t * dx, from.y_m + t * dy) else { continue };
+            if let Some(l) = last.filter(|l| (l.col - c.col).abs() == 1 && (l.row - c.row).abs() == 1) {
+                self.add_to_trail(crate::grid::Cell::new(c.col, l.row));
+            }
+            self.add_to_trail(c);
+            last = Some(c);
+        }
+    }
+
+    fn add_to_trail(&mut self, c: crate::grid::Cell) {
+        if let Some(i) = self.layers.geometry().index(c) {
+            if !self.on_trail[i] {
+                self.on_trail[i] = true;
+                self.trail.push(i);
+            }
+        }
     }
 
     /// Forgets the map around the robot (in the keyframe clouds too) and the `NoPath` blacklist

@@ -28,7 +28,7 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
     let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
     WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
     // And the worlds of the known limits (README).
-    for name in ["doorway_07m.toml", "pit_ledge_16m.toml", "steep_dem.toml"] {
+    for name in ["doorway_07m.toml", "pit_ledge_16m.toml", "steep_dem.toml", "corridor_doors_16m.toml"] {
         let path = format!("{}/../benches/worlds/limits/{name}", env!("CARGO_MANIFEST_DIR"));
         WorldSpec::from_toml(&std::fs::read_to_string(path).unwrap(), name).unwrap();
     }
@@ -467,4 +467,74 @@ fn a_robot_not_blocked_plans_on_its_map_as_it_is() {
     }
     let s = m.run();
     assert_eq!((s.gt_violations, s.safety_stops, s.planning_errors), (0, 0, 0), "{s:?}");
+}
+
+/// A tiny-world greedy mission (ground truth, seed 1, 300 s at most) that drives until it is
+/// 1.5 m from its start, then finds itself inside a planted ring of points 0.8 m around it, open
+/// only where its trail crosses the ring (0.22 m around each trail cell: too narrow to pass once
+/// inflated). The summary and the trail's length when the ring was planted.
+fn run_in_a_ring_open_on_the_trail(reuse_trail: bool) -> (super::Summary, usize) {
+    let params = Params::default();
+    let mp = MissionParams { reuse_trail, trap_recoveries: 0, time_limit_s: Some(300.0), ..MissionParams::default() };
+    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
+    let (xs, ys) = (m.gt.x_m, m.gt.y_m);
+    while (m.gt.x_m - xs).hypot(m.gt.y_m - ys) < 1.5 {
+        assert!(matches!(m.step(), StepOutcome::Running));
+    }
+    let (x0, y0) = (m.gt.x_m, m.gt.y_m);
+    let g = m.layers().geometry();
+    let trail: Vec<(f64, f64)> = m.trail().iter().map(|&i| g.center_of(g.cell_at(i))).collect();
+    let z = m.world.field.height_at(x0, y0).unwrap() + 0.4;
+    let pts: Vec<_> = (0..3000)
+        .map(|k| {
+            let (a, r) = (k as f64 * std::f64::consts::TAU / 1000.0, RING_RADII_M.0 + 0.02 * (k / 1000) as f64);
+            (x0 + r * a.cos(), y0 + r * a.sin())
+        })
+        .filter(|&(x, y)| trail.iter().all(|&(tx, ty)| (x - tx).hypot(y - ty) > 0.22))
+        .map(|(x, y)| nalgebra::Point3::new(x, y, z))
+        .collect();
+    assert!(pts.len() > 2000, "the trail crosses the ring in a few places only");
+    m.plant_points(pts);
+    (m.run(), trail.len())
+}
+
+#[test]
+fn a_robot_its_map_shuts_in_goes_back_out_along_its_trail() {
+    let (s, trail) = run_in_a_ring_open_on_the_trail(false);
+    assert_eq!(s.end_reason, Some(EndReason::Trapped), "{s:?}");
+    assert!(trail == 0);
+    let (s, trail) = run_in_a_ring_open_on_the_trail(true);
+    assert!(trail >= 30, "1.5 m of trail at 5 cm: {trail} cells");
+    assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
+    assert_eq!((s.gt_violations, s.safety_stops, s.trap_recoveries), (0, 0, 0), "{s:?}");
+    assert!(s.unexplored_pct < 10.0, "{s:?}");
+}
+
+#[test]
+fn the_trail_is_every_cell_the_robot_drove_on_4_connected() {
+    let mut m = tiny_mission(Strategy::Greedy, 2, true, 60.0);
+    let g = m.layers().geometry();
+    let start = g.index(g.cell_of(m.gt.x_m, m.gt.y_m).unwrap()).unwrap();
+    let mut driven = vec![start];
+    while matches!(m.step(), StepOutcome::Running) {
+        driven.push(g.index(g.cell_of(m.gt.x_m, m.gt.y_m).unwrap()).unwrap());
+    }
+    let trail: std::collections::HashSet<usize> = m.trail().iter().copied().collect();
+    assert_eq!(trail.len(), m.trail().len(), "no cell twice");
+    // With a ground-truth pose every tick's cell is on the trail (the start's once it moves).
+    assert!(driven[1..].iter().all(|i| trail.contains(i)));
+    // 4-connected: a flood over the trail's cells from its first reaches them all.
+    let first = m.trail()[0];
+    let (mut seen, mut stack) = (std::collections::HashSet::from([first]), vec![first]);
+    while let Some(i) = stack.pop() {
+        let c = g.cell_at(i);
+        for (dc, dr) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+            if let Some(j) = g.index(crate::grid::Cell::new(c.col + dc, c.row + dr)).filter(|j| trail.contains(j))
+                && seen.insert(j)
+            {
+                stack.push(j);
+            }
+        }
+    }
+    assert_eq!(seen.len(), trail.len());
 }
