@@ -983,8 +983,7 @@ impl Mission {
                         .filter(|c| math::hypot(c.x_m - goal.x_m, c.y_m - goal.y_m) <= r);
                     if let Some(c) = same {
                         self.failed_decisions = 0;
-                        self.follower = PathFollower::new(self.set_back(&c.path_m, grid));
-                        self.path_on_trail = use_trail;
+                        self.follow(&c.path_m, grid, use_trail);
                         self.next_replan_s = self.time_s + self.mission.replan_period_s;
                         self.last_decision = Some(decision);
                         return None;
@@ -1021,8 +1020,7 @@ impl Mission {
             let rho = c.rho_m.unwrap_or(0.0);
             // The goal stays the candidate (blacklisting and re-selection compare candidates);
             // only the path the robot drives is set back.
-            self.follower = PathFollower::new(self.set_back(&c.path_m, grid));
-            self.path_on_trail = use_trail;
+            self.follow(&c.path_m, grid, use_trail);
             self.goal = Some(goal);
             self.goal_started_s = self.time_s;
             self.goal_deadline_s =
@@ -1139,6 +1137,13 @@ impl Mission {
         let full_turn_s = std::f64::consts::TAU / self.mission.drive.max_turn_rate_radps;
         self.phase = Phase::Spinning(self.time_s + full_turn_s);
         self.next_replan_s = self.time_s + full_turn_s;
+    }
+
+    /// Drives `path_m`, set back ([`Self::set_back`]); `on_trail`: it was planned with the trail
+    /// open, so the path check lets it pass beside trail cells.
+    fn follow(&mut self, path_m: &[[f64; 2]], grid: &OccupancyGrid, on_trail: bool) {
+        self.follower = PathFollower::new(self.set_back(path_m, grid));
+        self.path_on_trail = on_trail;
     }
 
     /// `path_m` ended [`Self::goal_setback_m`] short of unknown ground.
