@@ -165,6 +165,19 @@ pub struct NodeConfig {
     /// (`fitslam_core::frontier::recovery_radius_m`), and the next clouds map that ground again.
     /// (An occupancy map comes from elsewhere and is not cleared here.) Default 2.
     pub trap_recoveries: u32,
+    /// Footprint clearing, as robot costmaps do: when the robot is blocked in its map (no free
+    /// cell of the inflated map within its radius plus one cell, as lethal speckle under it
+    /// makes), the decision is made again with the cells within that distance of it free. Only
+    /// then, so that an obstacle beside the robot is never planned through. As the simulator's
+    /// `clear_footprint`. Default true.
+    pub clear_footprint: bool,
+    /// The robot may go back the way it came: when a decision finds no goal, it is made again
+    /// with every cell the robot's base has driven on (its pose sampled every poll, kept in the
+    /// map frame and laid on each map as it comes), while free in the map, free after inflation
+    /// too. The robot was there, so lethal cells mapped since beside its track (a doorway's
+    /// jambs seen better from inside a room) must not shut it in; cells the map holds lethal
+    /// themselves stay closed. As the simulator's `reuse_trail`. Default true.
+    pub reuse_trail: bool,
     /// Stop after this long even if frontiers remain, seconds; none by default.
     pub max_mission_s: Option<f64>,
     /// How often the inputs are polled, seconds. Default 0.02.
@@ -207,6 +220,8 @@ impl Default for NodeConfig {
             done_after_empty_decisions: 2,
             trapped_radius_m: 2.0,
             trap_recoveries: 2,
+            clear_footprint: true,
+            reuse_trail: true,
             max_mission_s: None,
             poll_period_s: 0.02,
             domain_id: None,

@@ -15,6 +15,10 @@
 //! 4. a running goal is kept while it is still a frontier goal and still free; otherwise it is
 //!    cancelled and replaced.
 //!
+//! A decision that finds no goal is made again with the robot's trail (its positions since the
+//! start, map frame, laid on the latest map) free after inflation (`reuse_trail`, as the
+//! simulator's).
+//!
 //! Goals that end Aborted, Rejected, Canceled (by someone else) or time out are blacklisted
 //! (`Failed`); reached goals are blacklisted as `Reselected` (notes §3: a goal selected before
 //! and still a frontier goal now is not selected again). The mission ends after
@@ -30,9 +34,9 @@ use crate::convert::{self, ConvertError};
 use crate::msgs;
 use crate::tf::{TfBuffer, normalise_frame};
 use fitslam_core::frontier::{Blacklist, BlacklistReason, Boundary, enclosed_within, recovery_radius_m};
-use fitslam_core::grid::{CellClass, GridGeometry, inflate_lethal};
+use fitslam_core::grid::{CellClass, FREE, GridGeometry, WorldTrail, fill_disc, free_traversed, inflate_lethal};
 use fitslam_core::path::set_back;
-use fitslam_core::select::{Decision, DecisionInput, GoalSelector, make_selector};
+use fitslam_core::select::{Decision, DecisionInput, GoalSelector, SelectError, make_selector};
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2};
@@ -128,6 +132,8 @@ pub struct Stats {
     pub messages_late: u64,
     /// Cloud maps forgotten around a trapped robot ([`NodeConfig::trap_recoveries`]).
     pub trap_recoveries: u64,
+    /// Decisions made with the footprint cleared ([`NodeConfig::clear_footprint`]).
+    pub footprint_clearings: u64,
     /// Wall time of the last decision, milliseconds.
     pub last_decision_ms: f64,
 }
@@ -189,6 +195,8 @@ pub struct Explorer {
     topic_pose: Option<PoseSample>,
     boundary: Option<Boundary>,
     blacklist: Blacklist,
+    /// Where the base has driven, map frame ([`NodeConfig::reuse_trail`]).
+    trail: WorldTrail,
     goal: Option<ActiveGoal>,
     next_goal_id: u64,
     last_decision_s: Option<f64>,
@@ -220,6 +228,7 @@ impl Explorer {
             landmark_points: Vec::new(),
             topic_pose: None,
             boundary: None,
+            trail: WorldTrail::default(),
             goal: None,
             next_goal_id: 1,
             last_decision_s: None,
@@ -560,15 +569,18 @@ impl Explorer {
         z.filter(|z| z.is_finite()).unwrap_or(0.0)
     }
 
-    /// Whether every free cell the robot can reach on the latest inflated map lies within
-    /// `trapped_radius_m` of it ([`enclosed_within`]).
+    /// Whether every free cell the robot can reach on the latest inflated map (its trail open,
+    /// as the last decision had it) lies within `trapped_radius_m` of it ([`enclosed_within`]).
     fn trapped(&mut self, robot: Pose2) -> bool {
         let r = self.cfg.trapped_radius_m;
         if r <= 0.0 {
             return false;
         }
-        let Some(grid) = self.inflated() else { return false };
-        grid.geometry.cell_of(robot.x_m, robot.y_m).is_some_and(|c| enclosed_within(grid, c, r))
+        let cells = self.trail_cells();
+        let Some(m) = self.map.as_ref() else { return false };
+        let mut grid = inflate_lethal(&m.grid, self.params.robot.radius_m);
+        free_traversed(&m.grid, &cells, &mut grid);
+        grid.geometry.cell_of(robot.x_m, robot.y_m).is_some_and(|c| enclosed_within(&grid, c, r))
     }
 
     /// With a cloud map and recoveries left ([`NodeConfig::trap_recoveries`]), forgets the map
@@ -672,6 +684,11 @@ impl Explorer {
                 self.refresh_cloud_map(now_s);
             }
         }
+        if self.cfg.reuse_trail
+            && let Ok(p) = self.robot_pose(now_s)
+        {
+            self.trail.push(p.x_m, p.y_m, 0.5 * self.params.grid.resolution_m);
+        }
         self.supervise_goal(now_s, &mut out);
         let due = self.replan_now || self.last_decision_s.is_none_or(|t| now_s - t >= self.cfg.replan_period_s);
         if due {
@@ -724,6 +741,76 @@ impl Explorer {
         }
     }
 
+    /// One decision on the latest map (`None` without one), `traversed` (cells of it) free after
+    /// inflation, made again with the robot's footprint free if it is blocked in the map
+    /// ([`NodeConfig::clear_footprint`]); its unreachable candidates blacklisted.
+    fn decide(&mut self, robot: Pose2, traversed: &[usize], now_s: f64) -> Option<Result<Decision, SelectError>> {
+        let map = self.map.as_ref()?;
+        let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);
+        input.ground_z_m = self.ground_z_m();
+        input.traversed = traversed;
+        if let Some(b) = &self.boundary {
+            input = input.with_boundary(b);
+        }
+        let t0 = std::time::Instant::now();
+        let mut result = self.selector.select(&input, &self.params);
+        // Blocked in its own map (speckle under the robot): decide again on its footprint.
+        let mut cleared = None;
+        if self.cfg.clear_footprint && matches!(result, Err(SelectError::RobotBlocked { .. })) {
+            let mut grid = map.grid.clone();
+            let radius_m = self.params.robot.radius_m + grid.geometry.resolution_m;
+            fill_disc(&mut grid, robot.x_m, robot.y_m, radius_m, FREE);
+            result = self.selector.select(&DecisionInput { grid: &grid, ..input }, &self.params);
+            cleared = Some(radius_m);
+        }
+        self.stats.last_decision_ms = t0.elapsed().as_secs_f64() * 1e3;
+        if let (Some(r), Ok(_)) = (cleared, &result) {
+            self.stats.footprint_clearings += 1;
+            self.info(now_s, format!("robot blocked in its map: decided with the cells within {r:.2} m of it free"));
+        }
+        if let Ok(decision) = &result {
+            self.stats.decisions += 1;
+            for [x, y] in decision.unreachable_m() {
+                self.blacklist.add(x, y, BlacklistReason::NoPath);
+            }
+        }
+        Some(result)
+    }
+
+    /// The best-ranked candidate of `decision` whose goal, set back along its path from unknown
+    /// ground by the pose's uncertainty, is on a free cell of the latest inflated grid: (its
+    /// frontier cell, the goal).
+    fn pick(&mut self, decision: &Decision, now_s: f64) -> Option<([f64; 2], Pose2)> {
+        let margin_m = self.cfg.goal_setback.margin_m(self.position_var_m2(), 0.0);
+        for i in decision.ranking() {
+            let c = &decision.candidates[i];
+            let mut goal = match (decision.chosen == Some(i), decision.goal) {
+                (true, Some(g)) => g,
+                _ => Pose2::new(c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0)),
+            };
+            if margin_m > 0.0
+                && let Some(map) = self.map.as_ref()
+                && let Some(&[x, y]) = set_back(&c.path_m, &map.grid, margin_m).last()
+            {
+                (goal.x_m, goal.y_m) = (x, y);
+            }
+            if goal.is_finite() && self.goal_is_free(goal.x_m, goal.y_m) {
+                return Some(([c.x_m, c.y_m], goal));
+            }
+            let text = format!("candidate at ({:.2}, {:.2}) is not free on the inflated map: skipped", goal.x_m, goal.y_m);
+            self.warn("candidate_lethal", now_s, text);
+        }
+        None
+    }
+
+    /// The trail's cells on the latest map ([`NodeConfig::reuse_trail`]; empty without a map).
+    fn trail_cells(&self) -> Vec<usize> {
+        match (&self.map, self.cfg.reuse_trail) {
+            (Some(m), true) => self.trail.cells(&m.grid.geometry),
+            _ => Vec::new(),
+        }
+    }
+
     fn plan(&mut self, now_s: f64, out: &mut Vec<Command>) {
         if self.map.is_none() {
             self.phase = Phase::WaitingForMap;
@@ -750,49 +837,23 @@ impl Explorer {
                 return self.warn("wait", now_s, text);
             }
         };
-        let Some(map) = self.map.as_ref() else { return };
-        let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);
-        input.ground_z_m = self.ground_z_m();
-        if let Some(b) = &self.boundary {
-            input = input.with_boundary(b);
-        }
-        let t0 = std::time::Instant::now();
-        let result = self.selector.select(&input, &self.params);
-        self.stats.last_decision_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let decision = match result {
-            Ok(d) => d,
-            Err(e) => {
+        let mut decision = match self.decide(robot, &[], now_s) {
+            None => return,
+            Some(Ok(d)) => d,
+            Some(Err(e)) => {
                 self.stats.decision_errors += 1;
                 self.phase = if self.goal.is_some() { Phase::Navigating } else { Phase::Planning };
                 return self.warn("decision", now_s, format!("no decision: {e}"));
             }
         };
-        self.stats.decisions += 1;
-        for [x, y] in decision.unreachable_m() {
-            self.blacklist.add(x, y, BlacklistReason::NoPath);
-        }
-        // The best-ranked candidate whose goal, set back along its path from unknown ground by
-        // the pose's uncertainty, is on a free cell of the latest inflated grid.
-        let margin_m = self.cfg.goal_setback.margin_m(self.position_var_m2(), 0.0);
-        let mut picked = None;
-        for i in decision.ranking() {
-            let c = &decision.candidates[i];
-            let mut goal = match (decision.chosen == Some(i), decision.goal) {
-                (true, Some(g)) => g,
-                _ => Pose2::new(c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0)),
-            };
-            if margin_m > 0.0
-                && let Some(map) = self.map.as_ref()
-                && let Some(&[x, y]) = set_back(&c.path_m, &map.grid, margin_m).last()
-            {
-                (goal.x_m, goal.y_m) = (x, y);
+        let mut picked = self.pick(&decision, now_s);
+        // No goal: decide again with the cells the robot drove on open.
+        if picked.is_none() && self.goal.is_none() && self.cfg.reuse_trail && !self.trail.is_empty() {
+            let cells = self.trail_cells();
+            if let Some(Ok(d)) = self.decide(robot, &cells, now_s) {
+                picked = self.pick(&d, now_s);
+                decision = d;
             }
-            if goal.is_finite() && self.goal_is_free(goal.x_m, goal.y_m) {
-                picked = Some(([c.x_m, c.y_m], goal));
-                break;
-            }
-            let text = format!("candidate at ({:.2}, {:.2}) is not free on the inflated map: skipped", goal.x_m, goal.y_m);
-            self.warn("candidate_lethal", now_s, text);
         }
         let radius = self.params.frontier.blacklist_radius_m;
         match (picked, self.goal) {

@@ -1086,38 +1086,20 @@ impl Mission {
     }
 
     /// Adds to the trail ([`MissionParams::reuse_trail`]) the cells of the segment from the
-    /// previous tick's estimated centre to this one's, sampled every half cell, so that a small
-    /// correction of the estimate leaves no gap, and 4-connected (a diagonal step adds the cell
-    /// beside it, as the frontier flood is 4-connected); after a jump longer than
-    /// `MAX_TRAIL_STEP_M` (a loop closure) only the new cell.
+    /// previous tick's estimated centre to this one's ([`crate::grid::segment_cells`]).
     fn mark_trail(&mut self, from: Pose2) {
-        const MAX_TRAIL_STEP_M: f64 = 0.25;
         if !self.mission.reuse_trail {
             return;
         }
         let g = self.layers.geometry();
-        let (dx, dy) = (self.est.x_m - from.x_m, self.est.y_m - from.y_m);
-        let d = math::hypot(dx, dy);
-        let n = if d <= MAX_TRAIL_STEP_M { (2.0 * d / g.resolution_m).ceil() as usize } else { 0 };
-        let mut last = if n == 0 { None } else { g.cell_of(from.x_m, from.y_m) };
-        for k in 0..=n {
-            let t = if n == 0 { 1.0 } else { k as f64 / n as f64 };
-            let Some(c) = g.cell_of(from.x_m + t * dx, from.y_m + t * dy) else { continue };
-            if let Some(l) = last.filter(|l| (l.col - c.col).abs() == 1 && (l.row - c.row).abs() == 1) {
-                self.add_to_trail(crate::grid::Cell::new(c.col, l.row));
-            }
-            self.add_to_trail(c);
-            last = Some(c);
-        }
-    }
-
-    fn add_to_trail(&mut self, c: crate::grid::Cell) {
-        if let Some(i) = self.layers.geometry().index(c) {
-            if !self.on_trail[i] {
+        crate::grid::segment_cells(&g, [from.x_m, from.y_m], [self.est.x_m, self.est.y_m], |c| {
+            if let Some(i) = g.index(c)
+                && !self.on_trail[i]
+            {
                 self.on_trail[i] = true;
                 self.trail.push(i);
             }
-        }
+        });
     }
 
     /// Forgets the map around the robot (in the keyframe clouds too) and the `NoPath` blacklist

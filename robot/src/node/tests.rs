@@ -5,7 +5,7 @@ use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
 use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_core::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
-use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN};
+use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN, fill_disc};
 use fitslam_core::path::known_around;
 
 fn header(stamp_s: f64, frame: &str) -> Header {
@@ -297,6 +297,90 @@ fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
     let (e, cmds) = trapped(NodeConfig { trapped_radius_m: 0.0, ..NodeConfig::default() });
     assert_eq!(cmds, vec![Command::MissionComplete]);
     assert!(e.is_done());
+}
+
+/// The corridor world (0.1 m cells) with a lethal blob of radius 0.2 m under the robot: no cell within
+/// its radius plus one cell is free after inflation. With footprint clearing a goal follows;
+/// without it every decision fails and says why.
+#[test]
+fn a_robot_blocked_by_speckle_under_it_decides_on_its_cleared_footprint() {
+    let run = |cfg: NodeConfig| {
+        let w = corridor_two_frontiers(true);
+        let mut grid = w.grid.clone();
+        fill_disc(&mut grid, w.robot.x_m, w.robot.y_m, 0.2, LETHAL);
+        let mut e = Explorer::new(cfg, Params::default());
+        e.handle_map(&map_msg(&grid, 1.0), 0.0);
+        e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
+        feed_pose(&mut e, w.robot, 0.0);
+        let cmds = e.tick(0.0);
+        (e, goals(&cmds), grid)
+    };
+    let (mut e, sent, grid) = run(NodeConfig::default());
+    assert_eq!(sent.len(), 1, "{sent:?}");
+    assert!(free_on_inflated(&grid, 0.25, sent[0].1));
+    assert_eq!(e.stats().footprint_clearings, 1);
+    let log = e.drain_log();
+    assert!(log.iter().any(|l| l.text.contains("robot blocked in its map: decided with the cells within 0.35 m of it free")), "{log:?}");
+    let (mut e, sent, _) = run(NodeConfig { clear_footprint: false, ..NodeConfig::default() });
+    assert!(sent.is_empty(), "{sent:?}");
+    assert_eq!((e.stats().footprint_clearings, e.stats().decision_errors), (0, 1));
+    assert!(log_has(&mut e, "is blocked and no free cell lies within"));
+}
+
+/// A hall (frontier at its west end) and a 1.5 m room east of it, joined by a door 0.4 m wide:
+/// free in the map but shut by the 0.25 m inflation, as a doorway whose jambs the robot mapped
+/// better from inside. The robot drove in through it. With its trail it plans back out; without
+/// it, it is walled in.
+#[test]
+fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
+    let g = GridGeometry::new(0.0, 0.0, 0.05, 120, 60);
+    let mut grid = Grid::filled(g, FREE);
+    for (i, v) in grid.data.iter_mut().enumerate() {
+        let c = g.cell_at(i);
+        let (x, y) = g.center_of(c);
+        let wall = c.row == 0 || c.row == 59 || c.col == 119 || (c.col == 80 && !(1.3..1.7).contains(&y));
+        if wall {
+            *v = LETHAL;
+        } else if x < 0.5 {
+            *v = UNKNOWN;
+        }
+    }
+    let run = |cfg: NodeConfig, grid: &OccupancyGrid| {
+        let mut e = Explorer::new(cfg, Params::default());
+        let mut cmds = Vec::new();
+        // Drive from the hall at (2, 1.5) into the room at (5.2, 1.5), 2 cm per 20 ms tick,
+        // before the map comes (the node only waits for it).
+        let mut t = 0.0;
+        for k in 0..=160 {
+            feed_pose(&mut e, Pose2::new(2.0 + 0.02 * f64::from(k), 1.5, 0.0), t);
+            cmds.extend(e.tick(t));
+            t += 0.02;
+        }
+        e.handle_map(&map_msg(grid, t), t);
+        for _ in 0..3 {
+            feed_pose(&mut e, Pose2::new(5.2, 1.5, 0.0), t);
+            cmds.extend(e.tick(t));
+            t += 1.0;
+        }
+        (e, goals(&cmds))
+    };
+    // The door is shut on the inflated map.
+    assert!(!free_on_inflated(&grid, 0.25, Pose2::new(4.025, 1.5, 0.0)));
+    let (e, sent) = run(NodeConfig::default(), &grid);
+    assert_eq!(sent.len(), 1, "{sent:?}");
+    let goal = sent[0].1;
+    assert!(goal.x_m < 4.0, "the goal is in the hall: {goal:?}");
+    assert!(!e.is_done());
+    let (mut e, sent) = run(NodeConfig { reuse_trail: false, ..NodeConfig::default() }, &grid);
+    assert!(sent.is_empty(), "{sent:?}");
+    assert!(log_has(&mut e, "walled in by its map, not done"));
+    // With the hall mapped too, no frontier is left: along its trail the robot reaches the whole
+    // hall, so it is done, not walled in.
+    let mut known = grid.clone();
+    known.data.iter_mut().filter(|v| **v == UNKNOWN).for_each(|v| *v = FREE);
+    let (mut e, sent) = run(NodeConfig::default(), &known);
+    assert!(sent.is_empty() && e.is_done(), "{sent:?}");
+    assert!(!log_has(&mut e, "walled in"));
 }
 
 /// A cloud map: a flat floor of radius 2.5 m around the robot at the origin, and in the first
