@@ -108,7 +108,8 @@ pub struct MissionParams {
     pub goal_timeout_extra_s: f64,
     /// One metrics row (and trajectory pose) every this many seconds. Default 1.
     pub metrics_period_s: f64,
-    /// Stop before entering a ground-truth untraversable cell (a bumper). Default true.
+    /// Stop before the robot's body touches ground-truth untraversable terrain (a bumper;
+    /// [`World::gt_touches_lethal`]). Default true.
     pub safety_stop: bool,
     /// Each path ends short of unknown ground by a multiple of the position estimate's standard
     /// deviation ([`crate::path::set_back`]): a robot unsure of its position could otherwise
@@ -620,7 +621,9 @@ impl Mission {
         };
         // Ground-truth motion with the safety stop.
         let next = integrate(self.gt, cmd, dt);
-        let entering = self.world.gt_lethal_at(next.x_m, next.y_m) && !self.world.gt_lethal_at(self.gt.x_m, self.gt.y_m);
+        let reach_m = (self.params.robot.radius_m - self.params.traversability.disc_radius_m).max(0.0);
+        let touches = |p: Pose2| self.world.gt_touches_lethal(p.x_m, p.y_m, reach_m);
+        let entering = touches(next) && !touches(self.gt);
         let (next, cmd) = if entering && self.mission.safety_stop && cmd.v_mps > 0.0 {
             self.safety_stops += 1;
             self.fail_goal();

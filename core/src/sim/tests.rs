@@ -48,6 +48,46 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
     assert!(e.contains("start (5, 5) is inside a wall: an occupied or unknown pixel of rooms.pgm"), "{e}");
 }
 
+/// The body check: walking toward the indoor world's wall at x = 5, the body (reach 0.10 m beyond
+/// the centre's disc) touches the wall's untraversable band 0.10 m (± one cell) before the centre
+/// enters it; with no reach it is the centre's cell alone.
+#[test]
+fn the_robot_body_touches_a_wall_before_its_centre_reaches_it() {
+    let params = Params::default();
+    let spec = WorldSpec::from_toml(&String::from_utf8(files("indoor_rooms.toml").unwrap()).unwrap(), "indoor").unwrap();
+    let w = World::build(&spec, &params.traversability, params.traversability.tau, files).unwrap();
+    let first = |f: &dyn Fn(f64) -> bool| (0..300).map(|k| 2.0 + 0.01 * f64::from(k)).find(|&x| f(x)).unwrap();
+    let centre = first(&|x| w.gt_lethal_at(x, 2.0));
+    let body = first(&|x| w.gt_touches_lethal(x, 2.0, 0.10));
+    assert!((centre - body - 0.10).abs() <= 0.05 + 1e-9, "centre enters at {centre}, body touches at {body}");
+    for k in 0..300 {
+        let x = 2.0 + 0.01 * f64::from(k);
+        assert_eq!(w.gt_touches_lethal(x, 2.0, 0.0), w.gt_lethal_at(x, 2.0));
+    }
+    assert!(w.gt_touches_lethal(-1.0, 2.0, 0.1), "outside the map");
+}
+
+/// On the pit world's ledge (a 0.6 m drop whose foot the LiDAR cannot see from above), the map
+/// holds the ground at the edge free while the truth's disc there reaches the drop: greedy seed 1
+/// drives its centre to within 0.10 m of the truth's untraversable band in its first 70 s (the
+/// README's known limits), and its body, not its centre, is what touches it.
+#[test]
+fn a_body_overhanging_a_ledge_is_a_violation_and_the_bumper_stops_it() {
+    let params = Params::default();
+    let limits = |n: &str| std::fs::read(format!("{}/../benches/worlds/limits/{n}", env!("CARGO_MANIFEST_DIR"))).map_err(|e| e.to_string());
+    let text = String::from_utf8(limits("pit_ledge_16m.toml").unwrap()).unwrap();
+    let spec = WorldSpec::from_toml(&text, "pit_ledge_16m.toml").unwrap();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, limits).unwrap();
+    let run = |safety_stop: bool| {
+        let mp = MissionParams { safety_stop, time_limit_s: Some(70.0), ..MissionParams::default() };
+        Mission::new(world.clone(), params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
+    };
+    let s = run(true);
+    assert!(s.safety_stops >= 1 && s.gt_violations == 0, "{s:?}");
+    let s = run(false);
+    assert!(s.gt_violations >= 1 && s.safety_stops == 0, "{s:?}");
+}
+
 #[test]
 fn unknown_keys_and_bad_values_are_rejected() {
     let e = WorldSpec::from_toml(&TINY.replace("time_limit_s", "time_limt_s"), "w.toml").unwrap_err().to_string();

@@ -511,6 +511,15 @@ impl World {
         }
     }
 
+    /// Whether a robot whose centre is at (x, y) touches ground-truth untraversable terrain: its
+    /// centre's cell is untraversable (outside the map counts) or a cell within `reach_m` of the
+    /// centre is. A cell is untraversable when its disc (radius `disc_radius_m`) holds a hazard,
+    /// so with `reach_m` = robot radius − disc radius the discs of the cells within reach cover
+    /// the robot's footprint: a wall its body overhangs is caught, not only one under its centre.
+    pub fn gt_touches_lethal(&self, x_m: f64, y_m: f64, reach_m: f64) -> bool {
+        self.gt_lethal_at(x_m, y_m) || (reach_m > 0.0 && self.nearest_gt_lethal_m(x_m, y_m, reach_m).is_some())
+    }
+
     /// Whether the ground-truth cell under (x, y) is untraversable (outside the map counts as
     /// untraversable).
     pub fn gt_lethal_at(&self, x_m: f64, y_m: f64) -> bool {
