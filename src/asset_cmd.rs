@@ -49,25 +49,45 @@ pub struct BuildAssetArgs {
     pub out: PathBuf,
 }
 
-pub fn run(args: &BuildAssetArgs) -> Result<()> {
-    let params = Params::default();
-    let px: Vec<f64> = args
-        .dem_pixel_m
+/// Largest world edge, metres (as world files: `terrain.size_m`).
+const MAX_SIZE_M: f64 = 500.0;
+/// Longest LiDAR range, metres (a VLP-16's).
+const MAX_LIDAR_RANGE_M: f64 = 100.0;
+
+/// "A,B" as two finite numbers; errors name `option` and the text.
+fn pair(option: &str, text: &str) -> Result<[f64; 2]> {
+    let v: Vec<f64> = text
         .split(',')
         .map(|s| s.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .with_context(|| format!("--dem-pixel-m {:?}: expected X,Y", args.dem_pixel_m))?;
-    if px.len() != 2 {
-        bail!("--dem-pixel-m {:?}: expected X,Y", args.dem_pixel_m);
+        .with_context(|| format!("{option} {text:?}: expected two numbers X,Y"))?;
+    match v[..] {
+        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
+        _ => bail!("{option} {text:?}: expected two finite numbers X,Y"),
+    }
+}
+
+pub fn run(args: &BuildAssetArgs) -> Result<()> {
+    let params = Params::default();
+    let px = pair("--dem-pixel-m", &args.dem_pixel_m)?;
+    if px.iter().any(|&v| v <= 0.0) {
+        bail!("--dem-pixel-m {:?}: both pixel sizes must be > 0 m", args.dem_pixel_m);
+    }
+    if !(args.size_m > 0.0 && args.size_m <= MAX_SIZE_M) {
+        bail!("--size-m {}: must be in (0, {MAX_SIZE_M}] m", args.size_m);
+    }
+    if !(args.crop_fraction > 0.0 && args.crop_fraction <= 1.0) {
+        bail!("--crop-fraction {}: must be in (0, 1]", args.crop_fraction);
+    }
+    if !(args.lidar_range_m > 0.0 && args.lidar_range_m <= MAX_LIDAR_RANGE_M) {
+        bail!("--lidar-range-m {}: must be in (0, {MAX_LIDAR_RANGE_M}] m", args.lidar_range_m);
     }
     let viewpoints: Vec<(f64, f64)> = args
         .viewpoints
         .split(';')
-        .map(|v| {
-            let p = load::pose(&format!("{v},0"))?;
-            Ok((p.x_m, p.y_m))
-        })
-        .collect::<Result<_>>()?;
+        .map(|v| pair("--viewpoints", v).map(|[x, y]| (x, y)))
+        .collect::<Result<_>>()
+        .with_context(|| format!("--viewpoints {:?}: expected X,Y;X,Y;…", args.viewpoints))?;
     let bytes = load::read(&args.dem)?;
     let scaling = DemScaling {
         pixel_x_m: px[0],
@@ -84,14 +104,18 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
     let start = viewpoints[0];
     let rocks = scatter_rocks(&mut field, args.seed, 1.6, 0.3, (0.15, 0.45), (0.25, 0.7), start, 1.2);
     // The map frame is where a SLAM would put it: z = 0 at the ground under the start pose.
-    let z0 = field.height_at(start.0, start.1).with_context(|| format!("start {start:?} is outside the world"))?;
+    let z0 = field
+        .height_at(start.0, start.1)
+        .with_context(|| format!("--viewpoints: the start {},{} is outside the {} m world", start.0, start.1, args.size_m))?;
     field.heights_m.iter_mut().for_each(|z| *z -= z0);
 
-    // Ground seen by the LiDAR (mounted 0.3 m up) from each viewpoint.
+    // Ground seen by the LiDAR (mounted 0.3 m up) from each viewpoint; no ray goes further than
+    // the world's diagonal.
+    let range_m = args.lidar_range_m.min(args.size_m * std::f64::consts::SQRT_2);
     let mut ground = Vec::new();
     for (k, &(x, y)) in viewpoints.iter().enumerate() {
-        let z = field.height_at(x, y).with_context(|| format!("viewpoint {x},{y} is outside the world"))?;
-        visible_ground_points(&field, Point3::new(x, y, z + 0.3), args.lidar_range_m, 0.025, 0.01, args.seed + k as u64, &mut ground);
+        let z = field.height_at(x, y).with_context(|| format!("--viewpoints: {x},{y} is outside the {} m world", args.size_m))?;
+        visible_ground_points(&field, Point3::new(x, y, z + 0.3), range_m, 0.025, 0.01, args.seed + k as u64, &mut ground);
     }
     let geometry = GridGeometry::new(0.0, 0.0, params.grid.resolution_m, field.geometry.width, field.geometry.height);
     let mut tmap = TraversabilityMap::new(geometry)?;

@@ -42,10 +42,14 @@ pub struct CompareArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
-    /// Parallel runs (rayon threads); default: the available cores.
+    /// Parallel runs (rayon threads), at most 1024 and never more than the runs; default: the
+    /// available cores.
     #[arg(long)]
     pub jobs: Option<usize>,
 }
+
+/// Most `--jobs` accepted.
+const MAX_JOBS: usize = 1024;
 
 /// The figures of one run that the summary uses.
 #[derive(Clone, Debug)]
@@ -106,12 +110,15 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     };
     let jobs = match args.jobs {
         Some(0) => bail!("--jobs 0: at least one thread is needed"),
+        Some(j) if j > MAX_JOBS => bail!("--jobs {j}: at most {MAX_JOBS} (each run holds its own world and maps)"),
         Some(j) => j,
         None => std::thread::available_parallelism().map(usize::from).unwrap_or(1),
     };
     let localisation = args.mission.localisation;
     let setup = args.mission.load()?;
+    crate::explore_cmd::create_out_dir(&args.out)?;
     let runs: Vec<(StrategyArg, u64)> = strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
+    let jobs = jobs.min(runs.len());
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start the thread pool")?;
     let bar = progress_bar(runs.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
     let wall = std::time::Instant::now();

@@ -82,13 +82,14 @@ pub struct ExploreArgs {
 
 pub fn run(args: &ExploreArgs) -> Result<()> {
     let setup = args.mission.load()?;
+    create_out_dir(&args.out)?;
     let strategy = strategy_of(args.strategy);
     let progress = progress_bar(setup.time_limit_s().ceil() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} s simulated");
     let run = run_and_write(&setup, strategy, args.seed, localisation_of(args.mission.localisation), &args.out, &progress);
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
     outln!(
-        "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, {} safety stops, {} trap recoveries, end {:?}",
+        "{}: {:?} seed {} — {:.0} s simulated in {:.2} s, {:.1} % unexplored, {:.1} m, {} goals, {} GT violations, {} safety stops, {} trap recoveries, end {}",
         args.out.display(),
         strategy,
         args.seed,
@@ -100,9 +101,18 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
         summary.gt_violations,
         summary.safety_stops,
         summary.trap_recoveries,
-        summary.end_reason
+        summary.end_reason.map_or_else(
+            || "none".to_string(),
+            |r| serde_json::to_value(r).map(|v| v.as_str().unwrap_or("?").to_string()).unwrap_or_default()
+        )
     )?;
     Ok(())
+}
+
+/// Creates the output folder before a mission runs, so that a path that cannot be one (an
+/// existing file, no permission) fails at once rather than after the mission.
+pub fn create_out_dir(out: &std::path::Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("--out {}: cannot create the output folder", out.display()))
 }
 
 /// The goal-selection strategy of a command-line value.

@@ -30,9 +30,19 @@ pub struct TraversabilityArgs {
 pub fn run(args: &TraversabilityArgs) -> Result<()> {
     let params = load::params(args.params.as_deref())?;
     let cloud = load::cloud(&args.cloud)?;
-    warn_if_sparse(&args.cloud, &cloud.points, &params);
+    let warned = warn_if_sparse(&args.cloud, &cloud.points, &params);
     let map = TraversabilityMap::from_cloud(&cloud, &params).with_context(|| args.cloud.display().to_string())?;
     let layers = map.compute(&params.traversability);
+    if layers.known_cells() == 0 && !warned {
+        let t = &params.traversability;
+        eprintln!(
+            "warning: {}: no cell is known: no disc of radius {} m holds {} points (min_points) spread at least {} m across (a single point or identical points?); the map is all unknown",
+            args.cloud.display(),
+            t.disc_radius_m,
+            t.min_points,
+            t.min_spread_ratio * t.disc_radius_m
+        );
+    }
     let mut grid = layers.to_occupancy(params.traversability.tau);
     if args.inflate {
         grid = inflate_lethal(&grid, params.robot.radius_m);
@@ -66,16 +76,16 @@ pub fn run(args: &TraversabilityArgs) -> Result<()> {
     Ok(())
 }
 
-/// One warning line when the cloud is too sparse for the disc — a disc holds fewer than
+/// One warning line (returns true) when the cloud is too sparse for the disc — a disc holds fewer than
 /// `min_points` of its points on average, so most cells will be unknown (an airborne cloud at
 /// the rover's defaults) — with a disc radius that holds 4 × `min_points`.
-fn warn_if_sparse(path: &std::path::Path, points: &[nalgebra::Point3<f64>], params: &fitslam_core::Params) {
+fn warn_if_sparse(path: &std::path::Path, points: &[nalgebra::Point3<f64>], params: &fitslam_core::Params) -> bool {
     let t = &params.traversability;
-    let Some(sampling) = DiscSampling::of(points) else { return };
+    let Some(sampling) = DiscSampling::of(points) else { return false };
     let in_disc = sampling.points_in_disc(t.disc_radius_m);
     let needed = f64::from(t.min_points);
     if in_disc >= needed {
-        return;
+        return false;
     }
     let radius_m = sampling.radius_holding(4.0 * needed);
     eprintln!(
@@ -90,4 +100,5 @@ fn warn_if_sparse(path: &std::path::Path, points: &[nalgebra::Point3<f64>], para
         radius_m,
         radius_m / 2.0
     );
+    true
 }

@@ -160,6 +160,40 @@ fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
     // Traversability with a malformed cloud.
     let out = run(&["traversability", "--cloud", &ply, "--out", &dir.join("t.yaml").display().to_string()]);
     assert_clear_error(&out, "noz.ply");
+    // A patch and one point 288 m away asked for 33 M cells (7.4 GB); identical points make a
+    // map with no known cell, and say so.
+    let mut far = String::from("x,y,z\n");
+    for k in 0..400 {
+        far.push_str(&format!("{},{},0\n", 0.05 * f64::from(k % 20), 0.05 * f64::from(k / 20)));
+    }
+    far.push_str("288,288,0\n");
+    let far = write("far.csv", far.as_bytes());
+    let out = run(&["traversability", "--cloud", &far, "--out", &dir.join("far.yaml").display().to_string()]);
+    assert_clear_error(&out, "far.csv: a 5779 × 5779 grid exceeds the limit of 8388608 cells");
+    let one = write("one.csv", b"x,y,z\n1,1,0\n1,1,0\n1,1,0\n");
+    let out = run(&["traversability", "--cloud", &one, "--out", &dir.join("one.yaml").display().to_string()]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.lines().count() == 1 && stderr.contains("warning: ") && stderr.contains("one.csv: no cell is known"), "{stderr}");
+    // A spread ratio no disc of points can reach.
+    let params = write("spread.toml", b"[traversability]\nmin_spread_ratio = 5\n");
+    assert_clear_error(&run(&["params", "--params", &params]), "spread.toml: traversability.min_spread_ratio (5) must be ≤ 1/√2");
+    // build-asset: every option checked up front (--size-m 10000 aborted allocating 320 GB,
+    // --lidar-range-m 1e9 hung, --lidar-range-m 0 made an empty scene).
+    let dem = asset("data/terrain/jacksboro_fault_dem.png");
+    let asset_out = dir.join("asset").display().to_string();
+    for (flag, value, needle) in [
+        ("--size-m", "10000", "--size-m 10000: must be in (0, 500] m"),
+        ("--size-m", "nan", "--size-m NaN"),
+        ("--lidar-range-m", "1e9", "--lidar-range-m 1000000000: must be in (0, 100] m"),
+        ("--lidar-range-m", "0", "--lidar-range-m 0"),
+        ("--crop-fraction", "0", "--crop-fraction 0"),
+        ("--dem-pixel-m", "0,93", "--dem-pixel-m \"0,93\": both pixel sizes must be > 0 m"),
+        ("--viewpoints", "3;4", "--viewpoints \"3\""),
+        ("--viewpoints", "100,100", "--viewpoints: the start 100,100 is outside the 20 m world"),
+    ] {
+        assert_clear_error(&run(&["build-asset", "--dem", &dem, flag, value, "--out", &asset_out]), needle);
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -87,6 +87,12 @@ fn compare_rejects_bad_input_with_one_line() {
     assert_clear_error(&compare(&out, &["--strategies", "fit,best", "--seeds", "1"]), "best");
     assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "0"]), "--seeds");
     assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "1", "--jobs", "0"]), "--jobs");
+    assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "1", "--jobs", "100000"]), "--jobs 100000: at most 1024");
+    // An output folder that cannot be one fails before any run.
+    std::fs::create_dir_all(&out).unwrap();
+    let file = out.join("a_file");
+    std::fs::write(&file, b"x").unwrap();
+    assert_clear_error(&compare(&file, &["--strategies", "fit", "--seeds", "1"]), "cannot create the output folder");
     let o = Command::new(BIN)
         .args(["compare", "--world", "/nonexistent/w.toml", "--seeds", "1", "--out"])
         .arg(&out)

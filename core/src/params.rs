@@ -95,7 +95,8 @@ pub struct TraversabilityParams {
     /// narrowest horizontal direction — as a fraction of `disc_radius_m`; below it the plane's
     /// tilt is undetermined and the cell is unknown (not in the paper). Default 0.2: a full disc
     /// of points has 0.5, a half disc 0.26, a one-cell strip at the edge of the data 0.1 (on
-    /// laspy's plane.ply such strips gave 20–90° slopes from 1 cm z quantisation).
+    /// laspy's plane.ply such strips gave 20–90° slopes from 1 cm z quantisation). At most 1/√2
+    /// (points on the disc's rim), or no cell could be known.
     pub min_spread_ratio: f64,
     /// Roughness (RMS distance to the plane) at which hazard reaches 1, metres. Default 0.05.
     pub max_roughness_m: f64,
@@ -339,6 +340,14 @@ impl Params {
         unit("traversability.tau", self.traversability.tau)?;
         nonneg("traversability.noise_discount_sigmas", self.traversability.noise_discount_sigmas)?;
         nonneg("traversability.min_spread_ratio", self.traversability.min_spread_ratio)?;
+        // Points anywhere in a disc of radius r spread at most r/√2 along any direction (all on
+        // its rim): a larger ratio would leave every cell unknown.
+        if self.traversability.min_spread_ratio > std::f64::consts::FRAC_1_SQRT_2 {
+            return Err(format!(
+                "traversability.min_spread_ratio ({}) must be ≤ 1/√2 ≈ 0.707: no points in a disc spread wider, so every cell would be unknown",
+                self.traversability.min_spread_ratio
+            ));
+        }
         if self.frontier.max_cluster_cells == 0 || self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
             return Err("frontier: need 0 < min_cluster_cells ≤ max_cluster_cells".into());
         }

@@ -84,6 +84,17 @@ pub(crate) fn decode_image(bytes: &[u8], name: &str) -> Result<Raster, MapError>
     }
 }
 
+/// Refuses an image of more pixels than a map may have cells
+/// ([`crate::traversability::MAX_CELLS`]), from its header, before anything is decoded: every
+/// pixel becomes a cell of the grids built from it.
+fn check_pixels(name: &str, width: usize, height: usize) -> Result<(), MapError> {
+    let limit = crate::traversability::MAX_CELLS;
+    match width.checked_mul(height) {
+        Some(n) if n <= limit => Ok(()),
+        _ => Err(image_err(name, format!("{width} × {height} pixels is over the limit of {limit} cells (a coarser or cropped image?)"))),
+    }
+}
+
 fn image_err(name: &str, detail: String) -> MapError {
     MapError::Image { name: name.to_string(), detail }
 }
@@ -143,7 +154,8 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
         return Err(image_err(name, format!("PGM maxval {maxval} is not in 1..=65535")));
     }
     let bytes_per_sample = if maxval > 255 { 2 } else { 1 };
-    let count = width.checked_mul(height).ok_or_else(|| image_err(name, format!("PGM size {width} × {height} is too large")))?;
+    check_pixels(name, width, height)?;
+    let count = width * height;
     let need = count.saturating_mul(bytes_per_sample);
     let data = if binary {
         // Exactly one whitespace byte separates maxval from the samples.
@@ -191,6 +203,7 @@ fn decode_png(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(png_err)?;
     let (width, height) = reader.info().size();
+    check_pixels(name, width as usize, height as usize)?;
     let raw_len = reader.info().raw_row_length().saturating_mul(height as usize);
     let too_big = || image_err(name, format!("PNG of {width} × {height} pixels is implausibly large for a {} byte file", bytes.len()));
     if raw_len > cap {
@@ -269,6 +282,22 @@ pub fn write_png_rgb8(width: usize, height: usize, rgb_top_first: &[u8]) -> Resu
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An image of more pixels than a map may have cells is refused from its header: a 3 MB
+    /// PNG of one colour would otherwise decode into 9 · 10⁸ cells.
+    #[test]
+    fn an_image_larger_than_a_map_may_be_is_refused_before_decoding() {
+        let side = 3000; // 9 M pixels > MAX_CELLS (8.4 M)
+        let png = write_png_gray8(side, side, &vec![254u8; side * side]).unwrap();
+        let e = decode_image(&png, "big.png").unwrap_err().to_string();
+        assert!(e.contains("big.png") && e.contains("3000 × 3000 pixels is over the limit of 8388608 cells"), "{e}");
+        let e = decode_image(b"P5\n3000 3000\n255\n\0\0", "big.pgm").unwrap_err().to_string();
+        assert!(e.contains("big.pgm") && e.contains("over the limit"), "{e}");
+        // At the limit's side it decodes.
+        let side = 2896; // 2896² = 8,386,816 ≤ 8,388,608
+        let png = write_png_gray8(side, side, &vec![254u8; side * side]).unwrap();
+        assert_eq!(decode_image(&png, "ok.png").unwrap().width, side);
+    }
     use proptest::prelude::*;
 
     #[test]
@@ -311,6 +340,8 @@ mod tests {
         let e = decode_image(b"P5 0 1 255\n", "m.pgm").unwrap_err();
         assert!(e.to_string().contains("empty"), "{e}");
         let e = decode_image(b"P5 9999999 9999999 255\n\x00", "m.pgm").unwrap_err();
+        assert!(e.to_string().contains("over the limit"), "{e}");
+        let e = decode_image(b"P5 99 99 255\n\x00", "m.pgm").unwrap_err();
         assert!(e.to_string().contains("truncated"), "{e}");
         let e = decode_image(b"GIF89a", "m.gif").unwrap_err();
         assert_eq!(e.to_string(), "m.gif: not a PGM (P2/P5) or PNG image");
