@@ -5,7 +5,14 @@
 //! - separators: commas (spaces around them are ignored); a line without any comma is split on
 //!   whitespace instead;
 //! - `#` starts a comment (whole line or trailing); blank lines are skipped; CRLF is fine;
-//! - a header: the first non-blank, non-comment line, if one of its fields is not a number.
+//! - a header: the first non-blank, non-comment line, when it holds names, not numbers.
+//!
+//! The first line is data when all its fields are numbers, a header when it names `x`, `y` and
+//! `z`, and a positional header (dropped; the columns stay positional) when it holds names only,
+//! none of them `x`, `y` or `z` (`east,north,up`). Otherwise it is an error naming its line: a
+//! line with some numbers (`1.0,2.0,abc`, `1,1,0,`) is read as data and fails as any later line
+//! would, a header naming some of x, y, z lacks a column (`x,y,intensity`: no `z`), and a line
+//! joined by another separator (`1;1;0`) says so.
 //!
 //! A header that names `x`, `y` and `z` (case-insensitive; quotes and CloudCompare's leading
 //! `//` are ignored) selects the columns **by name**, as PLY properties and PCD fields are: an
@@ -13,15 +20,16 @@
 //! cov_yy cov_yz cov_zz` (m², all six or none); every other column (intensity, colour, labels) is
 //! ignored unread. Every line then has the header's number of fields.
 //!
-//! Without such a header the columns are **positional**, the same number of numbers on every line:
+//! Without a header the columns are **positional**, the same number of numbers on every line:
 //!   - 3: `x y z` (no covariance);
 //!   - 4: `x y z σ`: isotropic standard deviation σ ≥ 0 in metres, covariance σ²·I;
 //!   - 6: `x y z vxx vyy vzz`: diagonal variances (m²);
 //!   - 9: `x y z cxx cxy cxz cyy cyz czz`: upper triangle of the symmetric covariance (m²);
 //!   - 12: `x y z` and the full 3×3 covariance row by row (must be symmetric to 1e-9 relative).
 //!
-//! Errors name the 1-based line: non-numbers, non-finite coordinates, a wrong or changing number
-//! of columns, negative variances, bad classifications.
+//! Errors name the 1-based line: non-numbers (including empty fields and fields joined by another
+//! separator such as `;`), non-finite coordinates, a wrong or changing number of columns, negative
+//! variances, bad classifications, a first line that is neither data nor a header naming x, y, z.
 
 use super::{CloudBuilder, CloudError, FieldMap, check_cov, cov_from_upper};
 use crate::cloud::PointCloud;
@@ -45,11 +53,29 @@ pub fn load_csv(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
         return load_positional(std::iter::once((first_no, first)).chain(lines), name);
     }
     let header: Vec<String> = fields.iter().map(|f| column_name(f)).collect();
-    if ["x", "y", "z"].iter().all(|axis| header.iter().any(|h| h == axis)) {
-        load_named(lines, &header, first_no, name)
-    } else {
-        load_positional(lines, name)
+    let missing = ["x", "y", "z"].into_iter().find(|axis| !header.iter().any(|h| h == axis));
+    let Some(missing) = missing else {
+        return load_named(lines, &header, first_no, name);
+    };
+    if fields.iter().any(|f| f.parse::<f64>().is_ok()) {
+        // Numbers with a non-number among them: a data line, which fails as a later one would.
+        return load_positional(std::iter::once((first_no, first)).chain(lines), name);
     }
+    if header.iter().any(|h| matches!(h.as_str(), "x" | "y" | "z")) {
+        let detail = format!("the header has no '{missing}' column (a header names the x, y and z columns)");
+        return Err(line_error(name, first_no, detail));
+    }
+    if !separator_hint(first).is_empty() {
+        let shown: String = first.chars().take(40).collect();
+        return Err(line_error(name, first_no, format!("'{shown}' is neither numbers nor a header{}", separator_hint(first))));
+    }
+    // Names only, none of them x, y or z (`east,north,up`): the columns stay positional.
+    load_positional(lines, name)
+}
+
+/// A hint when `text` holds a separator this reader does not split on.
+fn separator_hint(text: &str) -> &'static str {
+    if text.contains([';', '|']) { " (fields are separated by commas or whitespace)" } else { "" }
 }
 
 /// The fields of a line: split on commas if it has any, else on whitespace.
@@ -73,7 +99,11 @@ fn line_error(name: &str, line: usize, detail: String) -> CloudError {
 }
 
 fn not_a_number(name: &str, line: usize, field: &str) -> CloudError {
-    line_error(name, line, format!("'{}' is not a number", field.chars().take(40).collect::<String>()))
+    if field.is_empty() {
+        return line_error(name, line, "empty field where a number is expected (a trailing or doubled comma?)".to_string());
+    }
+    let shown: String = field.chars().take(40).collect();
+    line_error(name, line, format!("'{shown}' is not a number{}", separator_hint(field)))
 }
 
 /// Columns chosen by the header's names (see the module doc).
@@ -263,6 +293,32 @@ mod tests {
         let c = load_csv(b"east,north,up,sigma\n1,2,3,0.5\n", "p.csv").unwrap();
         assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0)]);
         assert_eq!(c.covariances, Some(vec![Matrix3::from_diagonal_element(0.25)]));
+    }
+
+    /// A bad first line was once taken for a header and dropped, the file read without it.
+    #[test]
+    fn a_bad_first_line_is_an_error_not_a_header() {
+        let e = load_csv(b"1.0,2.0,abc\n4,5,6\n", "b.csv").unwrap_err();
+        assert_eq!(e.to_string(), "b.csv: line 1: 'abc' is not a number");
+        // A trailing comma fails on line 1 as on any later line.
+        let e = load_csv(b"1,1,0,\n", "b.csv").unwrap_err();
+        assert_eq!(e.to_string(), "b.csv: line 1: empty field where a number is expected (a trailing or doubled comma?)");
+        let e = load_csv(b"# c\n1,1,0,\n2,2,0,\n", "b.csv").unwrap_err();
+        assert_eq!(e.to_string(), "b.csv: line 2: empty field where a number is expected (a trailing or doubled comma?)");
+        let e = load_csv(b"1,1,0\n2,2,0,\n", "b.csv").unwrap_err();
+        assert_eq!(e.to_string(), "b.csv: line 2: empty field where a number is expected (a trailing or doubled comma?)");
+        // A header naming x and y but no z.
+        for header in ["x,y,intensity", "x,y,zz", "X Y label"] {
+            let e = load_csv(format!("{header}\n1,2,3\n").as_bytes(), "h.csv").unwrap_err();
+            assert_eq!(e.to_string(), "h.csv: line 1: the header has no 'z' column (a header names the x, y and z columns)", "{header}");
+        }
+        let e = load_csv(b"z,x\n1,2\n", "h.csv").unwrap_err();
+        assert!(e.to_string().starts_with("h.csv: line 1: the header has no 'y' column"), "{e}");
+        // A separator the reader does not split on: one field, not a number.
+        let e = load_csv(b"1;1;0\n", "s.csv").unwrap_err();
+        assert_eq!(e.to_string(), "s.csv: line 1: '1;1;0' is neither numbers nor a header (fields are separated by commas or whitespace)");
+        let e = load_csv(b"1,1,0\n1;1;0\n", "s.csv").unwrap_err();
+        assert_eq!(e.to_string(), "s.csv: line 2: '1;1;0' is not a number (fields are separated by commas or whitespace)");
     }
 
     #[test]

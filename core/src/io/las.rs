@@ -8,8 +8,9 @@
 //! trusts it: the point records (offset + count × record length) must lie inside the input for
 //! LAS, an extended VLR must fit in the input, and for LAZ the declared count may not exceed
 //! [`LAZ_MAX_POINTS_PER_BYTE`] × the file size and the chunk table (which the `laz` crate
-//! reserves for up front) may not declare more chunks than the file has bytes. Points are then read in batches, so memory
-//! follows the points actually present.
+//! reserves for up front) may not declare more chunks than the file has bytes; and the x, y, z
+//! scale factors must be finite and non-zero and the offsets finite. Points are then read in
+//! batches, so memory follows the points actually present.
 
 use super::CloudError;
 use crate::cloud::PointCloud;
@@ -34,6 +35,36 @@ fn u32_at(b: &[u8], at: usize) -> Option<u32> {
 fn u64_at(b: &[u8], at: usize) -> Option<u64> {
     Some(u64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
 }
+fn f64_at(b: &[u8], at: usize) -> Option<f64> {
+    u64_at(b, at).map(f64::from_bits)
+}
+
+/// Offsets of the public header's x, y, z scale factors; the x, y, z offsets follow them.
+const SCALE_AT: usize = 131;
+const OFFSET_AT: usize = 155;
+
+/// Checks the coordinate transforms: each scale factor finite and non-zero (a zero one puts every
+/// point on one coordinate), each offset finite.
+fn check_transforms(bytes: &[u8], name: &str) -> Result<(), CloudError> {
+    let short = || las_err(name, "file shorter than its public header");
+    for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
+        let scale = f64_at(bytes, SCALE_AT + 8 * k).ok_or_else(short)?;
+        if !scale.is_finite() || scale == 0.0 {
+            return Err(CloudError::Header {
+                name: name.to_string(),
+                detail: format!("LAS header: {axis} scale factor is {scale} (must be a finite non-zero number)"),
+            });
+        }
+        let offset = f64_at(bytes, OFFSET_AT + 8 * k).ok_or_else(short)?;
+        if !offset.is_finite() {
+            return Err(CloudError::Header {
+                name: name.to_string(),
+                detail: format!("LAS header: {axis} offset is {offset} (must be a finite number)"),
+            });
+        }
+    }
+    Ok(())
+}
 
 /// Checks the fields of the public header block the `las` crate trusts. Returns the number of
 /// points and whether the data is compressed.
@@ -48,6 +79,7 @@ fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
     let record_len = u64::from(u16_at(bytes, 105).ok_or_else(short)?);
     let legacy_count = u64::from(u32_at(bytes, 107).ok_or_else(short)?);
     let compressed = format_byte & 0x80 != 0 || format_byte & 0x40 != 0;
+    check_transforms(bytes, name)?;
     let mut count = legacy_count;
     if minor >= 4 {
         let start_of_evlr = u64_at(bytes, 235).ok_or_else(short)?;
@@ -173,6 +205,24 @@ mod tests {
         let mut m = VEG[..4_000].to_vec();
         m[107..111].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(matches!(load_las(&m, "v.las"), Err(CloudError::WrongPointCount { .. })));
+    }
+
+    /// A zero scale factor once put every point on one coordinate (silently).
+    #[test]
+    fn zero_or_non_finite_scale_factor_is_an_error() {
+        for (at, value, expected) in [
+            (147, 0.0, "v.las: LAS header: z scale factor is 0 (must be a finite non-zero number)"),
+            (131, 0.0, "v.las: LAS header: x scale factor is 0 (must be a finite non-zero number)"),
+            (139, f64::NAN, "v.las: LAS header: y scale factor is NaN (must be a finite non-zero number)"),
+            (131, f64::INFINITY, "v.las: LAS header: x scale factor is inf (must be a finite non-zero number)"),
+            (171, f64::NAN, "v.las: LAS header: z offset is NaN (must be a finite number)"),
+        ] {
+            let mut m = VEG.to_vec();
+            m[at..at + 8].copy_from_slice(&f64::to_le_bytes(value));
+            let e = load_las(&m, "v.las").unwrap_err();
+            assert!(matches!(e, CloudError::Header { .. }), "{e:?}");
+            assert_eq!(e.to_string(), expected);
+        }
     }
 
     /// The vegetation file re-encoded as LAZ by the las crate's writer.

@@ -11,10 +11,13 @@
 //! GTSAM does). `#` starts a comment. Lines with other tags are skipped, as g2o and GTSAM skip
 //! them, and listed in [`G2oFile::skipped`] (tag, count, first line) for the caller to report.
 //!
-//! Reading is one pass over the bytes, O(size); errors name the 1-based line. To a [`Problem`]:
-//! vertices become variables by increasing id; an edge whose vertices are missing initialises
-//! them as GTSAM's `load2D` does (an unknown `i` at the identity, an unknown `j` at
-//! `x_i · z_ij`), in file order, so files of bare edges (CSAIL) start from composed odometry.
+//! Reading is one pass over the bytes, O(size); errors name the 1-based line. A file with vertex
+//! lines must define every vertex its edges use (before or after the edge): an edge to an
+//! undefined vertex is an error naming the first such edge's line, not a vertex invented for it.
+//! To a [`Problem`]: vertices become variables by increasing id; in a file of bare edges (no
+//! vertex line, e.g. CSAIL) the vertices are initialised as GTSAM's `load2D` does (an unknown `i`
+//! at the identity, an unknown `j` at `x_i · z_ij`), in file order, so such files start from
+//! composed odometry.
 //! A sensor-frame point `z` seen through offset `o` becomes the robot-frame observation `o · z`
 //! with information `R_o Ω R_oᵀ`, which has the same residual norm: g2o's error is
 //! `(x o)⁻¹ m − z = R_oᵀ (x⁻¹ m − o · z)`.
@@ -50,6 +53,10 @@ pub enum G2oError {
     SelfLoop { line: usize, id: u64 },
     #[error("line {line}: information matrix: {source}")]
     Information { line: usize, source: NoiseError },
+    /// An edge uses a vertex that no `VERTEX_*` line defines, in a file that has vertex lines
+    /// (the first such edge; files of bare edges have none and are chained instead).
+    #[error("line {line}: {tag} uses vertex {id}, which no VERTEX line defines")]
+    UndefinedVertex { line: usize, tag: &'static str, id: u64 },
     #[error("FIX of vertex {0}, which no vertex or edge defines")]
     UnknownFixed(u64),
     #[error("edge {edge} (0-based): information matrix: {source}")]
@@ -260,6 +267,8 @@ pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
     let mut file = G2oFile::default();
     let mut seen = BTreeSet::new();
     let mut skipped_index: BTreeMap<String, usize> = BTreeMap::new();
+    // Each id an edge uses, with the first edge that uses it: (line, 0 for `from` or 1 for `to`, tag).
+    let mut used: BTreeMap<u64, (usize, u8, &'static str)> = BTreeMap::new();
     for (n, raw) in crate::io::without_bom(bytes).split(|&b| b == b'\n').enumerate() {
         let line = n + 1;
         let text = std::str::from_utf8(raw).map_err(|_| G2oError::NotUtf8 { line })?;
@@ -326,6 +335,18 @@ pub fn read_g2o(bytes: &[u8]) -> Result<G2oFile, G2oError> {
             "FIX" => file.fixed.push(f.id(0)?),
             // Every tag of `TAGS` has its arm above.
             other => return Err(G2oError::UnknownTag { line, tag: other.to_string() }),
+        }
+        if let Some(edge) = file.edges.last().filter(|_| tag.starts_with("EDGE_")) {
+            let (from, to) = edge.ids();
+            for (end, id) in [(0, from), (1, to)] {
+                used.entry(id).or_insert((line, end, tag));
+            }
+        }
+    }
+    if !file.vertices.is_empty() {
+        let undefined = used.into_iter().filter(|(id, _)| !seen.contains(id)).min_by_key(|&(_, (line, end, _))| (line, end));
+        if let Some((id, (line, _, tag))) = undefined {
+            return Err(G2oError::UndefinedVertex { line, tag, id });
         }
     }
     Ok(file)
@@ -570,7 +591,7 @@ mod tests {
             f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap_err(),
             G2oError::VertexKind { edge: 0, id: 1, expected: "SE2 pose", found: "2D point" }
         );
-        let f = read_g2o(b"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_TRACKXYZ 0 1 7 1 2 3 1 0 0 1 0 1\n").unwrap();
+        let f = read_g2o(b"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_TRACKXYZ 1 1 2 3\nEDGE_SE3_TRACKXYZ 0 1 7 1 2 3 1 0 0 1 0 1\n").unwrap();
         assert_eq!(f.to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap_err(), G2oError::UnknownOffset { edge: 0, id: 7 });
     }
 
@@ -622,8 +643,12 @@ mod tests {
         let expected = (e.transpose() * omega * e)[0];
         assert!(expected > 1.0, "a test point with a real error: {expected}");
         assert!((p.graph.chi2(&p.values).unwrap() - expected).abs() < 1e-10 * expected);
-        // A missing landmark vertex starts where the edge puts it: zero error.
-        let bare = read_g2o(text.replace("VERTEX_TRACKXYZ 9 4 5 1\n", "").as_bytes()).unwrap();
+        // A missing landmark vertex in a file with vertices is an error (it was once invented).
+        let missing = text.replace("VERTEX_TRACKXYZ 9 4 5 1\n", "");
+        assert_eq!(read_g2o(missing.as_bytes()), Err(G2oError::UndefinedVertex { line: 3, tag: "EDGE_SE3_TRACKXYZ", id: 9 }));
+        // In a file of bare edges the landmark starts where the edge puts it: zero error.
+        let bare = read_g2o(missing.replace("VERTEX_SE3:QUAT 0 1 2 0 0 0 0.3894183423086505 0.9210609940028851\n", "").as_bytes()).unwrap();
+        assert!(bare.vertices.is_empty());
         let q = bare.to_problem(Gauge::Free, Se2Residual::Log).unwrap();
         assert!(q.graph.chi2(&q.values).unwrap() < 1e-20);
         let back = read_g2o(write_g2o(&f).as_bytes()).unwrap();
@@ -638,7 +663,7 @@ mod tests {
             let text: &[u8] = if three_d {
                 b"PARAMS_SE3OFFSET 3 0.2 0 0 0 0 0 1\nVERTEX_SE3:QUAT 0 1 2 0 0 0 0 1\nVERTEX_TRACKXYZ 9 4 5 1\nEDGE_SE3_TRACKXYZ 0 9 3 0.5 1.5 0.8 4 1 0 9 -2 16\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\nFIX 0\n"
             } else {
-                b"VERTEX_SE2 0 0 0 0\nVERTEX_XY 5 2.5 2.5\nEDGE_SE2 0 1 2 0 1.5 100 0 0 100 0 100\nEDGE_SE2_XY 0 5 2 3 4 0 25\nFIX 1\n"
+                b"VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 2 0 1.5\nVERTEX_XY 5 2.5 2.5\nEDGE_SE2 0 1 2 0 1.5 100 0 0 100 0 100\nEDGE_SE2_XY 0 5 2 3 4 0 25\nFIX 1\n"
             };
             let mut m = text.to_vec();
             for (pos, byte) in edits {
@@ -650,6 +675,30 @@ mod tests {
                 let _ = f.to_problem(Gauge::FixFirst, Se2Residual::Log);
             }
         }
+    }
+
+    /// An edge to a vertex no VERTEX line defines was once given an invented vertex (reported as
+    /// the last pose); in a file with vertex lines it is an error naming the first such edge.
+    #[test]
+    fn edges_to_undefined_vertices_are_errors() {
+        let text = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 2 2 0 0\n\
+            EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 7 1 0 0 1 0 0 1 0 1\n";
+        let e = read_g2o(text.as_bytes()).unwrap_err();
+        assert_eq!(e, G2oError::UndefinedVertex { line: 6, tag: "EDGE_SE2", id: 7 });
+        assert_eq!(e.to_string(), "line 6: EDGE_SE2 uses vertex 7, which no VERTEX line defines");
+        // The first offending edge in file order, its `from` before its `to`.
+        let two = "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 9 1 0 0 1 0 0 1 0 1\nEDGE_SE2 8 3 1 0 0 1 0 0 1 0 1\n";
+        assert_eq!(read_g2o(two.as_bytes()), Err(G2oError::UndefinedVertex { line: 2, tag: "EDGE_SE2", id: 9 }));
+        let two = "VERTEX_SE2 0 0 0 0\nEDGE_SE2 8 3 1 0 0 1 0 0 1 0 1\n";
+        assert_eq!(read_g2o(two.as_bytes()), Err(G2oError::UndefinedVertex { line: 2, tag: "EDGE_SE2", id: 8 }));
+        // A landmark edge to an undefined landmark.
+        let lm = "VERTEX_SE2 0 0 0 0\nVERTEX_XY 5 1 1\nEDGE_SE2_XY 0 5 1 1 1 0 1\nEDGE_SE2_XY 0 6 1 1 1 0 1\n";
+        assert_eq!(read_g2o(lm.as_bytes()), Err(G2oError::UndefinedVertex { line: 4, tag: "EDGE_SE2_XY", id: 6 }));
+        // A vertex defined after the edge that uses it is fine, as before.
+        let late = "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nVERTEX_SE2 1 1 0 0\n";
+        let p = read_g2o(late.as_bytes()).unwrap().to_problem(Gauge::FixFirst, Se2Residual::Log).unwrap();
+        assert_eq!(p.poses.len(), 2);
+        assert!(p.graph.chi2(&p.values).unwrap() < 1e-20);
     }
 
     #[test]
