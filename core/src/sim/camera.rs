@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CameraNoise {
-    /// Bearing noise σ_b, radians. Default 0.01 (the planner's σ_b).
+    /// Bearing noise σ_b, radians, ≥ 0. Default 0.01 (the planner's σ_b).
     pub bearing_sigma_rad: f64,
-    /// Depth noise σ_d = coeff · d², 1/m. Default 0.005 (5 mm at 1 m, 4.5 cm at 3 m).
+    /// Depth noise σ_d = coeff · d², 1/m, ≥ 0. Default 0.005 (5 mm at 1 m, 4.5 cm at 3 m).
     pub depth_sigma_coeff: f64,
 }
 

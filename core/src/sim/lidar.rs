@@ -27,20 +27,20 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LidarParams {
-    /// Number of rings. Default 16 (VLP-16).
+    /// Number of rings, 1..=256. Default 16 (VLP-16).
     pub rings: usize,
-    /// Half the vertical field of view, radians. Default 15°.
+    /// Half the vertical field of view, radians, in [0, π/2]. Default 15°.
     pub half_vfov_rad: f64,
-    /// Azimuth step, radians. Default 2° (a VLP-16 has 0.2°; coarser keeps the simulator fast,
+    /// Azimuth step, radians, in (0, 2π]. Default 2° (a VLP-16 has 0.2°; coarser keeps the simulator fast,
     /// and the map accumulates scans).
     pub azimuth_step_rad: f64,
-    /// Largest range, metres. Default 10.
+    /// Largest range, metres, > 0. Default 10.
     pub max_range_m: f64,
-    /// Smallest range, metres. Default 0.4 (the robot's own body).
+    /// Smallest range, metres, in [0, `max_range_m`). Default 0.4 (the robot's own body).
     pub min_range_m: f64,
-    /// Range noise σ, metres. Default 0.01.
+    /// Range noise σ, metres, ≥ 0. Default 0.01.
     pub range_sigma_m: f64,
-    /// Sensor height above the ground along the body's z, metres. Default 0.3.
+    /// Sensor height above the ground along the body's z, metres, ≥ 0. Default 0.3.
     pub mount_height_m: f64,
 }
 

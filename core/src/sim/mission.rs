@@ -85,28 +85,30 @@ pub enum Localisation {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MissionParams {
-    /// Control period, seconds. Default 0.1.
+    /// Control period, seconds, from [`MIN_DT_S`] (0.001) to [`MAX_DT_S`] (1). Default 0.1.
     pub dt_s: f64,
     pub drive: DriveParams,
     pub lidar: LidarParams,
     pub camera_noise: CameraNoise,
     pub odometry: OdometryNoise,
-    /// Scan when the robot has moved this far since the last scan, metres. Default 0.25.
+    /// Scan when the robot has moved this far since the last scan, metres, > 0. Default 0.25.
     pub scan_every_m: f64,
-    /// … or turned this much, radians. Default 0.5.
+    /// … or turned this much, radians, > 0. Default 0.5.
     pub scan_every_rad: f64,
-    /// … or this much time has passed, seconds. Default 2.
+    /// … or this much time has passed, seconds, > 0. Default 2.
     pub scan_every_s: f64,
-    /// Depth-camera ground rays per frame: columns × rows. Default 24 × 12.
+    /// Depth-camera ground rays per frame: columns × rows, at most [`MAX_RAYS_PER_SENSING`] in
+    /// all; 0 columns or rows turns the depth camera off. Default 24 × 12.
     pub depth_rays: [usize; 2],
-    /// Landmark observation period, seconds. Default 1.
+    /// Landmark observation period, seconds, > 0. Default 1.
     pub camera_every_s: f64,
-    /// Periodic replanning, seconds. Default 15.
+    /// Periodic replanning, seconds, > 0. Default 15.
     pub replan_period_s: f64,
-    /// A goal not reached within factor × (ρ / v_max) + extra seconds has failed. Defaults 3, 20.
+    /// A goal not reached within factor × (ρ / v_max) + extra seconds has failed; factor > 0,
+    /// extra ≥ 0. Defaults 3, 20.
     pub goal_timeout_factor: f64,
     pub goal_timeout_extra_s: f64,
-    /// One metrics row (and trajectory pose) every this many seconds. Default 1.
+    /// One metrics row (and trajectory pose) every this many seconds, > 0. Default 1.
     pub metrics_period_s: f64,
     /// Stop before the robot's body touches ground-truth untraversable terrain (a bumper;
     /// [`World::gt_touches_lethal`]). Default true.
@@ -132,15 +134,15 @@ pub struct MissionParams {
     /// open at every decision, the trail would lead paths along edges the robot once stopped
     /// at (measured on the pit world, session 22). Default true.
     pub reuse_trail: bool,
-    /// Overrides the world's time limit, seconds.
+    /// Overrides the world's time limit, seconds, > 0 and finite.
     pub time_limit_s: Option<f64>,
     /// Decisions in a row without a plan (each followed by 2 s of looking around) before the
-    /// mission ends as [`EndReason::Stuck`]. Default 30.
+    /// mission ends as [`EndReason::Stuck`], ≥ 1. Default 30.
     pub max_failed_decisions: u32,
     /// A decision with no frontier goal ends the mission as [`EndReason::Trapped`] instead of
     /// [`EndReason::NoFrontier`] when every free cell the robot can reach in its inflated map
     /// lies within this distance, metres (a pocket a few robot lengths wide; a finished map's
-    /// reachable space spans what was explored). 0 turns the distinction off. Default 2.
+    /// reachable space spans what was explored), ≥ 0. 0 turns the distinction off. Default 2.
     pub trapped_radius_m: f64,
     /// Times a trapped robot recovers before the mission ends [`EndReason::Trapped`]: as Nav2's
     /// clear-costmap recovery does, it forgets its map within
@@ -154,8 +156,17 @@ pub struct MissionParams {
 
 /// Smallest simulation step, seconds: a finer one only multiplies the steps of a mission.
 pub const MIN_DT_S: f64 = 1e-3;
+/// Largest simulation step, seconds: a control period longer than this is not a control loop
+/// (at the default 0.4 m/s the robot would drive 0.4 m blind between two commands).
+pub const MAX_DT_S: f64 = 1.0;
 /// Most rays in one LiDAR scan or one depth frame (a VLP-16 at 0.2° casts 28,800).
 pub const MAX_RAYS_PER_SENSING: usize = 1 << 20;
+/// Largest [`DriveParams::goal_tolerance_m`], metres: a robot that counts a goal reached from
+/// farther away stops metres short of every frontier it chose, so a larger value is a typo.
+pub const MAX_GOAL_TOLERANCE_M: f64 = 5.0;
+/// Largest [`DriveParams::body_half_m`], metres (a 10 m body): the footprint adds
+/// (2 · body_half_m / 5 cm + 1)² points to every scan.
+pub const MAX_BODY_HALF_M: f64 = 5.0;
 
 impl Default for MissionParams {
     fn default() -> Self {
@@ -198,49 +209,83 @@ impl MissionParams {
         Ok(p)
     }
 
-    /// Checks ranges; returns a message naming the first bad field.
+    /// Checks every numeric field, nested ones included: finite and in its documented range;
+    /// returns a message naming the first bad field by its key path (`odometry.gyro_sigma_per_sqrt_s`).
     pub fn validate(&self) -> Result<(), String> {
-        let pos = crate::params::check_positive;
-        pos("dt_s", self.dt_s)?;
-        pos("drive.max_speed_mps", self.drive.max_speed_mps)?;
-        pos("drive.max_turn_rate_radps", self.drive.max_turn_rate_radps)?;
-        pos("drive.lookahead_m", self.drive.lookahead_m)?;
-        pos("drive.goal_tolerance_m", self.drive.goal_tolerance_m)?;
-        pos("lidar.azimuth_step_rad", self.lidar.azimuth_step_rad)?;
-        pos("lidar.max_range_m", self.lidar.max_range_m)?;
-        pos("scan_every_m", self.scan_every_m)?;
-        pos("scan_every_rad", self.scan_every_rad)?;
-        pos("scan_every_s", self.scan_every_s)?;
-        pos("camera_every_s", self.camera_every_s)?;
-        pos("replan_period_s", self.replan_period_s)?;
-        pos("metrics_period_s", self.metrics_period_s)?;
-        if self.lidar.rings == 0 || self.lidar.rings > 256 {
-            return Err("lidar.rings must be in 1..=256".into());
+        use crate::params::{check_non_negative as nonneg, check_positive as pos};
+        use std::f64::consts::{FRAC_PI_2, PI, TAU};
+        fn at_most(name: &str, v: f64, max: f64, unit: &str) -> Result<(), String> {
+            if v <= max { Ok(()) } else { Err(format!("{name} must be ≤ {max}{unit} (got {v})")) }
         }
+        pos("dt_s", self.dt_s)?;
         // Bounds on the work of one step, scan and frame (far beyond any useful setting).
         if self.dt_s < MIN_DT_S {
             return Err(format!("dt_s must be ≥ {MIN_DT_S} s (got {})", self.dt_s));
         }
-        let scan_rays = self.lidar.rings as f64 * (std::f64::consts::TAU / self.lidar.azimuth_step_rad).ceil();
+        at_most("dt_s", self.dt_s, MAX_DT_S, " s")?;
+        let d = &self.drive;
+        pos("drive.max_speed_mps", d.max_speed_mps)?;
+        pos("drive.max_turn_rate_radps", d.max_turn_rate_radps)?;
+        pos("drive.lookahead_m", d.lookahead_m)?;
+        pos("drive.turn_in_place_rad", d.turn_in_place_rad)?;
+        at_most("drive.turn_in_place_rad", d.turn_in_place_rad, PI, " rad (π)")?;
+        pos("drive.heading_gain", d.heading_gain)?;
+        pos("drive.goal_tolerance_m", d.goal_tolerance_m)?;
+        at_most("drive.goal_tolerance_m", d.goal_tolerance_m, MAX_GOAL_TOLERANCE_M, " m")?;
+        pos("drive.body_half_m", d.body_half_m)?;
+        at_most("drive.body_half_m", d.body_half_m, MAX_BODY_HALF_M, " m")?;
+        let l = &self.lidar;
+        if l.rings == 0 || l.rings > 256 {
+            return Err(format!("lidar.rings must be in 1..=256 (got {})", l.rings));
+        }
+        nonneg("lidar.half_vfov_rad", l.half_vfov_rad)?;
+        at_most("lidar.half_vfov_rad", l.half_vfov_rad, FRAC_PI_2, " rad (π/2)")?;
+        pos("lidar.azimuth_step_rad", l.azimuth_step_rad)?;
+        at_most("lidar.azimuth_step_rad", l.azimuth_step_rad, TAU, " rad (2π)")?;
+        pos("lidar.max_range_m", l.max_range_m)?;
+        nonneg("lidar.min_range_m", l.min_range_m)?;
+        if l.min_range_m >= l.max_range_m {
+            return Err(format!("lidar.min_range_m ({}) must be < lidar.max_range_m ({})", l.min_range_m, l.max_range_m));
+        }
+        nonneg("lidar.range_sigma_m", l.range_sigma_m)?;
+        nonneg("lidar.mount_height_m", l.mount_height_m)?;
+        let scan_rays = l.rings as f64 * (TAU / l.azimuth_step_rad).ceil();
         if scan_rays > MAX_RAYS_PER_SENSING as f64 {
             return Err(format!(
                 "lidar: {scan_rays:.3e} rays per scan (rings × 2π / azimuth_step_rad), over the limit of {MAX_RAYS_PER_SENSING}"
             ));
         }
+        nonneg("camera_noise.bearing_sigma_rad", self.camera_noise.bearing_sigma_rad)?;
+        nonneg("camera_noise.depth_sigma_coeff", self.camera_noise.depth_sigma_coeff)?;
+        let o = &self.odometry;
+        nonneg("odometry.distance_sigma_per_sqrt_m", o.distance_sigma_per_sqrt_m)?;
+        nonneg("odometry.rotation_sigma_per_sqrt_rad", o.rotation_sigma_per_sqrt_rad)?;
+        nonneg("odometry.rotation_sigma_per_sqrt_m", o.rotation_sigma_per_sqrt_m)?;
+        nonneg("odometry.slip_per_rad", o.slip_per_rad)?;
+        nonneg("odometry.gyro_sigma_per_sqrt_s", o.gyro_sigma_per_sqrt_s)?;
+        pos("scan_every_m", self.scan_every_m)?;
+        pos("scan_every_rad", self.scan_every_rad)?;
+        pos("scan_every_s", self.scan_every_s)?;
+        // 0 columns or rows is allowed: no depth-camera ground rays (the loops run 0 times).
         if self.depth_rays[0].saturating_mul(self.depth_rays[1]) > MAX_RAYS_PER_SENSING {
             return Err(format!(
                 "depth_rays: {} × {} rays per frame, over the limit of {MAX_RAYS_PER_SENSING}",
                 self.depth_rays[0], self.depth_rays[1]
             ));
         }
+        pos("camera_every_s", self.camera_every_s)?;
+        pos("replan_period_s", self.replan_period_s)?;
+        pos("goal_timeout_factor", self.goal_timeout_factor)?;
+        nonneg("goal_timeout_extra_s", self.goal_timeout_extra_s)?;
+        pos("metrics_period_s", self.metrics_period_s)?;
         self.goal_setback.validate("goal_setback")?;
-        crate::params::check_non_negative("trapped_radius_m", self.trapped_radius_m)?;
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;
         }
         if self.max_failed_decisions == 0 {
             return Err("max_failed_decisions must be ≥ 1".into());
         }
+        nonneg("trapped_radius_m", self.trapped_radius_m)?;
         self.slam.validate()
     }
 }

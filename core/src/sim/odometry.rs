@@ -16,17 +16,17 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct OdometryNoise {
-    /// σ_s, m/√m: distance noise. Default 0.02 (2 cm RMS after 1 m).
+    /// σ_s, m/√m, ≥ 0: distance noise. Default 0.02 (2 cm RMS after 1 m).
     pub distance_sigma_per_sqrt_m: f64,
-    /// σ_r, rad/√rad: wheel heading noise per angle turned. Default 0.03.
+    /// σ_r, rad/√rad, ≥ 0: wheel heading noise per angle turned. Default 0.03.
     pub rotation_sigma_per_sqrt_rad: f64,
-    /// σ_rd, rad/√m: wheel heading noise per distance. Default 0.01.
+    /// σ_rd, rad/√m, ≥ 0: wheel heading noise per distance. Default 0.01.
     pub rotation_sigma_per_sqrt_m: f64,
-    /// Slip fraction per radian of slope. Default 0.1.
+    /// Slip fraction per radian of slope, ≥ 0. Default 0.1.
     pub slip_per_rad: f64,
     /// Use the gyro for δθ instead of the wheels. Default true.
     pub use_imu_yaw: bool,
-    /// Gyro angle random walk σ_g, rad/√s. Default 0.002.
+    /// Gyro angle random walk σ_g, rad/√s, ≥ 0. Default 0.002.
     pub gyro_sigma_per_sqrt_s: f64,
 }
 

@@ -15,20 +15,22 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DriveParams {
-    /// Largest forward speed, m/s. Default 0.4 (LeoRover).
+    /// Largest forward speed, m/s, > 0. Default 0.4 (LeoRover).
     pub max_speed_mps: f64,
-    /// Largest turn rate, rad/s. Default 1.0.
+    /// Largest turn rate, rad/s, > 0. Default 1.0.
     pub max_turn_rate_radps: f64,
-    /// Look-ahead distance of the carrot along the path, metres. Default 0.4.
+    /// Look-ahead distance of the carrot along the path, metres, > 0. Default 0.4.
     pub lookahead_m: f64,
-    /// Heading error above which the robot turns in place, radians. Default 0.6.
+    /// Heading error above which the robot turns in place, radians, in (0, π] (π: never).
+    /// Default 0.6.
     pub turn_in_place_rad: f64,
-    /// Proportional gain from heading error to turn rate, 1/s. Default 2.
+    /// Proportional gain from heading error to turn rate, 1/s, > 0. Default 2.
     pub heading_gain: f64,
-    /// Distance to the last path point at which the goal is reached, metres. Default 0.15.
+    /// Distance to the last path point at which the goal is reached, metres, in
+    /// (0, [`super::mission::MAX_GOAL_TOLERANCE_M`] = 5]. Default 0.15.
     pub goal_tolerance_m: f64,
-    /// Half of the body's length/width used to read roll and pitch from the terrain, metres.
-    /// Default 0.2.
+    /// Half of the body's length/width used to read roll and pitch from the terrain, metres, in
+    /// (0, [`super::mission::MAX_BODY_HALF_M`] = 5]. Default 0.2.
     pub body_half_m: f64,
 }
 

@@ -141,9 +141,20 @@ impl SlamParams {
         pos("cloud_voxel_m", self.cloud_voxel_m)?;
         nonneg("reregister_shift_m", self.reregister_shift_m)?;
         nonneg("reregister_lever_m", self.reregister_lever_m)?;
-        if self.marginal_every_keyframes == 0 || self.landmark_refresh_keyframes == 0 || self.graph.window_keyframes == 0 {
-            return Err("slam: marginal_every_keyframes, landmark_refresh_keyframes and graph.window_keyframes must be ≥ 1".into());
-        }
+        let at_least_one = |name: &str, v: usize| {
+            if v >= 1 { Ok(()) } else { Err(format!("slam.{name} must be ≥ 1 (got {v})")) }
+        };
+        at_least_one("marginal_every_keyframes", self.marginal_every_keyframes)?;
+        at_least_one("landmark_refresh_keyframes", self.landmark_refresh_keyframes)?;
+        at_least_one("graph.window_keyframes", self.graph.window_keyframes)?;
+        // The back end's optimiser has no check of its own: a NaN tolerance never stops it, a
+        // λ₀ of 0 (absolute in the GTSAM schedule) never grows, an infinite λ_max never gives up.
+        let o = &self.graph.optimizer;
+        at_least_one("graph.optimizer.max_iterations", o.max_iterations)?;
+        nonneg("graph.optimizer.relative_tolerance", o.relative_tolerance)?;
+        nonneg("graph.optimizer.absolute_tolerance", o.absolute_tolerance)?;
+        pos("graph.optimizer.lambda_initial_factor", o.lambda_initial_factor)?;
+        pos("graph.optimizer.lambda_max", o.lambda_max)?;
         Ok(())
     }
 }

@@ -578,3 +578,178 @@ fn the_trail_is_every_cell_the_robot_drove_on_4_connected() {
     }
     assert_eq!(seen.len(), trail.len());
 }
+
+/// Every numeric simulator setting is checked, nested ones included: a NaN, an infinity or a
+/// value out of its documented range is an error naming the file and the key path (before, each
+/// of these was accepted and NaN reached metrics.csv, or failed later naming the world file).
+#[test]
+fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
+    let mut wrong = Vec::new();
+    for (text, key) in [
+        ("[odometry]\ndistance_sigma_per_sqrt_m = nan", "odometry.distance_sigma_per_sqrt_m"),
+        ("[odometry]\ngyro_sigma_per_sqrt_s = inf", "odometry.gyro_sigma_per_sqrt_s"),
+        ("[odometry]\nrotation_sigma_per_sqrt_rad = -0.03", "odometry.rotation_sigma_per_sqrt_rad"),
+        ("[odometry]\nrotation_sigma_per_sqrt_m = -0.01", "odometry.rotation_sigma_per_sqrt_m"),
+        ("[odometry]\nslip_per_rad = nan", "odometry.slip_per_rad"),
+        ("[drive]\nheading_gain = nan", "drive.heading_gain"),
+        ("[drive]\nbody_half_m = nan", "drive.body_half_m"),
+        ("[drive]\nbody_half_m = 1e6", "drive.body_half_m must be ≤ 5 m"),
+        ("[drive]\nturn_in_place_rad = nan", "drive.turn_in_place_rad"),
+        ("[drive]\nturn_in_place_rad = 4.0", "drive.turn_in_place_rad must be ≤"),
+        ("[drive]\ngoal_tolerance_m = 1e6", "drive.goal_tolerance_m must be ≤ 5 m"),
+        ("[drive]\ngoal_tolerance_m = inf", "drive.goal_tolerance_m"),
+        ("[camera_noise]\nbearing_sigma_rad = nan", "camera_noise.bearing_sigma_rad"),
+        ("[camera_noise]\ndepth_sigma_coeff = -0.005", "camera_noise.depth_sigma_coeff"),
+        ("[lidar]\nrange_sigma_m = nan", "lidar.range_sigma_m"),
+        ("[lidar]\nhalf_vfov_rad = nan", "lidar.half_vfov_rad"),
+        ("[lidar]\nhalf_vfov_rad = 2.0", "lidar.half_vfov_rad must be ≤"),
+        ("[lidar]\nmount_height_m = nan", "lidar.mount_height_m"),
+        ("[lidar]\nmin_range_m = 20.0", "lidar.min_range_m (20) must be < lidar.max_range_m (10)"),
+        ("[lidar]\nmin_range_m = nan", "lidar.min_range_m"),
+        ("[lidar]\nazimuth_step_rad = 7.0", "lidar.azimuth_step_rad must be ≤"),
+        ("[lidar]\nrings = 0", "lidar.rings"),
+        ("goal_timeout_factor = nan", "goal_timeout_factor"),
+        ("goal_timeout_factor = 0.0", "goal_timeout_factor"),
+        ("goal_timeout_factor = -3.0", "goal_timeout_factor"),
+        ("goal_timeout_extra_s = -1.0", "goal_timeout_extra_s"),
+        ("dt_s = 1000.0", "dt_s must be ≤ 1 s"),
+        ("dt_s = nan", "dt_s"),
+        ("scan_every_m = nan", "scan_every_m"),
+        ("time_limit_s = inf", "time_limit_s"),
+        ("trapped_radius_m = nan", "trapped_radius_m"),
+        ("[goal_setback]\nsigmas = nan", "goal_setback.sigmas"),
+        ("[slam]\nz_sigma_per_sqrt_m = nan", "slam.z_sigma_per_sqrt_m"),
+        ("[slam]\nmarginal_every_keyframes = 0", "slam.marginal_every_keyframes"),
+        ("[slam.graph]\nwindow_keyframes = 0", "slam.graph.window_keyframes"),
+        ("[slam.graph.optimizer]\nrelative_tolerance = nan", "slam.graph.optimizer.relative_tolerance"),
+        ("[slam.graph.optimizer]\nabsolute_tolerance = -1.0", "slam.graph.optimizer.absolute_tolerance"),
+        ("[slam.graph.optimizer]\nlambda_initial_factor = 0.0", "slam.graph.optimizer.lambda_initial_factor"),
+        ("[slam.graph.optimizer]\nlambda_max = inf", "slam.graph.optimizer.lambda_max"),
+        ("[slam.graph.optimizer]\nmax_iterations = 0", "slam.graph.optimizer.max_iterations"),
+    ] {
+        match MissionParams::from_toml(text, "sim.toml") {
+            Err(e) if e.starts_with("sim.toml: ") && e.contains(key) => {}
+            other => wrong.push(format!("{text:?} → {:?}", other.map(|_| ()))),
+        }
+    }
+    assert!(wrong.is_empty(), "not refused by key:\n{}", wrong.join("\n"));
+    // The bounds themselves are allowed, and so is a depth camera with no rays (turned off).
+    for text in [
+        "dt_s = 1.0",
+        "[drive]\ngoal_tolerance_m = 5.0\nturn_in_place_rad = 3.141592653589793\nbody_half_m = 5.0",
+        "[lidar]\nhalf_vfov_rad = 1.5707963267948966\nmin_range_m = 0.0\nrange_sigma_m = 0.0\nmount_height_m = 0.0",
+        "[odometry]\ndistance_sigma_per_sqrt_m = 0.0\nslip_per_rad = 0.0\ngyro_sigma_per_sqrt_s = 0.0",
+        "[camera_noise]\nbearing_sigma_rad = 0.0\ndepth_sigma_coeff = 0.0",
+        "goal_timeout_extra_s = 0.0",
+        "depth_rays = [0, 0]",
+        "depth_rays = [0, 12]",
+    ] {
+        assert!(MissionParams::from_toml(text, "sim.toml").is_ok(), "{text:?}");
+    }
+}
+
+/// A depth camera with 0 × 0 rays is off: the mission runs on the LiDAR alone.
+#[test]
+fn a_mission_runs_with_the_depth_camera_off() {
+    let params = Params::default();
+    let mp = MissionParams { depth_rays: [0, 0], time_limit_s: Some(5.0), ..MissionParams::default() };
+    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
+    let s = m.run();
+    assert!(s.scans >= 1 && s.unexplored_pct.is_finite() && s.unexplored_pct < 100.0, "{s:?}");
+}
+
+/// Boxes and ramps with a non-finite corner, min ≥ max or a height ≤ 0 had no effect and said
+/// nothing; now they are errors naming the file and the entry (a box only raises the terrain, so
+/// a negative height digs no pit: refused).
+#[test]
+fn boxes_and_ramps_out_of_range_are_errors_naming_them() {
+    let with = |extra: &str| format!("{TINY}\n{extra}\n");
+    for (extra, needle) in [
+        ("[[boxes]]\nmin_m = [nan, 2.0]\nmax_m = [3.0, 3.0]\nheight_m = 0.5", "boxes[2]: min_m and max_m must be finite"),
+        ("[[boxes]]\nmin_m = [3.0, 2.0]\nmax_m = [2.0, 3.0]\nheight_m = 0.5", "boxes[2]: min_m must be < max_m on each axis"),
+        ("[[boxes]]\nmin_m = [2.0, 2.0]\nmax_m = [3.0, 3.0]\nheight_m = -0.5", "boxes[2].height_m must be a finite number > 0"),
+        ("[[boxes]]\nmin_m = [2.0, 2.0]\nmax_m = [3.0, 3.0]\nheight_m = inf", "boxes[2].height_m"),
+        ("[[ramps]]\nmin_m = [2.0, 2.0]\nmax_m = [2.0, 3.0]\nheight_m = 0.3\nrises_along = \"x\"", "ramps[0]: min_m must be < max_m"),
+        ("[[ramps]]\nmin_m = [2.0, 2.0]\nmax_m = [3.0, 3.0]\nheight_m = nan\nrises_along = \"x\"", "ramps[0].height_m"),
+    ] {
+        let e = WorldSpec::from_toml(&with(extra), "w.toml").unwrap_err().to_string();
+        assert!(e.starts_with("w.toml: ") && e.contains(needle), "{extra:?}: {e}");
+    }
+    // A box outside the terrain, or between two cell centres, raises nothing: refused by build.
+    let params = Params::default();
+    let build = |text: &str| {
+        let spec = WorldSpec::from_toml(text, "w.toml").unwrap();
+        World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}")))
+    };
+    for extra in [
+        "[[boxes]]\nmin_m = [20.0, 20.0]\nmax_m = [21.0, 21.0]\nheight_m = 0.5",
+        "[[boxes]]\nmin_m = [3.53, 1.0]\nmax_m = [3.57, 2.0]\nheight_m = 0.5", // centres at 3.525, 3.575
+    ] {
+        let e = build(&with(extra)).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("boxes[2]") && e.contains("holds no cell centre of the terrain"), "{extra:?}: {e}");
+    }
+    assert!(build(&with("[[boxes]]\nmin_m = [3.5, 1.0]\nmax_m = [3.6, 2.0]\nheight_m = 0.5")).is_ok());
+}
+
+/// Rocks wider than the world had no effect at all (every site lies within keep_clear_m +
+/// radius of the start): their radius is at most half the terrain's shorter side.
+#[test]
+fn rocks_wider_than_the_world_are_refused() {
+    let params = Params::default();
+    let rocks = |radius: &str| format!("{TINY}\n[rocks]\nspacing_m = 1.0\ndensity = 1.0\nradius_m = {radius}\nheight_m = [0.1, 0.2]\n");
+    let build = |text: &str| {
+        let spec = WorldSpec::from_toml(text, "w.toml")?;
+        World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}")))
+    };
+    let e = build(&rocks("[100.0, 200.0]")).unwrap_err().to_string();
+    assert!(e.starts_with("rocks.radius_m: the largest radius 200 m is wider than the terrain"), "{e}");
+    let e = build(&rocks("[0.1, inf]")).unwrap_err().to_string();
+    assert!(e.starts_with("w.toml: rocks:") && e.contains("radius_m [0.1, inf]"), "{e}");
+    let e = build(&format!("{}keep_clear_m = nan\n", rocks("[0.1, 0.2]"))).unwrap_err().to_string();
+    assert!(e.starts_with("w.toml: rocks.keep_clear_m"), "{e}");
+    assert!(build(&rocks("[0.1, 2.5]")).is_ok());
+}
+
+/// An infinite time limit says it must be finite; a boundary off the start says so (not "not on
+/// traversable terrain").
+#[test]
+fn a_world_time_limit_or_boundary_out_of_range_says_what_is_wrong() {
+    let e = WorldSpec::from_toml(&TINY.replace("time_limit_s = 300.0", "time_limit_s = inf"), "w.toml").unwrap_err().to_string();
+    assert!(e.starts_with("w.toml: time_limit_s must be a finite number > 0 (got inf)"), "{e}");
+    let off = TINY.replace("start = [1.0, 1.0, 0.0]", "start = [1.0, 1.0, 0.0]\nboundary = [100.0, 100.0, 200.0, 200.0]");
+    let e = WorldSpec::from_toml(&off, "w.toml").unwrap_err().to_string();
+    assert!(e.starts_with("w.toml: start (1, 1) is outside the boundary [100.0, 100.0, 200.0, 200.0]"), "{e}");
+    // The default boundary (the terrain inset by 0.5 m) leaves a start 0.2 m from the edge out.
+    let params = Params::default();
+    let spec = WorldSpec::from_toml(&TINY.replace("start = [1.0, 1.0, 0.0]", "start = [0.2, 0.2, 0.0]"), "w.toml").unwrap();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
+    let e = world.check_start(params.robot.radius_m).unwrap_err();
+    assert!(e.starts_with("start (0.20, 0.20) is outside the exploration boundary [0.5, 0.5, 4.5, 4.5] (by default"), "{e}");
+}
+
+/// A map_server YAML's `image:` is relative to the YAML's directory (as map_server reads it), not
+/// to the world file's; an absolute one stays as it is.
+#[test]
+fn a_map_server_image_is_found_next_to_its_yaml() {
+    use std::collections::HashMap;
+    let params = Params::default();
+    // 40 × 40 free pixels at 0.1 m: a 4 m flat.
+    let mut pgm = b"P5\n40 40\n255\n".to_vec();
+    pgm.extend(std::iter::repeat_n(254u8, 40 * 40));
+    let yaml = |image: &str| {
+        format!("image: {image}\nresolution: 0.1\norigin: [0.0, 0.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    };
+    let world = "time_limit_s = 100.0\nstart = [2.0, 2.0, 0.0]\n[terrain]\nkind = \"map_server\"\nfile = \"sub/allfree.yaml\"\n";
+    let spec = WorldSpec::from_toml(world, "w.toml").unwrap();
+    for (image, image_key) in [("allfree.pgm", "sub/allfree.pgm"), ("/maps/allfree.pgm", "/maps/allfree.pgm")] {
+        let files: HashMap<&str, Vec<u8>> = HashMap::from([("sub/allfree.yaml", yaml(image).into_bytes()), (image_key, pgm.clone())]);
+        let w = World::build(&spec, &params.traversability, params.traversability.tau, |name| {
+            files.get(name).cloned().ok_or_else(|| format!("cannot read {name}"))
+        })
+        .unwrap_or_else(|e| panic!("{image}: {e}"));
+        assert_eq!((w.field.geometry.width, w.field.geometry.height), (40, 40));
+        assert!(w.explorable_count > 0 && w.check_start(params.robot.radius_m).is_ok());
+    }
+    assert_eq!(super::world::relative_to("allfree.yaml", "allfree.pgm"), "allfree.pgm");
+    assert_eq!(super::world::relative_to("a/b/m.yaml", "../i.pgm"), "a/b/../i.pgm");
+}

@@ -5,7 +5,8 @@
 //! Terrain sources: a seeded procedural generator (hills, ridges, tilt, ramps), a real DEM image
 //! scaled to rover size, or a 2D map_server map whose occupied (and unknown) pixels are extruded
 //! into walls. Core does no file IO: [`World::build`] takes a loader closure that returns a
-//! named file's bytes (the CLI resolves names relative to the world file).
+//! named file's bytes (the CLI resolves names relative to the world file). A map_server YAML's
+//! `image:` is asked for relative to the YAML's directory ([`relative_to`]), as map_server reads it.
 //!
 //! Ground truth for the metrics: the traversability of the true heightfield, computed by the same
 //! estimator as the robot's map ([`crate::traversability`]) on dense noise-free points (four per
@@ -78,11 +79,11 @@ pub struct WorldSpec {
     pub landmarks: LandmarkSpec,
     /// Start pose [x_m, y_m, yaw_rad].
     pub start: [f64; 3],
-    /// Exploration boundary [min_x_m, min_y_m, max_x_m, max_y_m]; default: the world inset by
-    /// 0.5 m.
+    /// Exploration boundary [min_x_m, min_y_m, max_x_m, max_y_m], min < max, holding the start;
+    /// default: the world inset by 0.5 m.
     #[serde(default)]
     pub boundary: Option<[f64; 4]>,
-    /// Mission time limit, seconds. Default 5000.
+    /// Mission time limit, seconds, finite and > 0. Default 5000.
     #[serde(default = "default_time_limit")]
     pub time_limit_s: f64,
 }
@@ -162,10 +163,13 @@ fn default_wall_height() -> f64 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RockSpec {
+    /// Lattice spacing, metres, > 0.
     pub spacing_m: f64,
-    /// Probability of a rock per lattice cell.
+    /// Probability of a rock per lattice cell, in [0, 1].
     pub density: f64,
+    /// Radius range [min, max], metres: 0 < min ≤ max ≤ half the terrain's shorter side.
     pub radius_m: [f64; 2],
+    /// Height range [min, max], metres: 0 ≤ min ≤ max, finite.
     pub height_m: [f64; 2],
     /// No rock within this distance of the start, metres. Default 1.2.
     #[serde(default = "default_keep_clear")]
@@ -181,8 +185,13 @@ fn default_keep_clear() -> f64 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoxSpec {
+    /// Lower-left corner [x, y], metres (finite, < `max_m` on each axis).
     pub min_m: [f64; 2],
+    /// Upper-right corner [x, y], metres. The box must hold at least one cell centre of the
+    /// terrain.
     pub max_m: [f64; 2],
+    /// Height of the top above the ground at the box's centre, metres, > 0: a box only raises
+    /// the terrain (each cell to at least that top), so it cannot dig a pit.
     pub height_m: f64,
 }
 
@@ -191,8 +200,13 @@ pub struct BoxSpec {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RampSpec {
+    /// Lower-left corner [x, y], metres (finite, < `max_m` on each axis).
     pub min_m: [f64; 2],
+    /// Upper-right corner [x, y], metres. The ramp must hold at least one cell centre of the
+    /// terrain.
     pub max_m: [f64; 2],
+    /// Height of the high end above the ground at `min_m`, metres, > 0 (a ramp only raises the
+    /// terrain).
     pub height_m: f64,
     pub rises_along: String,
 }
@@ -272,6 +286,24 @@ impl WorldSpec {
         Ok(())
     }
 
+    /// Rocks no wider than the terrain: a rock's radius is at most half the terrain's shorter
+    /// side. A larger one is surely a mistake (metres for centimetres), and it would not even
+    /// show: every lattice site lies within `keep_clear_m` + radius of the start, so all are
+    /// skipped without a word.
+    fn check_rock_radius(&self, geometry: &GridGeometry) -> Result<(), WorldError> {
+        let Some(r) = &self.rocks else { return Ok(()) };
+        let (min_x, min_y, max_x, max_y) = geometry.bounds_m();
+        let (w, h) = (max_x - min_x, max_y - min_y);
+        if r.radius_m[1] > 0.5 * w.min(h) {
+            return Err(WorldError::Invalid(format!(
+                "rocks.radius_m: the largest radius {} m is wider than the terrain ({w} m × {h} m): at most half its shorter side, {} m",
+                r.radius_m[1],
+                0.5 * w.min(h)
+            )));
+        }
+        Ok(())
+    }
+
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), WorldError> {
         let bad = |m: String| Err(WorldError::Invalid(m));
@@ -279,9 +311,7 @@ impl WorldSpec {
         if !pos(self.cell_m) || self.cell_m > 1.0 {
             return bad(format!("cell_m must be in (0, 1] (got {})", self.cell_m));
         }
-        if !pos(self.time_limit_s) {
-            return bad("time_limit_s must be > 0".into());
-        }
+        crate::params::check_positive("time_limit_s", self.time_limit_s).map_err(WorldError::Invalid)?;
         if !self.start.iter().all(|v| v.is_finite()) {
             return bad("start must be finite".into());
         }
@@ -298,9 +328,28 @@ impl WorldSpec {
             Ok(())
         };
         match &self.terrain {
-            TerrainSpec::Procedural { size_m, hill_wavelength_m, ridge_wavelength_m, .. } => {
+            TerrainSpec::Procedural {
+                size_m,
+                hill_height_m,
+                hill_wavelength_m,
+                ridge_height_m,
+                ridge_wavelength_m,
+                tilt_x_deg,
+                tilt_y_deg,
+                ..
+            } => {
                 if !pos(*size_m) || *size_m > 500.0 || !pos(*hill_wavelength_m) || !pos(*ridge_wavelength_m) {
                     return bad("terrain: size_m in (0, 500] and wavelengths > 0".into());
+                }
+                for (key, v) in [("hill_height_m", *hill_height_m), ("ridge_height_m", *ridge_height_m)] {
+                    if !v.is_finite() {
+                        return bad(format!("terrain.{key} must be finite (got {v})"));
+                    }
+                }
+                for (key, v) in [("tilt_x_deg", *tilt_x_deg), ("tilt_y_deg", *tilt_y_deg)] {
+                    if v.is_nan() || v.abs() >= 90.0 {
+                        return bad(format!("terrain.{key} must be in (-90, 90) degrees (got {v})"));
+                    }
                 }
                 cells(*size_m)?;
             }
@@ -319,15 +368,24 @@ impl WorldSpec {
         if let Some(r) = &self.rocks {
             if !pos(r.spacing_m)
                 || !(0.0..=1.0).contains(&r.density)
-                || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1])
-                || !(r.height_m[0] >= 0.0 && r.height_m[0] <= r.height_m[1])
+                || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1] && r.radius_m[1].is_finite())
+                || !(r.height_m[0] >= 0.0 && r.height_m[0] <= r.height_m[1] && r.height_m[1].is_finite())
             {
-                return bad("rocks: spacing_m > 0, density in [0, 1], 0 < min ≤ max for radius_m and height_m".into());
+                return bad(format!(
+                    "rocks: spacing_m > 0, density in [0, 1], finite 0 < min ≤ max for radius_m and 0 ≤ min ≤ max for height_m \
+                     (got spacing_m {}, density {}, radius_m {:?}, height_m {:?})",
+                    r.spacing_m, r.density, r.radius_m, r.height_m
+                ));
             }
+            crate::params::check_non_negative("rocks.keep_clear_m", r.keep_clear_m).map_err(WorldError::Invalid)?;
         }
-        for r in &self.ramps {
+        for (i, b) in self.boxes.iter().enumerate() {
+            check_box(&format!("boxes[{i}]"), b.min_m, b.max_m, b.height_m)?;
+        }
+        for (i, r) in self.ramps.iter().enumerate() {
+            check_box(&format!("ramps[{i}]"), r.min_m, r.max_m, r.height_m)?;
             if !["x", "-x", "y", "-y"].contains(&r.rises_along.as_str()) {
-                return bad(format!("ramp rises_along must be x, -x, y or -y (got {:?})", r.rises_along));
+                return bad(format!("ramps[{i}].rises_along must be x, -x, y or -y (got {:?})", r.rises_along));
             }
         }
         if !pos(self.landmarks.spacing_m) || !pos(self.landmarks.texture_wavelength_m) {
@@ -343,9 +401,29 @@ impl WorldSpec {
             if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
                 return bad("boundary must be [min_x, min_y, max_x, max_y] with min < max".into());
             }
+            // No cell is explorable from a start outside the boundary (the start cell is the
+            // seed of the explorable region): say so here rather than "not traversable" later.
+            let [x, y, _] = self.start;
+            if !(b[0] <= x && x <= b[2] && b[1] <= y && y <= b[3]) {
+                return bad(format!("start ({x}, {y}) is outside the boundary {b:?}"));
+            }
         }
         Ok(())
     }
+}
+
+/// `Ok` when a box or ramp named `key` has finite corners with min < max on each axis and a
+/// finite height > 0 (both only raise the terrain, to at most `height_m` above the ground at a
+/// reference point: a height ≤ 0 would raise nothing, and a pit cannot be dug with one).
+fn check_box(key: &str, min_m: [f64; 2], max_m: [f64; 2], height_m: f64) -> Result<(), WorldError> {
+    let bad = |m: String| Err(WorldError::Invalid(m));
+    if !min_m.iter().chain(&max_m).all(|v| v.is_finite()) {
+        return bad(format!("{key}: min_m and max_m must be finite (got min_m {min_m:?}, max_m {max_m:?})"));
+    }
+    if !(min_m[0] < max_m[0] && min_m[1] < max_m[1]) {
+        return bad(format!("{key}: min_m must be < max_m on each axis (got min_m {min_m:?}, max_m {max_m:?})"));
+    }
+    crate::params::check_positive(&format!("{key}.height_m"), height_m).map_err(WorldError::Invalid)
 }
 
 /// A built world: ground truth for the simulator and the metrics.
@@ -415,16 +493,17 @@ impl World {
             TerrainSpec::MapServer { file, wall_height_m } => {
                 let yaml_bytes = fetch(file)?;
                 let yaml = crate::io::MapYaml::parse(&yaml_bytes, file)?;
-                let image = fetch(&yaml.image)?;
-                let grid = crate::io::load_map(&yaml_bytes, file, &image, &yaml.image)?;
+                let image_name = relative_to(file, &yaml.image);
+                let image = fetch(&image_name)?;
+                let grid = crate::io::load_map(&yaml_bytes, file, &image, &image_name)?;
                 let g = grid.geometry;
                 // A thick wall's top is flat, hence traversable: refuse a start on one by name.
                 if let Some(i) = g.cell_of(spec.start[0], spec.start[1]).and_then(|c| g.index(c))
                     && grid.data[i] != FREE
                 {
                     return Err(WorldError::Invalid(format!(
-                        "start ({}, {}) is inside a wall: an occupied or unknown pixel of {}",
-                        spec.start[0], spec.start[1], yaml.image
+                        "start ({}, {}) is inside a wall: an occupied or unknown pixel of {image_name}",
+                        spec.start[0], spec.start[1]
                     )));
                 }
                 Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() }
@@ -435,11 +514,14 @@ impl World {
             return Err(WorldError::Invalid(format!("start ({}, {}) is outside the terrain", start_xy.0, start_xy.1)));
         }
         spec.check_scatter_sites(&field.geometry)?;
-        for b in &spec.boxes {
-            stamp_box(&mut field, b);
+        spec.check_rock_radius(&field.geometry)?;
+        for (i, b) in spec.boxes.iter().enumerate() {
+            let cells = stamp_box(&mut field, b);
+            check_covers_cells(&format!("boxes[{i}]"), &field.geometry, b.min_m, b.max_m, cells)?;
         }
-        for r in &spec.ramps {
-            stamp_ramp(&mut field, r);
+        for (i, r) in spec.ramps.iter().enumerate() {
+            let cells = stamp_ramp(&mut field, r);
+            check_covers_cells(&format!("ramps[{i}]"), &field.geometry, r.min_m, r.max_m, cells)?;
         }
         let rocks = match &spec.rocks {
             Some(r) => scatter_rocks(
@@ -501,6 +583,11 @@ impl World {
     pub fn check_start(&self, robot_radius_m: f64) -> Result<(), String> {
         let (x, y) = (self.start.x_m, self.start.y_m);
         if self.explorable_count == 0 {
+            let b = self.boundary_box_m;
+            if !(b[0] <= x && x <= b[2] && b[1] <= y && y <= b[3]) {
+                let whose = if self.spec.boundary.is_some() { "" } else { " (by default the terrain inset by 0.5 m)" };
+                return Err(format!("start ({x:.2}, {y:.2}) is outside the exploration boundary {b:?}{whose}"));
+            }
             return Err(format!("start ({x:.2}, {y:.2}) is not on ground-truth traversable terrain"));
         }
         match self.nearest_gt_lethal_m(x, y, robot_radius_m) {
@@ -529,6 +616,33 @@ impl World {
             None => true,
         }
     }
+}
+
+/// `name` (a file named in a file at `base`, e.g. a map_server YAML's `image:`) relative to
+/// `base`'s directory, as map_server resolves it; an absolute `name`, or a `base` without a
+/// directory, gives `name` unchanged.
+pub fn relative_to(base: &str, name: &str) -> String {
+    let path = std::path::Path::new(name);
+    match std::path::Path::new(base).parent() {
+        Some(dir) if !path.is_absolute() && !path.has_root() && !dir.as_os_str().is_empty() => {
+            dir.join(path).to_string_lossy().into_owned()
+        }
+        _ => name.to_owned(),
+    }
+}
+
+/// `Ok` when the box or ramp `key` raised `cells` cells (those whose centre it holds): one
+/// outside the terrain, or thinner than a cell between two centres, has no effect at all.
+fn check_covers_cells(key: &str, geometry: &GridGeometry, min_m: [f64; 2], max_m: [f64; 2], cells: usize) -> Result<(), WorldError> {
+    if cells > 0 {
+        return Ok(());
+    }
+    let (x0, y0, x1, y1) = geometry.bounds_m();
+    Err(WorldError::Invalid(format!(
+        "{key} (min_m {min_m:?}, max_m {max_m:?}) holds no cell centre of the terrain [{x0}, {y0}, {x1}, {y1}] at {} m: \
+         it lies outside the terrain or is thinner than a cell, and would have no effect",
+        geometry.resolution_m
+    )))
 }
 
 /// GT traversability: the estimator on four noise-free points per cell.
@@ -588,22 +702,28 @@ pub fn explorable_cells(gt: &OccupancyGrid, boundary: &Boundary, start: Pose2) -
     seen
 }
 
-fn for_cells_in_box(field: &mut Heightfield, min: [f64; 2], max: [f64; 2], mut f: impl FnMut(f64, f64, &mut f64)) {
+/// Calls `f` on every cell whose centre lies in the box; returns how many did.
+fn for_cells_in_box(field: &mut Heightfield, min: [f64; 2], max: [f64; 2], mut f: impl FnMut(f64, f64, &mut f64)) -> usize {
     let g = field.geometry;
+    let mut cells = 0;
     for i in 0..g.len() {
         let (x, y) = g.center_of(g.cell_at(i));
         if x >= min[0] && x <= max[0] && y >= min[1] && y <= max[1] {
             f(x, y, &mut field.heights_m[i]);
+            cells += 1;
         }
     }
+    cells
 }
 
-fn stamp_box(field: &mut Heightfield, b: &BoxSpec) {
+/// Raises the cells under the box; returns how many it covers.
+fn stamp_box(field: &mut Heightfield, b: &BoxSpec) -> usize {
     let base = field.height_at((b.min_m[0] + b.max_m[0]) / 2.0, (b.min_m[1] + b.max_m[1]) / 2.0).unwrap_or(0.0);
-    for_cells_in_box(field, b.min_m, b.max_m, |_, _, z| *z = z.max(base + b.height_m));
+    for_cells_in_box(field, b.min_m, b.max_m, |_, _, z| *z = z.max(base + b.height_m))
 }
 
-fn stamp_ramp(field: &mut Heightfield, r: &RampSpec) {
+/// Raises the cells under the ramp; returns how many it covers.
+fn stamp_ramp(field: &mut Heightfield, r: &RampSpec) -> usize {
     let base = field.height_at(r.min_m[0], r.min_m[1]).unwrap_or(0.0);
     let (lx, ly) = (r.max_m[0] - r.min_m[0], r.max_m[1] - r.min_m[1]);
     let axis = r.rises_along.clone();
@@ -615,5 +735,5 @@ fn stamp_ramp(field: &mut Heightfield, r: &RampSpec) {
             _ => (r.max_m[1] - y) / ly,
         };
         *z = z.max(base + r.height_m * t.clamp(0.0, 1.0));
-    });
+    })
 }
