@@ -67,6 +67,14 @@ pub fn run(args: &SelectArgs) -> Result<()> {
     let landmarks = LandmarkVoxels::new(&cloud, params.u2.voxel_m, params.u2.sigma_landmark_m)
         .map_err(|e| anyhow::anyhow!("{}: {e}", args.landmarks.display()))?;
     let boundary = args.boundary.as_deref().map(parse_boundary).transpose()?;
+    if let (Some(text), Some(b)) = (args.boundary.as_deref(), boundary.as_ref()) {
+        // A boundary the map does not reach can hold no frontier: say so rather than rank none.
+        let (x0, y0, x1, y1) = grid.geometry.bounds_m();
+        let outside = b.vertices_m.iter().all(|v| v[0] <= x0) || b.vertices_m.iter().all(|v| v[0] >= x1);
+        if outside || b.vertices_m.iter().all(|v| v[1] <= y0) || b.vertices_m.iter().all(|v| v[1] >= y1) {
+            bail!("--boundary {text:?} does not overlap the map {} ([{x0}, {x1}] × [{y0}, {y1}] m)", args.map.display());
+        }
+    }
     let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
     let mut input = DecisionInput::new(&grid, &landmarks, robot, &blacklist);
     if let Some(b) = boundary.as_ref() {

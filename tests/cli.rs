@@ -137,6 +137,9 @@ fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
     assert_clear_error(&select(&good_map, &good_lm, "-50,3,0"), "outside the map");
     assert_clear_error(&select(&good_map, &good_lm, "3,nan,0"), "--pose");
     assert_clear_error(&select(&good_map, &good_lm, "3,3"), "--pose");
+    // A boundary the map does not reach (it ranked 0 candidates with exit 0).
+    let out = run(&["select", "--map", &good_map, "--landmarks", &good_lm, "--pose", "3,3,0", "--boundary", "100,100,200,200"]);
+    assert_clear_error(&out, "--boundary \"100,100,200,200\" does not overlap the map");
 
     // Missing files, unknown extensions, bad parameter files.
     assert_clear_error(&select("/nonexistent/map.yaml", &good_lm, "3,3,0"), "cannot read");

@@ -88,14 +88,13 @@ impl Heightfield {
     pub fn from_dem_png(bytes: &[u8], name: &str, scaling: DemScaling) -> Result<Self, HeightfieldError> {
         let invalid = |message: String| HeightfieldError::Invalid { name: name.into(), message };
         let s = scaling;
-        if !(s.pixel_x_m > 0.0
-            && s.pixel_y_m > 0.0
-            && s.world_size_m > 0.0
-            && s.cell_m > 0.0
-            && s.crop_fraction > 0.0
-            && s.crop_fraction <= 1.0)
-        {
-            return Err(invalid("DEM scaling parameters must be positive (crop fraction in (0, 1])".into()));
+        for (key, v) in [("pixel_x_m", s.pixel_x_m), ("pixel_y_m", s.pixel_y_m), ("world size_m", s.world_size_m), ("cell_m", s.cell_m)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(invalid(format!("DEM scaling: {key} must be a finite number > 0 (got {v})")));
+            }
+        }
+        if !(s.crop_fraction > 0.0 && s.crop_fraction <= 1.0) {
+            return Err(invalid(format!("DEM scaling: crop_fraction must be in (0, 1] (got {})", s.crop_fraction)));
         }
         // The map images' decoder: PNG (any colour type and depth, expanded) or PGM, with its
         // allocation caps.
@@ -186,6 +185,16 @@ mod tests {
         // crop ≈ 0.5 · 343 · 93 m ≈ 15.9 km → 20 m: scale ≈ 1/800; the real relief (≤ 840 m) becomes ≤ ~1.1 m.
         assert!(max > 0.05 && max < 1.2, "relief {max}");
         assert!(Heightfield::from_dem_png(b"not a png", "x.png", s).is_err());
+        // A scaling value out of range is named (an infinite pixel size passed a `> 0` check).
+        for (bad, needle) in [
+            (DemScaling { pixel_x_m: f64::INFINITY, ..s }, "pixel_x_m must be a finite number > 0 (got inf)"),
+            (DemScaling { pixel_y_m: 0.0, ..s }, "pixel_y_m must be a finite number > 0 (got 0)"),
+            (DemScaling { world_size_m: f64::NAN, ..s }, "world size_m must be a finite number > 0 (got NaN)"),
+            (DemScaling { crop_fraction: 1.5, ..s }, "crop_fraction must be in (0, 1] (got 1.5)"),
+        ] {
+            let e = Heightfield::from_dem_png(&bytes, "dem.png", bad).unwrap_err().to_string();
+            assert!(e.contains("dem.png") && e.contains(needle), "{e}");
+        }
     }
 
     fn png_of(color: png::ColorType, depth: png::BitDepth, (w, h): (u32, u32), data: &[u8]) -> Vec<u8> {
