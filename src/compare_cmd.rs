@@ -171,7 +171,8 @@ fn command_line() -> String {
     s
 }
 
-fn end_reason(r: Option<EndReason>) -> &'static str {
+/// The end reason as `summary.json` and `summary.csv` name it.
+pub fn end_reason(r: Option<EndReason>) -> &'static str {
     match r {
         Some(EndReason::NoFrontier) => "no_frontier",
         Some(EndReason::Trapped) => "trapped",

@@ -101,10 +101,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
         summary.gt_violations,
         summary.safety_stops,
         summary.trap_recoveries,
-        summary.end_reason.map_or_else(
-            || "none".to_string(),
-            |r| serde_json::to_value(r).map(|v| v.as_str().unwrap_or("?").to_string()).unwrap_or_default()
-        )
+        crate::compare_cmd::end_reason(summary.end_reason)
     )?;
     Ok(())
 }

@@ -569,18 +569,25 @@ impl Explorer {
         z.filter(|z| z.is_finite()).unwrap_or(0.0)
     }
 
-    /// Whether every free cell the robot can reach on the latest inflated map (its trail open,
-    /// as the last decision had it) lies within `trapped_radius_m` of it ([`enclosed_within`]).
-    fn trapped(&mut self, robot: Pose2) -> bool {
+    /// Whether every free cell the robot can reach on the latest inflated map (with `trail`, cells
+    /// of it, open as the last decision had them) lies within `trapped_radius_m` of it
+    /// ([`enclosed_within`]).
+    fn trapped(&mut self, robot: Pose2, trail: &[usize]) -> bool {
         let r = self.cfg.trapped_radius_m;
-        if r <= 0.0 {
+        if r <= 0.0 || self.inflated().is_none() {
             return false;
         }
-        let cells = self.trail_cells();
-        let Some(m) = self.map.as_ref() else { return false };
-        let mut grid = inflate_lethal(&m.grid, self.params.robot.radius_m);
-        free_traversed(&m.grid, &cells, &mut grid);
-        grid.geometry.cell_of(robot.x_m, robot.y_m).is_some_and(|c| enclosed_within(&grid, c, r))
+        let Some(MapState { grid: raw, inflated: Some(inflated), .. }) = self.map.as_ref() else { return false };
+        let opened;
+        let grid = if trail.is_empty() {
+            inflated
+        } else {
+            let mut g = inflated.clone();
+            free_traversed(raw, trail, &mut g);
+            opened = g;
+            &opened
+        };
+        grid.geometry.cell_of(robot.x_m, robot.y_m).is_some_and(|c| enclosed_within(grid, c, r))
     }
 
     /// With a cloud map and recoveries left ([`NodeConfig::trap_recoveries`]), forgets the map
@@ -847,17 +854,17 @@ impl Explorer {
             }
         };
         let mut picked = self.pick(&decision, now_s);
-        // No goal: decide again with the cells the robot drove on open.
-        if picked.is_none() && self.goal.is_none() && self.cfg.reuse_trail && !self.trail.is_empty() {
-            let cells = self.trail_cells();
-            if let Some(Ok(d)) = self.decide(robot, &cells, now_s) {
-                picked = self.pick(&d, now_s);
-                decision = d;
-            }
+        // No goal: decide again with the cells the robot drove on open (and judge a trap so).
+        let trail = if picked.is_none() && self.goal.is_none() { self.trail_cells() } else { Vec::new() };
+        if !trail.is_empty()
+            && let Some(Ok(d)) = self.decide(robot, &trail, now_s)
+        {
+            picked = self.pick(&d, now_s);
+            decision = d;
         }
         let radius = self.params.frontier.blacklist_radius_m;
         match (picked, self.goal) {
-            (None, None) if self.trapped(robot) => {
+            (None, None) if self.trapped(robot, &trail) => {
                 self.empty_decisions = 0;
                 self.phase = Phase::Planning;
                 let walled = format!(
