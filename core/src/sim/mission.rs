@@ -15,8 +15,10 @@
 //! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A decision that finds
 //! no goal is made again with the cells the robot's centre has driven on open to the planner
 //! (and, for that path, to the path check) while its map holds them free (`reuse_trail`), so
-//! that lethal cells mapped later beside a doorway it came through cannot shut it in. A robot its map walls
-//! in ([`crate::frontier::enclosed_within`]) with no candidate left forgets its map around itself
+//! that lethal cells mapped later beside a doorway it came through cannot shut it in; if it still
+//! finds none, once more with lethal cells inflated by `tight_inflation_m` instead of the robot
+//! radius (the path check of a path planned so uses it too), for doorways the full inflation
+//! shuts. A robot its map walls in ([`crate::frontier::enclosed_within`]) with no candidate left forgets its map around itself
 //! and turns a full circle, at most `trap_recoveries` times. The mission ends when no candidate
 //! is left (`Decision::chosen == None`; `Trapped` rather than `NoFrontier` if the map still walls
 //! the robot in after its recoveries) or at the time limit.
@@ -134,6 +136,16 @@ pub struct MissionParams {
     /// open at every decision, the trail would lead paths along edges the robot once stopped
     /// at (measured on the pit world, session 22). Default true.
     pub reuse_trail: bool,
+    /// Squeezing through: when a decision finds no goal even with the trail open, it is made
+    /// again with lethal cells inflated by this radius, metres, instead of `robot.radius_m`
+    /// (and the path check and trap check of that path then use it too). The robot radius on
+    /// top of the disc's band of lethal cells along a wall shuts doorways narrower than about
+    /// 0.95 m at the defaults; a cell is lethal when its disc holds a hazard, so an inflation of
+    /// radius − disc radius would still keep the body off ground-truth hazards in a perfect map,
+    /// and the margin left covers a map a cell off. Only then: planned this close everywhere,
+    /// the body meets drops the map does not show yet (measured on the pit and paper worlds,
+    /// session 23). ≥ 0; 0, or at least `robot.radius_m`, turns it off. Default 0.20.
+    pub tight_inflation_m: f64,
     /// Overrides the world's time limit, seconds, > 0 and finite.
     pub time_limit_s: Option<f64>,
     /// Decisions in a row without a plan (each followed by 2 s of looking around) before the
@@ -189,6 +201,7 @@ impl Default for MissionParams {
             goal_setback: GoalSetback::default(),
             clear_footprint: true,
             reuse_trail: true,
+            tight_inflation_m: 0.20,
             time_limit_s: None,
             max_failed_decisions: 30,
             trapped_radius_m: 2.0,
@@ -286,6 +299,7 @@ impl MissionParams {
             return Err("max_failed_decisions must be ≥ 1".into());
         }
         nonneg("trapped_radius_m", self.trapped_radius_m)?;
+        nonneg("tight_inflation_m", self.tight_inflation_m)?;
         self.slam.validate()
     }
 }
@@ -364,6 +378,9 @@ pub struct Summary {
     pub safety_stops: u64,
     /// Recoveries from a trap ([`MissionParams::trap_recoveries`]).
     pub trap_recoveries: u64,
+    /// Paths planned with the tight inflation ([`MissionParams::tight_inflation_m`]): to a new
+    /// goal, or to the current one when periodic replanning found it only so.
+    pub tight_plans: u64,
     pub planning_errors: u64,
     pub landmarks_mapped: usize,
     pub scans: u64,
@@ -428,6 +445,9 @@ pub struct Mission {
     on_trail: Vec<bool>,
     /// Whether the path being driven was planned with the trail open.
     path_on_trail: bool,
+    /// The inflation radius the path being driven was planned with, metres (`robot.radius_m`,
+    /// or [`MissionParams::tight_inflation_m`]).
+    path_inflation_m: f64,
     /// Landmark map: id → (sum of world positions, count).
     landmark_sums: BTreeMap<u64, (Vector3<f64>, u32)>,
     pub blacklist: Blacklist,
@@ -460,6 +480,7 @@ pub struct Mission {
     violations: u64,
     safety_stops: u64,
     trap_recoveries: u64,
+    tight_plans: u64,
     planning_errors: u64,
     /// Decisions in a row that found no plan.
     failed_decisions: u32,
@@ -520,6 +541,7 @@ impl Mission {
             trail: Vec::new(),
             on_trail: vec![false; g.len()],
             path_on_trail: false,
+            path_inflation_m: params.robot.radius_m,
             landmark_sums: BTreeMap::new(),
             blacklist,
             // A full turn in place first: the LiDAR is blind within ~1.1 m, the camera sees it.
@@ -548,6 +570,7 @@ impl Mission {
             violations: 0,
             safety_stops: 0,
             trap_recoveries: 0,
+            tight_plans: 0,
             planning_errors: 0,
             failed_decisions: 0,
             scans: 0,
@@ -940,7 +963,7 @@ impl Mission {
         let ahead = self.follower.remaining(self.est);
         let robot_m = [self.est.x_m, self.est.y_m];
         let on_trail: &[bool] = if self.path_on_trail { &self.on_trail } else { &[] };
-        self.corridor.blocked(&g, ahead, robot_m, params.robot.radius_m, params.traversability.tau as f32, on_trail, |i| {
+        self.corridor.blocked(&g, ahead, robot_m, self.path_inflation_m, params.traversability.tau as f32, on_trail, |i| {
             tmap.refresh_cells([i], &params.traversability, layers);
             layers.score.data[i]
         })
@@ -959,7 +982,14 @@ impl Mission {
     /// [`Self::decide`] on `grid`, the robot's map (its footprint cleared here if the robot is
     /// blocked in it).
     fn decide_on(&mut self, grid: &mut OccupancyGrid, keep_current: bool) -> Option<EndReason> {
-        let (mut cleared, mut use_trail) = (false, false);
+        let (mut cleared, mut use_trail, mut tight) = (false, false, false);
+        // The planner's parameters with the tight inflation, for the last retry.
+        let tight_m = self.mission.tight_inflation_m;
+        let tight_params = (tight_m > 0.0 && tight_m < self.params.robot.radius_m).then(|| {
+            let mut p = self.params.clone();
+            p.robot.radius_m = tight_m;
+            p
+        });
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }
@@ -971,7 +1001,9 @@ impl Mission {
         // The camera's ground for u2: the estimated body's height (with SLAM its estimate, without
         // it the terrain under the estimated position, as in `body_poses`).
         let ground_z_m = self.body_poses().1.0.z;
-        for _attempt in 0..4 {
+        // At most: footprint clearing, trail, tight inflation, and a few goals re-chosen.
+        for _attempt in 0..6 {
+            let params = if tight { tight_params.as_ref().unwrap_or(&self.params) } else { &self.params };
             let t0 = self.clock.as_mut().map(|c| c());
             let input = DecisionInput {
                 grid,
@@ -982,7 +1014,7 @@ impl Mission {
                 ground_z_m,
                 traversed: if use_trail { &self.trail } else { &[] },
             };
-            let result = self.selector.select(&input, &self.params);
+            let result = self.selector.select(&input, params);
             if let (Some(t0), Some(c)) = (t0, self.clock.as_mut()) {
                 let ms = c() - t0;
                 self.pending_plan_ms += ms;
@@ -1031,6 +1063,8 @@ impl Mission {
                         .filter(|c| math::hypot(c.x_m - goal.x_m, c.y_m - goal.y_m) <= r);
                     if let Some(c) = same {
                         self.failed_decisions = 0;
+                        self.path_inflation_m = params.robot.radius_m;
+                        self.tight_plans += u64::from(tight);
                         self.follow(&c.path_m, grid, use_trail);
                         self.next_replan_s = self.time_s + self.mission.replan_period_s;
                         self.last_decision = Some(decision);
@@ -1044,9 +1078,15 @@ impl Mission {
                     use_trail = true;
                     continue;
                 }
+                // Then with the tight inflation (the trail still open).
+                if tight_params.is_some() && !tight {
+                    tight = true;
+                    continue;
+                }
                 let start = decision.robot_cell;
+                let inflation_m = params.robot.radius_m;
                 self.last_decision = Some(decision);
-                if !self.trapped(grid, start) {
+                if !self.trapped(grid, start, inflation_m) {
                     return Some(EndReason::NoFrontier);
                 }
                 if self.trap_recoveries >= u64::from(self.mission.trap_recoveries) {
@@ -1068,6 +1108,8 @@ impl Mission {
             let rho = c.rho_m.unwrap_or(0.0);
             // The goal stays the candidate (blacklisting and re-selection compare candidates);
             // only the path the robot drives is set back.
+            self.path_inflation_m = params.robot.radius_m;
+            self.tight_plans += u64::from(tight);
             self.follow(&c.path_m, grid, use_trail);
             self.goal = Some(goal);
             self.goal_started_s = self.time_s;
@@ -1120,15 +1162,15 @@ impl Mission {
         self.mission.goal_setback.margin_m(self.est_cov[(0, 0)], self.est_cov[(1, 1)])
     }
 
-    /// Whether the robot is walled in by `grid` (inflated as the planner inflates it): every free
-    /// cell it reaches from `start` (the planner's start cell) lies within
-    /// [`MissionParams::trapped_radius_m`].
-    fn trapped(&self, grid: &OccupancyGrid, start: crate::grid::Cell) -> bool {
+    /// Whether the robot is walled in by `grid` inflated by `inflation_m` (as the planner's last
+    /// attempt inflated it): every free cell it reaches from `start` (the planner's start cell)
+    /// lies within [`MissionParams::trapped_radius_m`].
+    fn trapped(&self, grid: &OccupancyGrid, start: crate::grid::Cell, inflation_m: f64) -> bool {
         let r = self.mission.trapped_radius_m;
         if r <= 0.0 {
             return false;
         }
-        let mut inflated = crate::grid::inflate_lethal(grid, self.params.robot.radius_m);
+        let mut inflated = crate::grid::inflate_lethal(grid, inflation_m);
         crate::grid::free_traversed(grid, &self.trail, &mut inflated);
         crate::frontier::enclosed_within(&inflated, start, r)
     }
@@ -1251,6 +1293,7 @@ impl Mission {
             gt_violations: self.violations,
             safety_stops: self.safety_stops,
             trap_recoveries: self.trap_recoveries,
+            tight_plans: self.tight_plans,
             planning_errors: self.planning_errors,
             landmarks_mapped: self.slam.as_ref().map_or(self.landmark_sums.len(), |f| f.backend().landmark_count()),
             scans: self.scans,
