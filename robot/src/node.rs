@@ -17,7 +17,8 @@
 //!
 //! A decision that finds no goal is made again with the robot's trail (its positions since the
 //! start, map frame, laid on the latest map) free after inflation (`reuse_trail`, as the
-//! simulator's).
+//! simulator's), and if it still finds none, once more with lethal cells inflated by
+//! `tight_inflation_m` instead of the robot radius (as the simulator's).
 //!
 //! Goals that end Aborted, Rejected, Canceled (by someone else) or time out are blacklisted
 //! (`Failed`); reached goals are blacklisted as `Reselected` (notes §3: a goal selected before
@@ -134,6 +135,8 @@ pub struct Stats {
     pub trap_recoveries: u64,
     /// Decisions made with the footprint cleared ([`NodeConfig::clear_footprint`]).
     pub footprint_clearings: u64,
+    /// Goals picked with the tight inflation ([`NodeConfig::tight_inflation_m`]).
+    pub tight_goals: u64,
     /// Wall time of the last decision, milliseconds.
     pub last_decision_ms: f64,
 }
@@ -569,20 +572,21 @@ impl Explorer {
         z.filter(|z| z.is_finite()).unwrap_or(0.0)
     }
 
-    /// Whether every free cell the robot can reach on the latest inflated map (with `trail`, cells
-    /// of it, open as the last decision had them) lies within `trapped_radius_m` of it
-    /// ([`enclosed_within`]).
-    fn trapped(&mut self, robot: Pose2, trail: &[usize]) -> bool {
+    /// Whether every free cell the robot can reach on the latest map inflated by `inflation_m`
+    /// (with `trail`, cells of it, open as the last decision had them) lies within
+    /// `trapped_radius_m` of it ([`enclosed_within`]).
+    fn trapped(&mut self, robot: Pose2, trail: &[usize], inflation_m: f64) -> bool {
         let r = self.cfg.trapped_radius_m;
         if r <= 0.0 || self.inflated().is_none() {
             return false;
         }
+        let full = inflation_m == self.params.robot.radius_m;
         let Some(MapState { grid: raw, inflated: Some(inflated), .. }) = self.map.as_ref() else { return false };
         let opened;
-        let grid = if trail.is_empty() {
+        let grid = if trail.is_empty() && full {
             inflated
         } else {
-            let mut g = inflated.clone();
+            let mut g = if full { inflated.clone() } else { inflate_lethal(raw, inflation_m) };
             free_traversed(raw, trail, &mut g);
             opened = g;
             &opened
@@ -749,10 +753,21 @@ impl Explorer {
     }
 
     /// One decision on the latest map (`None` without one), `traversed` (cells of it) free after
-    /// inflation, made again with the robot's footprint free if it is blocked in the map
-    /// ([`NodeConfig::clear_footprint`]); its unreachable candidates blacklisted.
-    fn decide(&mut self, robot: Pose2, traversed: &[usize], now_s: f64) -> Option<Result<Decision, SelectError>> {
+    /// inflation, lethal cells inflated by the robot radius or, if `tight`, by
+    /// [`NodeConfig::tight_inflation_m`]; made again with the robot's footprint free if it is
+    /// blocked in the map ([`NodeConfig::clear_footprint`]); its unreachable candidates
+    /// blacklisted.
+    fn decide(&mut self, robot: Pose2, traversed: &[usize], tight: bool, now_s: f64) -> Option<Result<Decision, SelectError>> {
         let map = self.map.as_ref()?;
+        let tight_params;
+        let params = if tight {
+            let mut p = self.params.clone();
+            p.robot.radius_m = self.cfg.tight_inflation_m;
+            tight_params = p;
+            &tight_params
+        } else {
+            &self.params
+        };
         let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);
         input.ground_z_m = self.ground_z_m();
         input.traversed = traversed;
@@ -760,14 +775,14 @@ impl Explorer {
             input = input.with_boundary(b);
         }
         let t0 = std::time::Instant::now();
-        let mut result = self.selector.select(&input, &self.params);
+        let mut result = self.selector.select(&input, params);
         // Blocked in its own map (speckle under the robot): decide again on its footprint.
         let mut cleared = None;
         if self.cfg.clear_footprint && matches!(result, Err(SelectError::RobotBlocked { .. })) {
             let mut grid = map.grid.clone();
-            let radius_m = self.params.robot.radius_m + grid.geometry.resolution_m;
+            let radius_m = params.robot.radius_m + grid.geometry.resolution_m;
             fill_disc(&mut grid, robot.x_m, robot.y_m, radius_m, FREE);
-            result = self.selector.select(&DecisionInput { grid: &grid, ..input }, &self.params);
+            result = self.selector.select(&DecisionInput { grid: &grid, ..input }, params);
             cleared = Some(radius_m);
         }
         self.stats.last_decision_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -844,7 +859,7 @@ impl Explorer {
                 return self.warn("wait", now_s, text);
             }
         };
-        let mut decision = match self.decide(robot, &[], now_s) {
+        let mut decision = match self.decide(robot, &[], false, now_s) {
             None => return,
             Some(Ok(d)) => d,
             Some(Err(e)) => {
@@ -857,14 +872,31 @@ impl Explorer {
         // No goal: decide again with the cells the robot drove on open (and judge a trap so).
         let trail = if picked.is_none() && self.goal.is_none() { self.trail_cells() } else { Vec::new() };
         if !trail.is_empty()
-            && let Some(Ok(d)) = self.decide(robot, &trail, now_s)
+            && let Some(Ok(d)) = self.decide(robot, &trail, false, now_s)
         {
             picked = self.pick(&d, now_s);
             decision = d;
         }
+        // Still none: once more with the tight inflation (the trail still open).
+        let tight_m = self.cfg.tight_inflation_m;
+        let mut inflation_m = self.params.robot.radius_m;
+        if picked.is_none()
+            && self.goal.is_none()
+            && tight_m > 0.0
+            && tight_m < inflation_m
+            && let Some(Ok(d)) = self.decide(robot, &trail, true, now_s)
+        {
+            inflation_m = tight_m;
+            picked = self.pick(&d, now_s);
+            if picked.is_some() {
+                self.stats.tight_goals += 1;
+                self.info(now_s, format!("no goal at the full inflation: decided with lethal cells inflated by {tight_m} m"));
+            }
+            decision = d;
+        }
         let radius = self.params.frontier.blacklist_radius_m;
         match (picked, self.goal) {
-            (None, None) if self.trapped(robot, &trail) => {
+            (None, None) if self.trapped(robot, &trail, inflation_m) => {
                 self.empty_decisions = 0;
                 self.phase = Phase::Planning;
                 let walled = format!(

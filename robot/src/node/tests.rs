@@ -327,24 +327,65 @@ fn a_robot_blocked_by_speckle_under_it_decides_on_its_cleared_footprint() {
     assert!(log_has(&mut e, "is blocked and no free cell lies within"));
 }
 
+/// A 6 m × 3 m map at 5 cm: a hall west of a wall one cell thick (x = 4.0–4.05 m) with a door
+/// where its y lies in `door_y_m`, a room east of it; walls along the north, south and east
+/// edges (the west one too if `west_wall`); free cells whose x satisfies `unknown` unknown.
+fn hall_and_room(door_y_m: std::ops::Range<f64>, west_wall: bool, unknown: impl Fn(f64) -> bool) -> OccupancyGrid {
+    let g = GridGeometry::new(0.0, 0.0, 0.05, 120, 60);
+    let mut grid = Grid::filled(g, FREE);
+    for (i, v) in grid.data.iter_mut().enumerate() {
+        let c = g.cell_at(i);
+        let (x, y) = g.center_of(c);
+        let wall = c.row == 0 || c.row == 59 || (west_wall && c.col == 0) || c.col == 119 || (c.col == 80 && !door_y_m.contains(&y));
+        if wall {
+            *v = LETHAL;
+        } else if unknown(x) {
+            *v = UNKNOWN;
+        }
+    }
+    grid
+}
+
+/// A hall, fully mapped, and a room east of it whose far part is unknown, joined by a door
+/// 0.45 m wide in a wall one cell thick: the 0.25 m inflation shuts it (the cell in its middle is
+/// 0.25 m from both jambs), the tight 0.20 m one leaves that cell open. With the tight retry the
+/// node sends a goal into the room and counts it; without it, no goal is left and the mission
+/// ends.
+#[test]
+fn a_door_the_full_inflation_shuts_is_passed_with_the_tight_one() {
+    let grid = hall_and_room(1.3..1.75, true, |x| x > 4.6);
+    let door = Pose2::new(4.025, 1.525, 0.0);
+    assert!(!free_on_inflated(&grid, 0.25, door) && free_on_inflated(&grid, 0.20, door));
+    let run = |cfg: NodeConfig| {
+        let mut e = Explorer::new(cfg, Params::default());
+        e.handle_map(&map_msg(&grid, 0.0), 0.0);
+        let mut cmds = Vec::new();
+        for k in 0..3 {
+            let t = f64::from(k);
+            feed_pose(&mut e, Pose2::new(2.0, 1.5, 0.0), t);
+            cmds.extend(e.tick(t));
+        }
+        (e, cmds)
+    };
+    let (mut e, cmds) = run(NodeConfig::default());
+    let sent = goals(&cmds);
+    assert_eq!(sent.len(), 1, "{cmds:?}");
+    assert!(sent[0].1.x_m > 4.1, "the goal is in the room: {sent:?}");
+    assert_eq!(e.stats().tight_goals, 1);
+    assert!(log_has(&mut e, "decided with lethal cells inflated by 0.2 m"));
+    assert!(!e.is_done());
+    let (e, cmds) = run(NodeConfig { tight_inflation_m: 0.0, ..NodeConfig::default() });
+    assert_eq!(cmds, vec![Command::MissionComplete]);
+    assert!(e.is_done() && e.stats().tight_goals == 0);
+}
+
 /// A hall (frontier at its west end) and a 1.5 m room east of it, joined by a door 0.4 m wide:
 /// free in the map but shut by the 0.25 m inflation, as a doorway whose jambs the robot mapped
 /// better from inside. The robot drove in through it. With its trail it plans back out; without
 /// it, it is walled in.
 #[test]
 fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
-    let g = GridGeometry::new(0.0, 0.0, 0.05, 120, 60);
-    let mut grid = Grid::filled(g, FREE);
-    for (i, v) in grid.data.iter_mut().enumerate() {
-        let c = g.cell_at(i);
-        let (x, y) = g.center_of(c);
-        let wall = c.row == 0 || c.row == 59 || c.col == 119 || (c.col == 80 && !(1.3..1.7).contains(&y));
-        if wall {
-            *v = LETHAL;
-        } else if x < 0.5 {
-            *v = UNKNOWN;
-        }
-    }
+    let grid = hall_and_room(1.3..1.7, false, |x| x < 0.5);
     let run = |cfg: NodeConfig, grid: &OccupancyGrid| {
         let mut e = Explorer::new(cfg, Params::default());
         let mut cmds = Vec::new();
