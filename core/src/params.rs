@@ -261,20 +261,25 @@ pub enum ParamsError {
     Invalid { source_name: String, message: String },
 }
 
+impl ParamsError {
+    /// A TOML error of `text` in one line, "line N: message" (the crate's own Display draws a
+    /// multi-line caret).
+    pub(crate) fn toml(text: &str, source_name: &str, e: &toml::de::Error) -> Self {
+        let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        let message = e.message().trim().replace('\n', " ");
+        let message = match line {
+            Some(l) => format!("line {l}: {message}"),
+            None => message,
+        };
+        ParamsError::Toml { source_name: source_name.into(), message }
+    }
+}
+
 impl Params {
     /// Parses TOML text; `source_name` (usually the file name) is quoted in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
         let text = crate::io::without_bom_str(text);
-        let p: Params = from_toml_over_default(text).map_err(|e: toml::de::Error| {
-            // One line: "line N: message" (the crate's own Display draws a multi-line caret).
-            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-            let message = e.message().trim().replace('\n', " ");
-            let message = match line {
-                Some(l) => format!("line {l}: {message}"),
-                None => message,
-            };
-            ParamsError::Toml { source_name: source_name.into(), message }
-        })?;
+        let p: Params = from_toml_over_default(text).map_err(|e| ParamsError::toml(text, source_name, &e))?;
         p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
         Ok(p)
     }

@@ -53,7 +53,7 @@ use crate::frontier::Blacklist;
 use crate::frontier::BlacklistReason;
 use crate::grid::OccupancyGrid;
 use crate::math;
-use crate::params::{Params, Strategy};
+use crate::params::{Params, ParamsError, Strategy};
 use crate::path::GoalSetback;
 use crate::pose::{Pose2, wrap_pi};
 use crate::select::{DecisionInput, DropReason, GoalSelector, SelectError, make_selector};
@@ -214,11 +214,11 @@ impl Default for MissionParams {
 impl MissionParams {
     /// Parses TOML (unknown keys rejected; keys left out keep [`MissionParams::default`]'s
     /// values at every depth, [`crate::params::from_toml_over_default`]) and validates; `name` is
-    /// quoted in errors.
-    pub fn from_toml(text: &str, name: &str) -> Result<Self, String> {
-        let p: Self = crate::params::from_toml_over_default(text)
-            .map_err(|e: toml::de::Error| format!("{name}: {}", e.message().trim().replace('\n', " ")))?;
-        p.validate().map_err(|m| format!("{name}: {m}"))?;
+    /// quoted in errors, with the line of a TOML error.
+    pub fn from_toml(text: &str, name: &str) -> Result<Self, ParamsError> {
+        let text = crate::io::without_bom_str(text);
+        let p: Self = crate::params::from_toml_over_default(text).map_err(|e| ParamsError::toml(text, name, &e))?;
+        p.validate().map_err(|message| ParamsError::Invalid { source_name: name.into(), message })?;
         Ok(p)
     }
 
@@ -302,6 +302,19 @@ impl MissionParams {
         nonneg("tight_inflation_m", self.tight_inflation_m)?;
         self.slam.validate()
     }
+}
+
+/// Why a [`Mission`] could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum MissionError {
+    #[error("planner parameters: {0}")]
+    Params(String),
+    #[error("simulator parameters: {0}")]
+    Simulator(String),
+    #[error("traversability map: {0}")]
+    Map(#[from] crate::traversability::TraversabilityError),
+    #[error("SLAM: {0}")]
+    Slam(#[from] crate::slam::SlamError),
 }
 
 /// One metrics row (notes §8).
@@ -497,7 +510,8 @@ pub struct Mission {
 impl Mission {
     /// A mission in `world` with planner `params` (its `selector.strategy` and `selector.seed`
     /// are overridden by `strategy` and `seed`), simulator `mission` parameters, sensor seed
-    /// `seed`.
+    /// `seed`. Fails on invalid parameters, a world too large for a map, or a SLAM that cannot
+    /// start (a non-finite start pose).
     pub fn new(
         world: World,
         mut params: Params,
@@ -505,14 +519,14 @@ impl Mission {
         strategy: Strategy,
         seed: u64,
         localisation: Localisation,
-    ) -> Result<Self, String> {
-        params.validate()?;
-        mission.validate()?;
+    ) -> Result<Self, MissionError> {
+        params.validate().map_err(MissionError::Params)?;
+        mission.validate().map_err(MissionError::Simulator)?;
         params.selector.strategy = strategy;
         params.selector.seed = seed;
         let selector = make_selector(&params.selector);
         let g = world.field.geometry;
-        let tmap = TraversabilityMap::new(g).map_err(|e| e.to_string())?;
+        let tmap = TraversabilityMap::new(g)?;
         let layers = tmap.compute(&params.traversability);
         let caster = RayCaster::new(&world.field);
         let landmark_index = LandmarkIndex::new(&world.landmarks, g.bounds_m(), 1.0);
@@ -592,7 +606,7 @@ impl Mission {
             m.observe_camera(gp, &gr);
             let start = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
             m.last_body_gt = start;
-            let fe = SlamFrontend::new(m.mission.slam.clone(), start, &m.observations).map_err(|e| e.to_string())?;
+            let fe = SlamFrontend::new(m.mission.slam.clone(), start, &m.observations)?;
             m.slam = Some(fe);
             m.last_camera_s = 0.0;
         }

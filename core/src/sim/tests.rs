@@ -134,9 +134,26 @@ fn simulator_settings_beyond_the_work_bounds_are_rejected() {
         ("depth_rays = [100000, 100000]", "depth_rays: 100000 × 100000 rays per frame"),
     ] {
         let e = MissionParams::from_toml(text, "sim.toml").unwrap_err();
+        assert!(matches!(e, crate::params::ParamsError::Invalid { .. }), "{e:?}");
+        let e = e.to_string();
         assert!(e.starts_with("sim.toml: ") && e.contains(needle), "{e}");
     }
     assert!(MissionParams::from_toml("dt_s = 0.001\n[lidar]\nazimuth_step_rad = 0.0035", "sim.toml").is_ok());
+}
+
+/// A simulator file that is not TOML, or names a key that does not exist, is a typed TOML error
+/// naming the file and the line.
+#[test]
+fn a_malformed_simulator_file_is_an_error_naming_the_file_and_line() {
+    for (text, needle) in [
+        ("dt_s = 0.1\n[lidar\nrings = 16\n", "sim.toml: invalid TOML: line 2: "),
+        ("dt_s = 0.1\n\nscan_every_mm = 0.3\n", "sim.toml: invalid TOML: line 3: unknown field `scan_every_mm`"),
+        ("dt_s = \"fast\"\n", "sim.toml: invalid TOML: line 1: "),
+    ] {
+        let e = MissionParams::from_toml(text, "sim.toml").unwrap_err();
+        assert!(matches!(e, crate::params::ParamsError::Toml { .. }), "{e:?}");
+        assert!(e.to_string().starts_with(needle), "{e}");
+    }
 }
 
 /// A key left out keeps the default at every depth: restating one nested default changes
@@ -679,7 +696,7 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("[slam.graph.optimizer]\nmax_iterations = 0", "slam.graph.optimizer.max_iterations"),
     ] {
         match MissionParams::from_toml(text, "sim.toml") {
-            Err(e) if e.starts_with("sim.toml: ") && e.contains(key) => {}
+            Err(e) if e.to_string().starts_with("sim.toml: ") && e.to_string().contains(key) => {}
             other => wrong.push(format!("{text:?} → {:?}", other.map(|_| ()))),
         }
     }
