@@ -261,17 +261,21 @@ pub enum ParamsError {
     Invalid { source_name: String, message: String },
 }
 
+/// A TOML error `e` of `text` in one line, "line N: message" (the crate's own Display draws a
+/// multi-line caret).
+pub(crate) fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+    let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    let message = e.message().trim().replace('\n', " ");
+    match line {
+        Some(l) => format!("line {l}: {message}"),
+        None => message,
+    }
+}
+
 impl ParamsError {
-    /// A TOML error of `text` in one line, "line N: message" (the crate's own Display draws a
-    /// multi-line caret).
+    /// The TOML error `e` of `text`, from `source_name`.
     pub(crate) fn toml(text: &str, source_name: &str, e: &toml::de::Error) -> Self {
-        let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-        let message = e.message().trim().replace('\n', " ");
-        let message = match line {
-            Some(l) => format!("line {l}: {message}"),
-            None => message,
-        };
-        ParamsError::Toml { source_name: source_name.into(), message }
+        ParamsError::Toml { source_name: source_name.into(), message: toml_error_line(text, e) }
     }
 }
 

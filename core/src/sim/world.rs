@@ -254,15 +254,8 @@ impl WorldSpec {
     /// Parses a world file; `name` is quoted in errors.
     pub fn from_toml(text: &str, name: &str) -> Result<Self, WorldError> {
         let text = crate::io::without_bom_str(text);
-        let spec: WorldSpec = toml::from_str(text).map_err(|e: toml::de::Error| {
-            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-            let message = e.message().trim().replace('\n', " ");
-            let message = match line {
-                Some(l) => format!("line {l}: {message}"),
-                None => message,
-            };
-            WorldError::Toml { name: name.into(), message }
-        })?;
+        let spec: WorldSpec =
+            toml::from_str(text).map_err(|e| WorldError::Toml { name: name.into(), message: crate::params::toml_error_line(text, &e) })?;
         spec.validate().map_err(|e| match e {
             WorldError::Invalid(m) => WorldError::Invalid(format!("{name}: {m}")),
             other => other,
