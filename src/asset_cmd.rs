@@ -11,6 +11,7 @@ use fitslam_core::{
     Params, PointCloud,
     grid::GridGeometry,
     io,
+    params::Num,
     sim::{DemScaling, Heightfield, LandmarkDensity, line_of_sight, scatter_landmarks, scatter_rocks, visible_ground_points},
     traversability::TraversabilityMap,
 };
@@ -74,13 +75,13 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
         bail!("--dem-pixel-m {:?}: both pixel sizes must be > 0 m", args.dem_pixel_m);
     }
     if !(args.size_m > 0.0 && args.size_m <= MAX_SIZE_M) {
-        bail!("--size-m {}: must be in (0, {MAX_SIZE_M}] m", args.size_m);
+        bail!("--size-m {}: must be in (0, {MAX_SIZE_M}] m", Num(args.size_m));
     }
     if !(args.crop_fraction > 0.0 && args.crop_fraction <= 1.0) {
-        bail!("--crop-fraction {}: must be in (0, 1]", args.crop_fraction);
+        bail!("--crop-fraction {}: must be in (0, 1]", Num(args.crop_fraction));
     }
     if !(args.lidar_range_m > 0.0 && args.lidar_range_m <= MAX_LIDAR_RANGE_M) {
-        bail!("--lidar-range-m {}: must be in (0, {MAX_LIDAR_RANGE_M}] m", args.lidar_range_m);
+        bail!("--lidar-range-m {}: must be in (0, {MAX_LIDAR_RANGE_M}] m", Num(args.lidar_range_m));
     }
     let viewpoints: Vec<(f64, f64)> = args
         .viewpoints

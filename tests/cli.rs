@@ -188,7 +188,7 @@ fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
     for (flag, value, needle) in [
         ("--size-m", "10000", "--size-m 10000: must be in (0, 500] m"),
         ("--size-m", "nan", "--size-m NaN"),
-        ("--lidar-range-m", "1e9", "--lidar-range-m 1000000000: must be in (0, 100] m"),
+        ("--lidar-range-m", "1e9", "--lidar-range-m 1e9: must be in (0, 100] m"),
         ("--lidar-range-m", "0", "--lidar-range-m 0"),
         ("--crop-fraction", "0", "--crop-fraction 0"),
         ("--dem-pixel-m", "0,93", "--dem-pixel-m \"0,93\": both pixel sizes must be > 0 m"),

@@ -324,7 +324,7 @@ impl Params {
         let pos = check_positive;
         let nonneg = check_non_negative;
         fn unit(name: &str, v: f64) -> Result<(), String> {
-            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} must be in [0, 1] (got {v})")) }
+            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} must be in [0, 1] (got {})", Num(v))) }
         }
         pos("grid.resolution_m", self.grid.resolution_m)?;
         nonneg("robot.radius_m", self.robot.radius_m)?;
@@ -370,7 +370,7 @@ impl Params {
             return Err(format!("u1.delta_theta_rad must be ≥ 2π / {MAX_RAYS} (at most {MAX_RAYS} rays; got {})", self.u1.delta_theta_rad));
         }
         if !(self.u1.gamma > 0.0 && self.u1.gamma <= 1.0) {
-            return Err(format!("u1.gamma must be in (0, 1] (got {})", self.u1.gamma));
+            return Err(format!("u1.gamma must be in (0, 1] (got {})", Num(self.u1.gamma)));
         }
         unit("u2.beta", self.u2.beta)?;
         if self.u2.top_n == 0 {
@@ -447,19 +447,48 @@ fn merge_into(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
+/// A value as error messages print it: as Rust prints an `f64` (shortest round-trip form), but
+/// in scientific notation below 10⁻⁴ or from 10⁹ up in magnitude, where that form runs to
+/// hundreds of digits (1e300 prints 301).
+#[derive(Clone, Copy, Debug)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a.is_finite() && a != 0.0 && !(1e-4..1e9).contains(&a) { write!(f, "{:e}", self.0) } else { write!(f, "{}", self.0) }
+    }
+}
+
 /// `Ok` when `v` is finite and > 0, else a message naming the field `name` (for `validate`s).
 pub fn check_positive(name: &str, v: f64) -> Result<(), String> {
-    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number > 0 (got {v})")) }
+    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number > 0 (got {})", Num(v))) }
 }
 
 /// `Ok` when `v` is finite and ≥ 0, else a message naming the field `name` (for `validate`s).
 pub fn check_non_negative(name: &str, v: f64) -> Result<(), String> {
-    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number ≥ 0 (got {v})")) }
+    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number ≥ 0 (got {})", Num(v))) }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Messages print a value as Rust does, but huge and tiny ones in scientific notation.
+    #[test]
+    fn messages_print_numbers_short() {
+        let shown = |v: f64| Num(v).to_string();
+        assert_eq!(shown(0.25), "0.25");
+        assert_eq!(shown(-3.0), "-3");
+        assert_eq!(shown(0.0), "0");
+        assert_eq!(shown(123456789.0), "123456789");
+        assert_eq!(shown(1e9), "1e9");
+        assert_eq!(shown(-1e300), "-1e300");
+        assert_eq!(shown(1.5e-5), "1.5e-5");
+        assert_eq!(shown(1e-4), "0.0001");
+        assert_eq!((shown(f64::NAN), shown(f64::INFINITY)), ("NaN".to_string(), "inf".to_string()));
+        assert_eq!(check_non_negative("x", -1e300).unwrap_err(), "x must be a finite number ≥ 0 (got -1e300)");
+    }
 
     #[test]
     fn defaults_are_the_papers() {

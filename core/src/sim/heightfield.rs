@@ -90,11 +90,11 @@ impl Heightfield {
         let s = scaling;
         for (key, v) in [("pixel_x_m", s.pixel_x_m), ("pixel_y_m", s.pixel_y_m), ("world size_m", s.world_size_m), ("cell_m", s.cell_m)] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(invalid(format!("DEM scaling: {key} must be a finite number > 0 (got {v})")));
+                return Err(invalid(format!("DEM scaling: {key} must be a finite number > 0 (got {})", crate::params::Num(v))));
             }
         }
         if !(s.crop_fraction > 0.0 && s.crop_fraction <= 1.0) {
-            return Err(invalid(format!("DEM scaling: crop_fraction must be in (0, 1] (got {})", s.crop_fraction)));
+            return Err(invalid(format!("DEM scaling: crop_fraction must be in (0, 1] (got {})", crate::params::Num(s.crop_fraction))));
         }
         // The map images' decoder: PNG (any colour type and depth, expanded) or PGM, with its
         // allocation caps.

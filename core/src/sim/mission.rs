@@ -53,7 +53,7 @@ use crate::frontier::Blacklist;
 use crate::frontier::BlacklistReason;
 use crate::grid::OccupancyGrid;
 use crate::math;
-use crate::params::{Params, ParamsError, Strategy};
+use crate::params::{Num, Params, ParamsError, Strategy};
 use crate::path::GoalSetback;
 use crate::pose::{Pose2, wrap_pi};
 use crate::select::{DecisionInput, DropReason, GoalSelector, SelectError, make_selector};
@@ -228,12 +228,12 @@ impl MissionParams {
         use crate::params::{check_non_negative as nonneg, check_positive as pos};
         use std::f64::consts::{FRAC_PI_2, PI, TAU};
         fn at_most(name: &str, v: f64, max: f64, unit: &str) -> Result<(), String> {
-            if v <= max { Ok(()) } else { Err(format!("{name} must be ≤ {max}{unit} (got {v})")) }
+            if v <= max { Ok(()) } else { Err(format!("{name} must be ≤ {max}{unit} (got {})", Num(v))) }
         }
         pos("dt_s", self.dt_s)?;
         // Bounds on the work of one step, scan and frame (far beyond any useful setting).
         if self.dt_s < MIN_DT_S {
-            return Err(format!("dt_s must be ≥ {MIN_DT_S} s (got {})", self.dt_s));
+            return Err(format!("dt_s must be ≥ {MIN_DT_S} s (got {})", Num(self.dt_s)));
         }
         at_most("dt_s", self.dt_s, MAX_DT_S, " s")?;
         let d = &self.drive;

@@ -21,7 +21,7 @@ use crate::frontier::Boundary;
 use crate::grid::{Cell, FREE, GridGeometry, LETHAL, OccupancyGrid};
 use crate::io::MapError;
 use crate::math;
-use crate::params::TraversabilityParams;
+use crate::params::{Num, TraversabilityParams};
 use crate::pose::Pose2;
 use crate::traversability::{MAX_CELLS, TraversabilityError, TraversabilityMap};
 use nalgebra::Point3;
@@ -272,7 +272,8 @@ impl WorldSpec {
             let n = sites(spacing_m);
             if n.is_nan() || n > MAX_SCATTER_SITES {
                 return Err(WorldError::Invalid(format!(
-                    "{what}: spacing_m {spacing_m} gives {n:.3e} sites on this terrain, over the limit of {MAX_SCATTER_SITES}"
+                    "{what}: spacing_m {} gives {n:.3e} sites on this terrain, over the limit of {MAX_SCATTER_SITES}",
+                    Num(spacing_m)
                 )));
             }
         }
@@ -302,7 +303,7 @@ impl WorldSpec {
         let bad = |m: String| Err(WorldError::Invalid(m));
         let pos = |v: f64| v.is_finite() && v > 0.0;
         if !pos(self.cell_m) || self.cell_m > 1.0 {
-            return bad(format!("cell_m must be in (0, 1] (got {})", self.cell_m));
+            return bad(format!("cell_m must be in (0, 1] (got {})", Num(self.cell_m)));
         }
         crate::params::check_positive("time_limit_s", self.time_limit_s).map_err(WorldError::Invalid)?;
         if !self.start.iter().all(|v| v.is_finite()) {
@@ -336,12 +337,12 @@ impl WorldSpec {
                 }
                 for (key, v) in [("hill_height_m", *hill_height_m), ("ridge_height_m", *ridge_height_m)] {
                     if !v.is_finite() {
-                        return bad(format!("terrain.{key} must be finite (got {v})"));
+                        return bad(format!("terrain.{key} must be finite (got {})", Num(v)));
                     }
                 }
                 for (key, v) in [("tilt_x_deg", *tilt_x_deg), ("tilt_y_deg", *tilt_y_deg)] {
                     if v.is_nan() || v.abs() >= 90.0 {
-                        return bad(format!("terrain.{key} must be in (-90, 90) degrees (got {v})"));
+                        return bad(format!("terrain.{key} must be in (-90, 90) degrees (got {})", Num(v)));
                     }
                 }
                 cells(*size_m)?;
@@ -534,7 +535,7 @@ impl World {
         if rock_side_landmarks > MAX_SCATTER_SITES {
             return Err(WorldError::Invalid(format!(
                 "landmarks: rock_density_per_m2 {} puts {rock_side_landmarks:.3e} landmarks on the rocks, over the limit of {MAX_SCATTER_SITES}",
-                spec.landmarks.rock_density_per_m2
+                Num(spec.landmarks.rock_density_per_m2)
             )));
         }
         // Map frame: z = 0 on the ground under the start.

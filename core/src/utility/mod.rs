@@ -31,7 +31,7 @@ use thiserror::Error;
 /// Invalid input to a utility.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum UtilityError {
-    #[error("{name} is out of range (got {value})")]
+    #[error("{name} is out of range (got {})", crate::params::Num(*value))]
     InvalidParameter { name: &'static str, value: f64 },
     #[error("the landmark cloud has {points} points but {covariances} covariances")]
     CovarianceCountMismatch { points: usize, covariances: usize },
