@@ -310,8 +310,15 @@ fn read_binary(data: &[u8], header: &Header, map: FieldMap, name: &str) -> Resul
             )
         })?;
         if need != Some(uncompressed) {
-            // Report the count the uncompressed size implies.
-            return Err(wrong_count(name, declared, (uncompressed / record) as u64));
+            // The size word is the file's claim, not data found: say so (a count derived from it
+            // read as if the data held that many points).
+            return Err(header_err(
+                name,
+                format!(
+                    "binary_compressed: the uncompressed size word says {uncompressed} bytes, but POINTS {declared} × {record}-byte records make {}",
+                    u128::from(declared) * record as u128
+                ),
+            ));
         }
         if uncompressed > compressed.saturating_mul(LZF_MAX_RATIO) {
             return Err(header_err(name, format!("binary_compressed: {uncompressed} bytes cannot come from {compressed} LZF bytes")));
@@ -521,7 +528,8 @@ mod tests {
         let mut bad = b.clone();
         let at = bad.len() - lzf.len() - 4;
         bad[at..at + 4].copy_from_slice(&12u32.to_le_bytes());
-        assert_eq!(load_pcd(&bad, "c.pcd").unwrap_err().to_string(), "c.pcd: header says POINTS 2 but the data holds 1 points");
+        let e = load_pcd(&bad, "c.pcd").unwrap_err().to_string();
+        assert!(e.ends_with("binary_compressed: the uncompressed size word says 12 bytes, but POINTS 2 × 12-byte records make 24"), "{e}");
     }
 
     #[test]
