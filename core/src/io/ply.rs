@@ -263,7 +263,7 @@ fn read_binary(
                 for rec in records.chunks_exact(size) {
                     builder.push(|i| scalars[i].read(&rec[offsets[i]..], big_endian))?;
                 }
-                return Ok(builder.finish());
+                return finish_last(builder, &data[pos + size * capacity..], k + 1 == header.elements.len(), vertex.count, name);
             }
             let mut values = vec![0.0f64; vertex.properties.len()];
             for _ in 0..vertex.count {
@@ -276,7 +276,7 @@ fn read_binary(
                 builder.push(|i| values[i])?;
             }
             // Elements after the vertices are not read: they cannot change the cloud.
-            return Ok(builder.finish());
+            return finish_last(builder, &data[pos..], k + 1 == header.elements.len(), vertex.count, name);
         }
         if element.properties.is_empty() || element.count == 0 {
             continue;
@@ -422,10 +422,31 @@ fn read_ascii(
             }
         }
         if is_vertex {
-            return Ok(builder.finish());
+            let rest = &data[tokens.pos..];
+            return finish_last(builder, rest, k + 1 == header.elements.len(), element.count, name).map_err(|e| {
+                match tokens.next_token() {
+                    Some((_, line)) => {
+                        line_err(line, format!("data after the last element: the header declares {} vertices", element.count))
+                    }
+                    None => e,
+                }
+            });
         }
     }
     Err(header_err(name, "no 'vertex' element"))
+}
+
+/// The cloud of `builder`, unless the vertex element was the file's `last` and bytes other than
+/// whitespace follow it (`rest`): more records than the header declares, whose points would be
+/// dropped without a word (a header's count written before the data was complete).
+fn finish_last(builder: CloudBuilder, rest: &[u8], last: bool, declared: u64, name: &str) -> Result<PointCloud, CloudError> {
+    if last && !rest.iter().all(u8::is_ascii_whitespace) {
+        return Err(header_err(
+            name,
+            format!("{} bytes of data after the last element: the header declares {declared} vertices", rest.len()),
+        ));
+    }
+    Ok(builder.finish())
 }
 
 /// Binary little-endian PLY: `double x y z`, then `uchar classification` if present, then
@@ -504,6 +525,34 @@ mod tests {
         let c = load_ply(&b, "c.ply").unwrap();
         assert_eq!(c.points, vec![Point3::new(1.0, 2.0, 3.0)]);
         assert_eq!(c.covariances, Some(vec![Matrix3::new(4.0, 0.5, 0.25, 0.5, 5.0, 0.125, 0.25, 0.125, 6.0)]));
+    }
+
+    /// More vertex records than the header declares, when the vertices are the last element: an
+    /// error naming the line (ascii) or the bytes left (binary), not points dropped silently.
+    /// Trailing whitespace is not data.
+    #[test]
+    fn records_beyond_the_declared_count_are_an_error() {
+        let ascii = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+        let e = load_ply(format!("{ascii}1 2 3\n4 5 6\n").as_bytes(), "a.ply").unwrap_err();
+        assert_eq!(e.to_string(), "a.ply: line 9: data after the last element: the header declares 1 vertices");
+        assert_eq!(load_ply(format!("{ascii}1 2 3\n\n \r\n").as_bytes(), "a.ply").unwrap().points.len(), 1);
+        let binary = ascii.replace("ascii", "binary_little_endian");
+        let mut b = binary.as_bytes().to_vec();
+        b.extend(le(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+        let e = load_ply(&b, "b.ply").unwrap_err();
+        assert_eq!(e.to_string(), "b.ply: 12 bytes of data after the last element: the header declares 1 vertices");
+        b.truncate(b.len() - 12);
+        b.push(b'\n');
+        assert_eq!(load_ply(&b, "b.ply").unwrap().points.len(), 1);
+        // Lists make records of varying size (the slow path): the same.
+        let list = binary.replace("property float z\n", "property float z\nproperty list uchar int idx\n");
+        let mut b = list.as_bytes().to_vec();
+        for _ in 0..2 {
+            b.extend(le(&[1.0, 2.0, 3.0]));
+            b.push(0);
+        }
+        let e = load_ply(&b, "l.ply").unwrap_err();
+        assert_eq!(e.to_string(), "l.ply: 13 bytes of data after the last element: the header declares 1 vertices");
     }
 
     #[test]
