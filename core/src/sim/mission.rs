@@ -18,8 +18,8 @@
 //! that lethal cells mapped later beside a doorway it came through cannot shut it in; if it still
 //! finds none, once more with lethal cells inflated by `tight_inflation_m` instead of the robot
 //! radius (the path check of a path planned so uses it too), for doorways the full inflation
-//! shuts. A robot its map walls in ([`crate::frontier::enclosed_within`]) with no candidate left forgets its map around itself
-//! and turns a full circle, at most `trap_recoveries` times. The mission ends when no candidate
+//! shuts. A robot its map walls in ([`crate::frontier::enclosed_within`]) with no candidate left
+//! forgets its map around itself and turns a full circle, at most `trap_recoveries` times. The mission ends when no candidate
 //! is left (`Decision::chosen == None`; `Trapped` rather than `NoFrontier` if the map still walls
 //! the robot in after its recoveries) or at the time limit.
 //!
