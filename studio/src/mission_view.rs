@@ -488,7 +488,7 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
     ui.horizontal_wrapped(|ui| {
         ui.colored_label(strategy_color(lane.strategy), egui::RichText::new(strategy_label(lane.strategy)).strong());
         ui.label(format!(
-            "t {:.1} s · {:.1} % unexplored · tr(cov) {:.3} · {:.1} m · {} decisions{}{}",
+            "t {:.1} s · {:.1} % unexplored · tr(cov) {:.3} · {:.1} m · {} decisions{}{}{}",
             mission.time_s,
             last.map(|r| r.unexplored_pct).unwrap_or(100.0),
             last.map(|r| r.cov_trace).unwrap_or(0.0),
@@ -497,6 +497,14 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
             match lane.trap_recoveries {
                 0 => String::new(),
                 n => format!(" · {n} trap recover{} (map forgotten around the robot)", if n == 1 { "y" } else { "ies" }),
+            },
+            match lane.tight_plans {
+                0 => String::new(),
+                n => format!(
+                    " · {n} path{} planned with the tight inflation ({} m)",
+                    if n == 1 { "" } else { "s" },
+                    mission.mission.tight_inflation_m
+                ),
             },
             match lane.end {
                 Some(e) => format!(" · ended: {e:?}"),

@@ -164,6 +164,8 @@ pub struct Lane {
     pub decisions: u64,
     /// Times the robot, walled in by its map, forgot it around itself (`trap_recoveries`).
     pub trap_recoveries: u64,
+    /// Paths planned with the tight inflation when the full one left no goal (`tight_plans`).
+    pub tight_plans: u64,
 }
 
 impl Lane {
@@ -176,7 +178,7 @@ impl Lane {
             self.end = Some(r);
         }
         let s = self.mission.summary();
-        (self.decisions, self.trap_recoveries) = (s.decisions, s.trap_recoveries);
+        (self.decisions, self.trap_recoveries, self.tight_plans) = (s.decisions, s.trap_recoveries, s.tight_plans);
     }
 }
 
@@ -259,7 +261,7 @@ impl SimRunner {
             )
             .map_err(|e| format!("{} / {}: {e}", self.config.world, strategy_label(s)))?;
             let decisions = mission.summary().decisions;
-            let mut lane = Lane { strategy: s, mission, end: None, decisions, trap_recoveries: 0 };
+            let mut lane = Lane { strategy: s, mission, end: None, decisions, trap_recoveries: 0, tight_plans: 0 };
             lane.mission.set_clock(Box::new(|| web_time::Instant::now().duration_since(clock_origin()).as_secs_f64() * 1e3));
             lanes.push(lane);
         }
