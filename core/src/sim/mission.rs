@@ -996,14 +996,9 @@ impl Mission {
     /// [`Self::decide`] on `grid`, the robot's map (its footprint cleared here if the robot is
     /// blocked in it).
     fn decide_on(&mut self, grid: &mut OccupancyGrid, keep_current: bool) -> Option<EndReason> {
-        let (mut cleared, mut use_trail, mut tight) = (false, false, false);
-        // The planner's parameters with the tight inflation, for the last retry.
-        let tight_m = self.mission.tight_inflation_m;
-        let tight_params = (tight_m > 0.0 && tight_m < self.params.robot.radius_m).then(|| {
-            let mut p = self.params.clone();
-            p.robot.radius_m = tight_m;
-            p
-        });
+        let (mut cleared, mut use_trail) = (false, false);
+        // The planner's parameters with the tight inflation, once the last retry needs them.
+        let mut tight_params: Option<Params> = None;
         if let Some(fe) = self.slam.as_mut() {
             fe.refresh_landmark_covariances();
         }
@@ -1017,7 +1012,8 @@ impl Mission {
         let ground_z_m = self.body_poses().1.0.z;
         // At most: footprint clearing, trail, tight inflation, and a few goals re-chosen.
         for _attempt in 0..6 {
-            let params = if tight { tight_params.as_ref().unwrap_or(&self.params) } else { &self.params };
+            let tight = tight_params.is_some();
+            let params = tight_params.as_ref().unwrap_or(&self.params);
             let t0 = self.clock.as_mut().map(|c| c());
             let input = DecisionInput {
                 grid,
@@ -1093,8 +1089,11 @@ impl Mission {
                     continue;
                 }
                 // Then with the tight inflation (the trail still open).
-                if tight_params.is_some() && !tight {
-                    tight = true;
+                let tight_m = self.mission.tight_inflation_m;
+                if !tight && tight_m > 0.0 && tight_m < self.params.robot.radius_m {
+                    let mut p = self.params.clone();
+                    p.robot.radius_m = tight_m;
+                    tight_params = Some(p);
                     continue;
                 }
                 let start = decision.robot_cell;
