@@ -422,23 +422,22 @@ fn read_ascii(
             }
         }
         if is_vertex {
-            let rest = &data[tokens.pos..];
-            return finish_last(builder, rest, k + 1 == header.elements.len(), element.count, name).map_err(|e| {
-                match tokens.next_token() {
-                    Some((_, line)) => {
-                        line_err(line, format!("data after the last element: the header declares {} vertices", element.count))
-                    }
-                    None => e,
-                }
-            });
+            // More records than declared after the last element: name the line.
+            if k + 1 == header.elements.len()
+                && let Some((_, line)) = tokens.next_token()
+            {
+                return Err(line_err(line, format!("data after the last element: the header declares {} vertices", element.count)));
+            }
+            return Ok(builder.finish());
         }
     }
     Err(header_err(name, "no 'vertex' element"))
 }
 
-/// The cloud of `builder`, unless the vertex element was the file's `last` and bytes other than
-/// whitespace follow it (`rest`): more records than the header declares, whose points would be
-/// dropped without a word (a header's count written before the data was complete).
+/// The cloud of `builder` (binary data), unless the vertex element was the file's `last` and
+/// bytes other than whitespace follow it (`rest`): more records than the header declares, whose
+/// points would be dropped without a word (a header's count written before the data was
+/// complete).
 fn finish_last(builder: CloudBuilder, rest: &[u8], last: bool, declared: u64, name: &str) -> Result<PointCloud, CloudError> {
     if last && !rest.iter().all(u8::is_ascii_whitespace) {
         return Err(header_err(
