@@ -179,13 +179,16 @@ pub struct NodeConfig {
     /// themselves stay closed. As the simulator's `reuse_trail`. Default true.
     pub reuse_trail: bool,
     /// Squeezing through: when a decision finds no goal even with the trail open, it is made
-    /// once more with lethal cells inflated by this radius, metres, instead of the planner's
-    /// `robot.radius_m` (and the trap check then uses it too). On a traversability map the
-    /// lethal band along a wall (the disc radius) plus the robot radius shuts doorways narrower
-    /// than about 0.95 m that Nav2's costmap, which inflates the wall itself, lets the robot
-    /// pass. Only then, as the simulator's `tight_inflation_m`. ≥ 0; 0, or at least
-    /// `robot.radius_m`, turns it off. Default 0.20.
-    pub tight_inflation_m: f64,
+    /// again with lethal cells inflated by each of these radii in turn, metres, instead of the
+    /// planner's `robot.radius_m`, until one yields a goal (which is then checked and supervised
+    /// at that radius, and the trap check uses the last radius tried). On a traversability map
+    /// the lethal band along a wall (the disc radius) plus the robot radius shuts doorways
+    /// narrower than about 0.95 m that Nav2's costmap, which inflates the wall itself, lets the
+    /// robot pass. Only then, as the simulator's `tight_inflations_m` (where a second radius of
+    /// 0.10 m passes 0.7 m doorways but costs bumper stops among rocks). Each > 0 and smaller
+    /// than the one before, at most 8; radii at least `robot.radius_m` are skipped; empty turns
+    /// it off. Default [0.20].
+    pub tight_inflations_m: Vec<f64>,
     /// Stop after this long even if frontiers remain, seconds; none by default.
     pub max_mission_s: Option<f64>,
     /// How often the inputs are polled, seconds. Default 0.02.
@@ -230,7 +233,7 @@ impl Default for NodeConfig {
             trap_recoveries: 2,
             clear_footprint: true,
             reuse_trail: true,
-            tight_inflation_m: 0.20,
+            tight_inflations_m: vec![0.20],
             max_mission_s: None,
             poll_period_s: 0.02,
             domain_id: None,
@@ -293,7 +296,7 @@ impl NodeConfig {
         pos("goal_tolerance_m", self.goal_tolerance_m)?;
         self.goal_setback.validate("node.goal_setback")?;
         fitslam_core::params::check_non_negative("node.trapped_radius_m", self.trapped_radius_m)?;
-        fitslam_core::params::check_non_negative("node.tight_inflation_m", self.tight_inflation_m)?;
+        fitslam_core::sim::check_tight_inflations("node.tight_inflations_m", &self.tight_inflations_m)?;
         pos("pose_timeout_s", self.pose_timeout_s)?;
         pos("poll_period_s", self.poll_period_s)?;
         if let Some(m) = self.max_mission_s {

@@ -17,8 +17,9 @@
 //!
 //! A decision that finds no goal is made again with the robot's trail (its positions since the
 //! start, map frame, laid on the latest map) free after inflation (`reuse_trail`, as the
-//! simulator's), and if it still finds none, once more with lethal cells inflated by
-//! `tight_inflation_m` instead of the robot radius (as the simulator's).
+//! simulator's), and if it still finds none, again with lethal cells inflated by each of
+//! `tight_inflations_m` in turn instead of the robot radius (as the simulator's); a goal found so
+//! is checked, picked and supervised at that inflation.
 //!
 //! Goals that end Aborted, Rejected, Canceled (by someone else) or time out are blacklisted
 //! (`Failed`); reached goals are blacklisted as `Reselected` (notes §3: a goal selected before
@@ -102,6 +103,9 @@ pub struct ActiveGoal {
     pub sent_s: f64,
     /// When the server accepted it (topic goals: when sent).
     pub accepted_s: Option<f64>,
+    /// The inflation radius of the map it was picked on, metres: the robot radius or one of
+    /// [`NodeConfig::tight_inflations_m`]; it must stay free at that inflation.
+    pub inflation_m: f64,
 }
 
 /// Where the node stands (status topic).
@@ -135,7 +139,7 @@ pub struct Stats {
     pub trap_recoveries: u64,
     /// Decisions made with the footprint cleared ([`NodeConfig::clear_footprint`]).
     pub footprint_clearings: u64,
-    /// Goals picked with the tight inflation ([`NodeConfig::tight_inflation_m`]).
+    /// Goals picked with a tight inflation ([`NodeConfig::tight_inflations_m`]).
     pub tight_goals: u64,
     /// Wall time of the last decision, milliseconds.
     pub last_decision_ms: f64,
@@ -160,9 +164,20 @@ pub struct Status {
 
 struct MapState {
     grid: OccupancyGrid,
-    /// Inflated by the robot radius, computed on first use.
-    inflated: Option<OccupancyGrid>,
+    /// Inflated by the robot radius and by any tight radius used, each computed on first use:
+    /// (radius, metres; grid).
+    inflated: Vec<(f64, OccupancyGrid)>,
     stamp_s: f64,
+}
+
+/// A goal picked from a decision ([`Explorer::pick`]).
+#[derive(Clone, Copy)]
+struct Picked {
+    /// The frontier candidate it serves.
+    frontier_m: [f64; 2],
+    goal: Pose2,
+    /// The inflation radius of the decision, metres.
+    inflation_m: f64,
 }
 
 struct CloudMapper {
@@ -323,7 +338,7 @@ impl Explorer {
             self.info(now_s, format!("first map: {}×{} cells at {} m", g.width, g.height, g.resolution_m));
         }
         self.stats.maps += 1;
-        self.map = Some(MapState { grid, inflated: None, stamp_s });
+        self.map = Some(MapState { grid, inflated: Vec::new(), stamp_s });
     }
 
     /// `/tf` (`is_static` false) or `/tf_static` (true).
@@ -577,17 +592,16 @@ impl Explorer {
     /// `trapped_radius_m` of it ([`enclosed_within`]).
     fn trapped(&mut self, robot: Pose2, trail: &[usize], inflation_m: f64) -> bool {
         let r = self.cfg.trapped_radius_m;
-        if r <= 0.0 || self.inflated().is_none() {
+        if r <= 0.0 {
             return false;
         }
-        let full = inflation_m == self.params.robot.radius_m;
-        let Some(MapState { grid: raw, inflated: Some(inflated), .. }) = self.map.as_ref() else { return false };
+        let Some(inflated) = self.inflated(inflation_m) else { return false };
         let opened;
-        let grid = if trail.is_empty() && full {
+        let grid = if trail.is_empty() {
             inflated
         } else {
-            let mut g = if full { inflated.clone() } else { inflate_lethal(raw, inflation_m) };
-            free_traversed(raw, trail, &mut g);
+            let mut g = inflated.clone();
+            free_traversed(&self.map.as_ref().expect("inflated above").grid, trail, &mut g);
             opened = g;
             &opened
         };
@@ -629,19 +643,23 @@ impl Explorer {
         }
     }
 
-    fn inflated(&mut self) -> Option<&OccupancyGrid> {
-        let radius_m = self.params.robot.radius_m;
+    /// The latest map with lethal cells inflated by `radius_m` (cached per map).
+    fn inflated(&mut self, radius_m: f64) -> Option<&OccupancyGrid> {
         let m = self.map.as_mut()?;
-        if m.inflated.is_none() {
-            m.inflated = Some(inflate_lethal(&m.grid, radius_m));
-        }
-        m.inflated.as_ref()
+        let k = match m.inflated.iter().position(|(r, _)| *r == radius_m) {
+            Some(k) => k,
+            None => {
+                m.inflated.push((radius_m, inflate_lethal(&m.grid, radius_m)));
+                m.inflated.len() - 1
+            }
+        };
+        Some(&m.inflated[k].1)
     }
 
-    /// Whether a goal at (x, y) lies on a free cell of the latest inflated grid (not lethal,
-    /// not inflated, not unknown, inside the map).
-    pub fn goal_is_free(&mut self, x_m: f64, y_m: f64) -> bool {
-        self.inflated().and_then(|g| g.at_world(x_m, y_m)).is_some_and(|&v| CellClass::of(v) == CellClass::Free)
+    /// Whether a goal at (x, y) lies on a free cell of the latest grid inflated by
+    /// `inflation_m` (not lethal, not inflated, not unknown, inside the map).
+    pub fn goal_is_free(&mut self, x_m: f64, y_m: f64, inflation_m: f64) -> bool {
+        self.inflated(inflation_m).and_then(|g| g.at_world(x_m, y_m)).is_some_and(|&v| CellClass::of(v) == CellClass::Free)
     }
 
     fn refresh_cloud_map(&mut self, now_s: f64) {
@@ -655,11 +673,11 @@ impl Explorer {
         self.set_map(grid, stamp_s, now_s);
     }
 
-    fn send(&mut self, (frontier_m, goal): ([f64; 2], Pose2), now_s: f64) -> Command {
+    fn send(&mut self, Picked { frontier_m, goal, inflation_m }: Picked, now_s: f64) -> Command {
         let id = self.next_goal_id;
         self.next_goal_id += 1;
         let accepted_s = (self.cfg.goal_interface == GoalInterface::Topic).then_some(now_s);
-        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s });
+        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s, inflation_m });
         self.stats.goals_sent += 1;
         self.info(now_s, format!("goal {id}: ({:.2}, {:.2}) m, heading {:.0}°", goal.x_m, goal.y_m, goal.yaw_rad.to_degrees()));
         Command::SendGoal { id, goal }
@@ -736,7 +754,7 @@ impl Explorer {
             }
             _ => {}
         }
-        if !self.goal_is_free(x, y) {
+        if !self.goal_is_free(x, y, g.inflation_m) {
             let text = format!("goal {} at ({x:.2}, {y:.2}) is no longer free on the latest map: cancelled", g.id);
             self.warn("goal_lethal", now_s, text);
             out.push(Command::CancelGoal { id: g.id });
@@ -753,20 +771,20 @@ impl Explorer {
     }
 
     /// One decision on the latest map (`None` without one), `traversed` (cells of it) free after
-    /// inflation, lethal cells inflated by the robot radius or, if `tight`, by
-    /// [`NodeConfig::tight_inflation_m`]; made again with the robot's footprint free if it is
+    /// inflation, lethal cells inflated by `inflation_m` (the robot radius, or one of
+    /// [`NodeConfig::tight_inflations_m`]); made again with the robot's footprint free if it is
     /// blocked in the map ([`NodeConfig::clear_footprint`]); its unreachable candidates
     /// blacklisted.
-    fn decide(&mut self, robot: Pose2, traversed: &[usize], tight: bool, now_s: f64) -> Option<Result<Decision, SelectError>> {
+    fn decide(&mut self, robot: Pose2, traversed: &[usize], inflation_m: f64, now_s: f64) -> Option<Result<Decision, SelectError>> {
         let map = self.map.as_ref()?;
         let tight_params;
-        let params = if tight {
+        let params = if inflation_m == self.params.robot.radius_m {
+            &self.params
+        } else {
             let mut p = self.params.clone();
-            p.robot.radius_m = self.cfg.tight_inflation_m;
+            p.robot.radius_m = inflation_m;
             tight_params = p;
             &tight_params
-        } else {
-            &self.params
         };
         let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);
         input.ground_z_m = self.ground_z_m();
@@ -799,10 +817,10 @@ impl Explorer {
         Some(result)
     }
 
-    /// The best-ranked candidate of `decision` whose goal, set back along its path from unknown
-    /// ground by the pose's uncertainty, is on a free cell of the latest inflated grid: (its
-    /// frontier cell, the goal).
-    fn pick(&mut self, decision: &Decision, now_s: f64) -> Option<([f64; 2], Pose2)> {
+    /// The best-ranked candidate of `decision` (made at `inflation_m`) whose goal, set back along
+    /// its path from unknown ground by the pose's uncertainty, is on a free cell of the latest
+    /// grid inflated so.
+    fn pick(&mut self, decision: &Decision, inflation_m: f64, now_s: f64) -> Option<Picked> {
         let margin_m = self.cfg.goal_setback.margin_m(self.position_var_m2(), 0.0);
         for i in decision.ranking() {
             let c = &decision.candidates[i];
@@ -816,8 +834,8 @@ impl Explorer {
             {
                 (goal.x_m, goal.y_m) = (x, y);
             }
-            if goal.is_finite() && self.goal_is_free(goal.x_m, goal.y_m) {
-                return Some(([c.x_m, c.y_m], goal));
+            if goal.is_finite() && self.goal_is_free(goal.x_m, goal.y_m, inflation_m) {
+                return Some(Picked { frontier_m: [c.x_m, c.y_m], goal, inflation_m });
             }
             let text = format!("candidate at ({:.2}, {:.2}) is not free on the inflated map: skipped", goal.x_m, goal.y_m);
             self.warn("candidate_lethal", now_s, text);
@@ -859,7 +877,8 @@ impl Explorer {
                 return self.warn("wait", now_s, text);
             }
         };
-        let mut decision = match self.decide(robot, &[], false, now_s) {
+        let mut inflation_m = self.params.robot.radius_m;
+        let mut decision = match self.decide(robot, &[], inflation_m, now_s) {
             None => return,
             Some(Ok(d)) => d,
             Some(Err(e)) => {
@@ -868,26 +887,25 @@ impl Explorer {
                 return self.warn("decision", now_s, format!("no decision: {e}"));
             }
         };
-        let mut picked = self.pick(&decision, now_s);
+        let mut picked = self.pick(&decision, inflation_m, now_s);
         // No goal: decide again with the cells the robot drove on open (and judge a trap so).
         let trail = if picked.is_none() && self.goal.is_none() { self.trail_cells() } else { Vec::new() };
         if !trail.is_empty()
-            && let Some(Ok(d)) = self.decide(robot, &trail, false, now_s)
+            && let Some(Ok(d)) = self.decide(robot, &trail, inflation_m, now_s)
         {
-            picked = self.pick(&d, now_s);
+            picked = self.pick(&d, inflation_m, now_s);
             decision = d;
         }
-        // Still none: once more with the tight inflation (the trail still open).
-        let tight_m = self.cfg.tight_inflation_m;
-        let mut inflation_m = self.params.robot.radius_m;
-        if picked.is_none()
-            && self.goal.is_none()
-            && tight_m > 0.0
-            && tight_m < inflation_m
-            && let Some(Ok(d)) = self.decide(robot, &trail, true, now_s)
-        {
+        // Still none: with each tight inflation smaller than the last radius tried (the trail
+        // still open).
+        for k in 0..self.cfg.tight_inflations_m.len() {
+            let tight_m = self.cfg.tight_inflations_m[k];
+            if picked.is_some() || self.goal.is_some() || tight_m >= inflation_m {
+                continue;
+            }
+            let Some(Ok(d)) = self.decide(robot, &trail, tight_m, now_s) else { break };
             inflation_m = tight_m;
-            picked = self.pick(&d, now_s);
+            picked = self.pick(&d, inflation_m, now_s);
             if picked.is_some() {
                 self.stats.tight_goals += 1;
                 self.info(now_s, format!("no goal at the full inflation: decided with lethal cells inflated by {tight_m} m"));
@@ -935,7 +953,7 @@ impl Explorer {
                 self.empty_decisions = 0;
                 self.phase = Phase::Navigating;
                 let [x, y] = cur.frontier_m;
-                let same = (new.0[0] - x).hypot(new.0[1] - y) <= radius;
+                let same = (new.frontier_m[0] - x).hypot(new.frontier_m[1] - y) <= radius;
                 let still_frontier = decision.candidates.iter().any(|c| c.is_scored() && (c.x_m - x).hypot(c.y_m - y) <= radius);
                 if !same && !still_frontier {
                     let text = format!("goal {} at ({:.2}, {:.2}) is no longer a frontier: replaced", cur.id, cur.goal.x_m, cur.goal.y_m);

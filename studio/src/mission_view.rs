@@ -501,9 +501,9 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
             match lane.tight_plans {
                 0 => String::new(),
                 n => format!(
-                    " · {n} path{} planned with the tight inflation ({} m)",
+                    " · {n} path{} planned with a tight inflation ({} m)",
                     if n == 1 { "" } else { "s" },
-                    mission.mission.tight_inflation_m
+                    mission.mission.tight_inflations_m.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" or ")
                 ),
             },
             match lane.end {

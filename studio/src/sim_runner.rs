@@ -164,7 +164,7 @@ pub struct Lane {
     pub decisions: u64,
     /// Times the robot, walled in by its map, forgot it around itself (`trap_recoveries`).
     pub trap_recoveries: u64,
-    /// Paths planned with the tight inflation when the full one left no goal (`tight_plans`).
+    /// Paths planned with a tight inflation when the full one left no goal (`tight_plans`).
     pub tight_plans: u64,
 }
 

@@ -19,7 +19,9 @@ pub mod world;
 
 pub use heightfield::{DemScaling, Heightfield, HeightfieldError};
 pub use landmarks::{LandmarkDensity, scatter_landmarks, texture_richness};
-pub use mission::{EndReason, Localisation, MetricsRow, Mission, MissionError, MissionParams, StepOutcome, Summary};
+pub use mission::{
+    EndReason, Localisation, MetricsRow, Mission, MissionError, MissionParams, StepOutcome, Summary, check_tight_inflations,
+};
 pub use noise::{fractal_noise, hash_unit};
 pub use obstacles::{Rock, scatter_rocks};
 pub use scan::{line_of_sight, visible_ground_points};

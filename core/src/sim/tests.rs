@@ -593,28 +593,33 @@ fn two_rooms(params: &Params, door_m: f64) -> World {
 }
 
 /// A 0.9 m doorway: the disc's band of lethal cells along each jamb plus the robot radius shut
-/// it, so with the tight inflation off the robot maps its own room and the part of the other it
+/// it, so with the tight inflations off the robot maps its own room and the part of the other it
 /// sees through the doorway, and stops with the rest unexplored (13.9 % of the explorable
-/// ground when written); with the tight inflation (default
-/// 0.20 m) it plans through on the last retry, explores both rooms, and its body never touches
-/// ground-truth untraversable terrain.
+/// ground when written); with the first tight inflation (0.20 m) it plans through on a retry,
+/// explores both rooms, and its body never touches ground-truth untraversable terrain. A 0.75 m
+/// doorway stays shut at 0.20 m (34 % left) and is passed with a second radius, 0.10 m.
 #[test]
-fn a_doorway_the_full_inflation_shuts_is_passed_with_the_tight_one() {
+fn a_doorway_the_full_inflation_shuts_is_passed_with_a_tight_one() {
     let params = Params::default();
-    let world = two_rooms(&params, 0.9);
-    let run = |tight_inflation_m: f64| {
-        let mp = MissionParams { tight_inflation_m, ..MissionParams::default() };
-        Mission::new(world.clone(), params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
+    let run = |door_m: f64, tight_inflations_m: Vec<f64>| {
+        let mp = MissionParams { tight_inflations_m, ..MissionParams::default() };
+        let world = two_rooms(&params, door_m);
+        Mission::new(world, params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
     };
-    let off = run(0.0);
+    let passed = |s: &super::Summary| {
+        assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
+        assert!(s.unexplored_pct < 1.0 && s.tight_plans >= 1, "{s:?}");
+        assert_eq!((s.gt_violations, s.safety_stops), (0, 0), "{s:?}");
+    };
+    let off = run(0.9, vec![]);
     assert!(off.unexplored_pct > 10.0 && off.tight_plans == 0, "{off:?}");
-    let on = run(MissionParams::default().tight_inflation_m);
-    assert_eq!(on.end_reason, Some(EndReason::NoFrontier), "{on:?}");
-    assert!(on.unexplored_pct < 1.0 && on.tight_plans >= 1, "{on:?}");
-    assert_eq!((on.gt_violations, on.safety_stops), (0, 0), "{on:?}");
-    // As wide as the robot radius, or 0, it is off: the same mission as without it.
-    let wide = run(params.robot.radius_m);
+    passed(&run(0.9, MissionParams::default().tight_inflations_m));
+    // Radii as wide as the robot's are skipped: the same mission as without them.
+    let wide = run(0.9, vec![params.robot.radius_m]);
     assert_eq!((wide.time_s, wide.unexplored_pct, wide.tight_plans), (off.time_s, off.unexplored_pct, 0));
+    let narrow = run(0.75, vec![0.20]);
+    assert!(narrow.unexplored_pct > 10.0, "{narrow:?}");
+    passed(&run(0.75, vec![0.20, 0.10]));
 }
 
 #[test]
@@ -659,7 +664,9 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("[odometry]\nrotation_sigma_per_sqrt_m = -0.01", "odometry.rotation_sigma_per_sqrt_m"),
         ("[odometry]\nslip_per_rad = nan", "odometry.slip_per_rad"),
         ("[drive]\nheading_gain = nan", "drive.heading_gain"),
-        ("tight_inflation_m = -0.1", "tight_inflation_m"),
+        ("tight_inflations_m = [0.2, -0.1]", "tight_inflations_m[1] must be a finite number > 0"),
+        ("tight_inflations_m = [0.1, 0.2]", "tight_inflations_m[1] must be smaller than the radius before it (0.1; got 0.2)"),
+        ("tight_inflations_m = [0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1]", "tight_inflations_m: 9 radii, over the limit of 8"),
         ("[drive]\nbody_half_m = nan", "drive.body_half_m"),
         ("[drive]\nbody_half_m = 1e6", "drive.body_half_m must be ≤ 5 m"),
         ("[drive]\nturn_in_place_rad = nan", "drive.turn_in_place_rad"),
