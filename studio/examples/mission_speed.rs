@@ -17,8 +17,13 @@ fn main() {
     let seconds: f64 = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(10.0);
     for strategies in [vec![Strategy::Fit, Strategy::Greedy, Strategy::Random], vec![Strategy::Fit]] {
         let n = strategies.len();
-        let config =
-            MissionConfig { world: world.clone(), strategies, seed: 0, localisation: Localisation::GroundTruth, reproducible_slam: false };
+        let config = MissionConfig {
+            world: world.clone(),
+            strategies,
+            seed: 0,
+            localisation: Localisation::GroundTruth,
+            ..MissionConfig::default()
+        };
         let mut r = match SimRunner::new(config, &Params::default()) {
             Ok(r) => r,
             Err(e) => {

@@ -172,6 +172,7 @@ impl MissionView {
             "localisation": sim_runner::localisation_label(r.config.localisation),
             "localisation_id": r.config.localisation,
             "reproducible_slam": r.config.reproducible_slam,
+            "sim_params_toml": r.config.sim_params_toml,
             "state": format!("{:?}", r.state),
             "time_s": r.time_s(),
             "speed": if r.speed.is_finite() { Some(r.speed) } else { None },
@@ -259,6 +260,13 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
          `fitslam explore` with factorisation = \"reproducible\", at some cost in speed on long missions.",
     );
     rects.push(("mission_reproducible", r.rect));
+    let header = egui::CollapsingHeader::new("simulator parameters").default_open(false).show(ui, |ui| {
+        ui.weak("TOML, as `fitslam explore --sim-params` reads it: keys left out keep their defaults (README, Parameters).");
+        let hint = "tight_inflations_m = [0.20, 0.10]\n[lidar]\nmax_range_m = 8.0";
+        let r = ui.add(egui::TextEdit::multiline(&mut m.config.sim_params_toml).code_editor().desired_rows(4).hint_text(hint));
+        rects.push(("mission_sim_params", r.rect));
+    });
+    rects.push(("mission_sim_params_header", header.header_response.rect));
     let pending = m.runner.as_ref().is_none_or(|r| r.config != m.config);
     // Always one line, so that the buttons below do not move when a setting changes.
     if pending {

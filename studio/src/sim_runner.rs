@@ -129,16 +129,23 @@ pub struct MissionConfig {
     /// browser and in `fitslam explore` with `factorisation = "reproducible"` (slower on long
     /// missions; README, "Same seed, same run").
     pub reproducible_slam: bool,
+    /// Simulator parameters as `fitslam explore --sim-params` reads them: TOML over the
+    /// defaults (a key left out keeps its default); empty or blank: the defaults.
+    pub sim_params_toml: String,
 }
 
 impl MissionConfig {
-    /// The simulator parameters of this configuration.
-    pub fn mission_params(&self) -> MissionParams {
-        let mut p = MissionParams::default();
+    /// The simulator parameters of this configuration, or the message of what is wrong with
+    /// `sim_params_toml` (naming the line or the key).
+    pub fn mission_params(&self) -> Result<MissionParams, String> {
+        let mut p = match self.sim_params_toml.trim() {
+            "" => MissionParams::default(),
+            _ => MissionParams::from_toml(&self.sim_params_toml, "simulator parameters").map_err(|e| e.to_string())?,
+        };
         if self.reproducible_slam {
             p.slam.graph.optimizer.factorisation = Factorisation::Reproducible;
         }
-        p
+        Ok(p)
     }
 }
 
@@ -150,6 +157,7 @@ impl Default for MissionConfig {
             seed: 0,
             localisation: Localisation::GroundTruth,
             reproducible_slam: false,
+            sim_params_toml: String::new(),
         }
     }
 }
@@ -249,12 +257,13 @@ impl SimRunner {
 
     /// Restarts every lane from time 0 with the same configuration (the world is not rebuilt).
     pub fn reset(&mut self) -> Result<(), String> {
+        let mission_params = self.config.mission_params()?;
         let mut lanes = Vec::with_capacity(self.config.strategies.len());
         for &s in &self.config.strategies {
             let mission = Mission::new(
                 self.world.clone(),
                 self.params.clone(),
-                self.config.mission_params(),
+                mission_params.clone(),
                 s,
                 self.config.seed,
                 self.config.localisation,
@@ -440,7 +449,7 @@ mod tests {
     use super::*;
 
     fn config(strategies: Vec<Strategy>, seed: u64) -> MissionConfig {
-        MissionConfig { world: "tiny_test".into(), strategies, seed, localisation: Localisation::Odometry, reproducible_slam: false }
+        MissionConfig { world: "tiny_test".into(), strategies, seed, localisation: Localisation::Odometry, ..MissionConfig::default() }
     }
 
     /// A fake clock that never runs out of budget: `advance` then stops only at the target.
@@ -457,7 +466,7 @@ mod tests {
                 strategies: vec![Strategy::Greedy],
                 seed: 2,
                 localisation: Localisation::GroundTruth,
-                reproducible_slam: false,
+                ..MissionConfig::default()
             },
             &Params::default(),
         )
@@ -474,12 +483,32 @@ mod tests {
     #[test]
     fn the_reproducible_switch_sets_the_slam_factorisation_and_nothing_else() {
         let mut c = config(vec![Strategy::Fit], 1);
-        assert_eq!(c.mission_params(), MissionParams::default());
+        assert_eq!(c.mission_params(), Ok(MissionParams::default()));
         c.reproducible_slam = true;
         let mut expected = MissionParams::default();
         expected.slam.graph.optimizer.factorisation = Factorisation::Reproducible;
-        assert_eq!(c.mission_params(), expected);
+        assert_eq!(c.mission_params(), Ok(expected.clone()));
         assert_ne!(expected, MissionParams::default());
+    }
+
+    /// The simulator-parameter text is read as `--sim-params` is: keys it names change, the rest
+    /// keep their defaults; a blank text is the defaults; a bad one stops the runner with a
+    /// message naming the line, or the key.
+    #[test]
+    fn the_simulator_parameter_text_is_read_over_the_defaults() {
+        let mut c = config(vec![Strategy::Greedy], 1);
+        c.sim_params_toml = " \n".into();
+        assert_eq!(c.mission_params(), Ok(MissionParams::default()));
+        c.sim_params_toml = "tight_inflations_m = [0.2, 0.1]\n[lidar]\nmax_range_m = 8.0\n".into();
+        let p = c.mission_params().unwrap();
+        assert_eq!((p.tight_inflations_m.as_slice(), p.lidar.max_range_m), ([0.2, 0.1].as_slice(), 8.0));
+        assert_eq!(p.drive, MissionParams::default().drive);
+        c.sim_params_toml = "[lidar]\nmax_range_m = \"far\"\n".into();
+        let e = c.mission_params().unwrap_err();
+        assert!(e.contains("simulator parameters") && e.contains("line 2"), "{e}");
+        c.sim_params_toml = "tight_inflations_m = [0.1, 0.2]".into();
+        let e = SimRunner::new(c, &Params::default()).err().unwrap();
+        assert!(e.contains("tight_inflations_m[1] must be smaller"), "{e}");
     }
 
     #[test]

@@ -134,3 +134,32 @@ fn strategy_checkboxes_apply_on_reset_and_a_lane_opens_in_the_planner() {
     let d = app.pipeline.ok_decision().expect("the planner decides on the mission's map");
     assert!(!d.candidates.is_empty());
 }
+
+/// The simulator parameters typed into the Mission mode's text (as `--sim-params` reads them)
+/// reach the missions at Reset; a wrong value is shown, naming its key, and runs nothing.
+#[test]
+fn simulator_parameters_typed_in_apply_at_reset_and_a_wrong_one_is_shown() {
+    let mut h = harness();
+    open_mission(&mut h);
+    h.get_by_label("simulator parameters").click();
+    h.run_ok();
+    let text_box = |h: &mut Harness<'_, StudioApp>, text: &str| {
+        h.get_by_role(egui::accesskit::Role::MultilineTextInput).focus();
+        h.run_ok();
+        h.get_by_role(egui::accesskit::Role::MultilineTextInput).type_text(text);
+        h.run_ok();
+        h.get_by_label("Reset").click();
+        h.run_ok();
+    };
+    text_box(&mut h, "tight_inflations_m = [0.2, 0.1]");
+    let p = runner(&h).config.mission_params().expect("valid text");
+    assert_eq!(p.tight_inflations_m, vec![0.2, 0.1]);
+    assert_eq!(runner(&h).lanes[0].mission.mission.tight_inflations_m, vec![0.2, 0.1]);
+    assert!(h.state().mission.error.is_none());
+    // Appended: a second key whose value is out of range.
+    text_box(&mut h, "\ntrapped_radius_m = -1.0");
+    assert!(h.state().mission.runner.is_none());
+    let e = h.state().mission.error.clone().expect("an error");
+    assert!(e.contains("simulator parameters") && e.contains("trapped_radius_m"), "{e}");
+    assert!(h.query_all_by_label_contains("trapped_radius_m must be").count() >= 1, "the error is on screen");
+}
