@@ -280,6 +280,14 @@ impl ParamsError {
 }
 
 impl Params {
+    /// These parameters with lethal cells inflated by `radius_m` instead of `robot.radius_m`
+    /// (the tight retries of the simulator and the robot node).
+    pub fn with_robot_radius_m(&self, radius_m: f64) -> Params {
+        let mut p = self.clone();
+        p.robot.radius_m = radius_m;
+        p
+    }
+
     /// Parses TOML text; `source_name` (usually the file name) is quoted in errors.
     pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
         let text = crate::io::without_bom_str(text);

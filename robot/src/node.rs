@@ -781,9 +781,7 @@ impl Explorer {
         let params = if inflation_m == self.params.robot.radius_m {
             &self.params
         } else {
-            let mut p = self.params.clone();
-            p.robot.radius_m = inflation_m;
-            tight_params = p;
+            tight_params = self.params.with_robot_radius_m(inflation_m);
             &tight_params
         };
         let mut input = DecisionInput::new(&map.grid, &self.landmarks, robot, &self.blacklist);

@@ -143,9 +143,8 @@ pub struct MissionParams {
     /// wall shuts doorways narrower than about 0.95 m at the defaults; 0.20 m passes ≈ 0.85 m.
     /// A second radius of 0.10 m (radius − disc radius: a cell is lethal when its disc holds a
     /// hazard, so that still keeps the body off ground-truth hazards in a perfect map) passes
-    /// 0.7 m, but measured over the assets' worlds it also sends the robot between rocks for
-    /// scraps of ground and the bumper fired in 13 of 320 runs (session 25): add it for indoor
-    /// maps with narrow doors. Only when nothing else is left: planned this close everywhere,
+    /// 0.7 m, but measured over the assets' worlds it also chases scraps of ground and the bumper
+    /// fired in 13 of 320 runs (session 25): add it for indoor maps with narrow doors. Only when nothing else is left: planned this close everywhere,
     /// the body meets drops and walls the map does not show yet (session 23). Each > 0 and
     /// smaller than the one before, at most [`MAX_TIGHT_INFLATIONS`]; radii at least
     /// `robot.radius_m` are skipped; empty turns the retry off. Default [0.20].
@@ -1116,9 +1115,7 @@ impl Mission {
                 let inflation_m = params.robot.radius_m;
                 let radii = &self.mission.tight_inflations_m;
                 if let Some(k) = (tight_tried..radii.len()).find(|&k| radii[k] < inflation_m) {
-                    let mut p = self.params.clone();
-                    p.robot.radius_m = radii[k];
-                    (tight_params, tight_tried) = (Some(p), k + 1);
+                    (tight_params, tight_tried) = (Some(self.params.with_robot_radius_m(radii[k])), k + 1);
                     continue;
                 }
                 let start = decision.robot_cell;
