@@ -185,7 +185,7 @@ pub struct NodeConfig {
     /// the lethal band along a wall (the disc radius) plus the robot radius shuts doorways
     /// narrower than about 0.95 m that Nav2's costmap, which inflates the wall itself, lets the
     /// robot pass. Only then, as the simulator's `tight_inflations_m` (where a second radius of
-    /// 0.10 m passes 0.7 m doorways but costs bumper stops among rocks). Each > 0 and smaller
+    /// 0.10 m passes 0.7 m doorways but costs bumper stops on other worlds). Each > 0 and smaller
     /// than the one before, at most 8; radii at least `robot.radius_m` are skipped; empty turns
     /// it off. Default [0.20].
     pub tight_inflations_m: Vec<f64>,
