@@ -10,9 +10,9 @@
 //! when the path ahead of the robot is blocked (checked after each scan, [`super::corridor`];
 //! the part already driven is not checked), and every `replan_period_s` (then the current goal
 //! is kept while it is still a reachable frontier candidate). Candidates the selector finds
-//! unreachable are blacklisted `NoPath`; a goal re-chosen after it was reached is blacklisted
-//! `Reselected`. The path the robot drives ends short of unknown ground by its position
-//! uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A decision that finds
+//! unreachable are blacklisted `NoPath`; a goal re-chosen near any goal reached before is
+//! blacklisted `Reselected`. The path the robot drives ends short of unknown ground by its
+//! position uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A decision that finds
 //! no goal is made again with the cells the robot's centre has driven on open to the planner
 //! (and, for that path, to the path check) while its map holds them free (`reuse_trail`), so
 //! that lethal cells mapped later beside a doorway it came through cannot shut it in; if it still
@@ -491,7 +491,9 @@ pub struct Mission {
     goal_started_s: f64,
     goal_deadline_s: f64,
     next_replan_s: f64,
-    last_reached: Option<[f64; 2]>,
+    /// The goals reached so far (notes §3: one selected again while still a frontier goal is
+    /// blacklisted).
+    reached: Vec<[f64; 2]>,
     /// The grid the last decision planned on ([`Self::planning_grid`]).
     planning_grid: Option<OccupancyGrid>,
     last_scan: (Pose2, f64),
@@ -586,7 +588,7 @@ impl Mission {
             goal_started_s: 0.0,
             goal_deadline_s: 0.0,
             next_replan_s: 0.0,
-            last_reached: None,
+            reached: Vec::new(),
             planning_grid: None,
             last_scan: (start, 0.0),
             last_camera_s: f64::NEG_INFINITY,
@@ -759,7 +761,7 @@ impl Mission {
             Phase::Turning(yaw) => {
                 if wrap_pi(yaw - self.est.yaw_rad).abs() < 0.05 {
                     self.goals_reached += 1;
-                    self.last_reached = self.goal.map(|g| [g.x_m, g.y_m]);
+                    self.reached.extend(self.goal.map(|g| [g.x_m, g.y_m]));
                     self.goal = None;
                     self.phase = Phase::Idle;
                 }
@@ -1130,13 +1132,12 @@ impl Mission {
                 return None;
             };
             let c = &decision.candidates[chosen];
-            // A goal chosen again right where the robot already went: blacklist and retry.
-            if let Some(prev) = self.last_reached {
-                if math::hypot(c.x_m - prev[0], c.y_m - prev[1]) <= self.blacklist.radius_m() {
-                    self.blacklist.add(prev[0], prev[1], BlacklistReason::Reselected);
-                    self.last_reached = None;
-                    continue;
-                }
+            // A goal chosen again where the robot already went: blacklist and retry.
+            let near = |p: &[f64; 2]| math::hypot(c.x_m - p[0], c.y_m - p[1]) <= self.blacklist.radius_m();
+            if let Some(k) = self.reached.iter().position(near) {
+                let [x, y] = self.reached.remove(k);
+                self.blacklist.add(x, y, BlacklistReason::Reselected);
+                continue;
             }
             let goal = decision.goal.unwrap_or(Pose2 { x_m: c.x_m, y_m: c.y_m, yaw_rad: self.est.yaw_rad });
             let rho = c.rho_m.unwrap_or(0.0);
