@@ -12,10 +12,10 @@
 //! is kept while it is still a reachable frontier candidate). Candidates the selector finds
 //! unreachable are blacklisted `NoPath`; a goal re-chosen near any goal reached before is
 //! blacklisted `Reselected`. The path the robot drives ends short of unknown ground by its
-//! position uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A decision that finds
-//! no goal is made again with the cells the robot's centre has driven on open to the planner
-//! (and, for that path, to the path check) while its map holds them free (`reuse_trail`), so
-//! that lethal cells mapped later beside a doorway it came through cannot shut it in; if it still
+//! position uncertainty ([`crate::path::set_back`]); the goal stays the candidate. A decision
+//! that finds no goal is made again with the cells the robot's centre has driven on open to the
+//! planner (and, for that path, to the path check) while its map holds them free (`reuse_trail`),
+//! so that lethal cells mapped later beside a doorway it came through cannot shut it in; if it still
 //! finds none, again with lethal cells inflated by each of `tight_inflations_m` in turn instead
 //! of the robot radius (the path check of a path planned so uses that radius too), for doorways
 //! the full inflation shuts. A robot its map walls in ([`crate::frontier::enclosed_within`]) with no candidate left

@@ -262,8 +262,7 @@ fn goals_near_reached_ones(m: &mut Mission) -> (usize, usize) {
 
 /// Notes §3: a goal selected in an earlier iteration and still a frontier goal now is
 /// blacklisted, whichever goal the robot reached last. On the pit world (ground truth, 1,000 s),
-/// checking only the last goal reached let fit seed 2 set two goals and greedy seed 2 one goal
-/// within the radius of an earlier one.
+/// d5137b0's mission, which checked only the last goal reached, set two such goals in fit seed 2.
 #[test]
 fn no_goal_is_set_where_the_robot_already_reached_one() {
     let params = Params::default();
