@@ -11,24 +11,20 @@
 //! the paper world, 3 seeds, 400 s, the simulator's `SlamParams`; `--window 100000` makes every
 //! update a full optimisation, `--max-observations 0` drops the landmark factors).
 
+mod common;
+
 use fitslam_core::params::{Params, Strategy};
 use fitslam_core::sim::mission::StampedPose;
-use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome, World, WorldSpec};
+use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
 use nalgebra::{DMatrix, DVector, Quaternion, UnitQuaternion, Vector3, Vector6};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
-    let value = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(|v| v.parse::<f64>().expect(name));
-    let world_file = args.iter().find(|a| a.ends_with(".toml")).cloned().unwrap_or("assets/worlds/paper_unstructured_20m.toml".into());
+    let args = common::Args::from_env();
+    let value = |name: &str| args.value(name);
+    let world_file = args.world_file("assets/worlds/paper_unstructured_20m.toml");
     let seeds = value("--seeds").unwrap_or(3.0) as u64;
-    let dir = std::path::Path::new(&world_file).parent().unwrap_or(std::path::Path::new(".")).to_path_buf();
-    let text = std::fs::read_to_string(&world_file).expect("world file");
     let params = Params::default();
-    let spec = WorldSpec::from_toml(&text, &world_file).expect("world");
-    let world = World::build(&spec, &params.traversability, params.traversability.tau, |name| {
-        std::fs::read(dir.join(name)).map_err(|e| e.to_string())
-    })
-    .expect("world builds");
+    let world = common::load_world(&world_file, &params);
     let mut mp = MissionParams { time_limit_s: Some(value("--time-s").unwrap_or(400.0)), ..MissionParams::default() };
     if let Some(s) = value("--gravity-sigma-rad") {
         mp.slam.gravity_sigma_rad = s;

@@ -1180,6 +1180,11 @@ impl Mission {
         crate::grid::fill_disc(grid, self.est.x_m, self.est.y_m, clear_m, crate::grid::FREE);
     }
 
+    /// The SLAM front end and its back end ([`Localisation::Slam`] only), for inspection.
+    pub fn slam_frontend(&self) -> Option<&SlamFrontend> {
+        self.slam.as_ref()
+    }
+
     /// The cells (flat indices into the map) the estimated centre has driven on, in the order
     /// first reached ([`MissionParams::reuse_trail`]; empty when it is off).
     pub fn trail(&self) -> &[usize] {

@@ -60,7 +60,7 @@ pub use graph_slam::{
 };
 pub use lie::{Se2, Se3};
 pub use linear_system::Factorisation;
-pub use marginals::{MarginalError, Marginals};
+pub use marginals::{FactorStats, MarginalError, Marginals};
 pub use optimizer::{
     GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination,
 };

@@ -1,0 +1,117 @@
+//! The least the SLAM back end's exact work can cost in a whole mission, measured against the
+//! mission itself. Notes §1 asks for a full optimisation on every loop closure and the true
+//! marginal of the current pose; each of those needs at least one numeric Cholesky factorisation
+//! of the whole information matrix (an optimisation step, or the marginal's factor). The bench
+//! runs one SLAM mission step by step and, after every loop closure, factorises the whole
+//! problem once more outside the mission's clock ([`GraphSlam::marginals`]: structure, AMD,
+//! linearisation, one numeric factorisation), recording its time and its size and flops
+//! ([`FactorStats`]). It also times faer's dense Cholesky of an n × n matrix (n = `--dense-n`,
+//! default 2000), the fastest a factorisation runs per flop on this machine: the sparse one's
+//! flops divided by that rate bound its time from below, whatever the implementation.
+//!
+//! Prints the mission's own wall time (without the extra factorisations), the loop closures, the
+//! summed time and flops of one factorisation per closure, the flops over the dense rate, and
+//! the same for the final graph. Timing only; nothing is asserted.
+//!
+//! `cargo bench --bench slam_bound -- [WORLD.toml] [--seed S] [--time-s T] [--dense-n N]`
+//! (defaults: `benches/worlds/long_40m.toml`, seed 1, the world's time limit).
+//!
+//! [`GraphSlam::marginals`]: fitslam_core::slam::GraphSlam::marginals
+//! [`FactorStats`]: fitslam_core::slam::FactorStats
+
+mod common;
+
+use std::time::Instant;
+
+use faer::{Mat, Side};
+use fitslam_core::params::{Params, Strategy};
+use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
+use fitslam_core::slam::FactorStats;
+
+fn main() {
+    let args = common::Args::from_env();
+    let value = |name: &str| args.value(name);
+    let world_file = args.world_file("benches/worlds/long_40m.toml");
+    let seed = value("--seed").unwrap_or(1.0) as u64;
+    let dense_n = value("--dense-n").unwrap_or(2000.0) as usize;
+
+    let dense_flops_per_s = dense_cholesky_rate(dense_n);
+    println!("dense Cholesky, n = {dense_n}: {:.2} GFlop/s (best of 3, one thread)", dense_flops_per_s / 1e9);
+
+    let params = Params::default();
+    let world = common::load_world(&world_file, &params);
+    let mission_params = MissionParams { time_limit_s: value("--time-s"), ..MissionParams::default() };
+    let mut mission = Mission::new(world, params, mission_params, Strategy::Fit, seed, Localisation::Slam).expect("mission");
+
+    let (mut mission_s, mut closures) = (0.0, 0);
+    let (mut closure_s, mut closure_flops) = (0.0, 0.0);
+    loop {
+        let t = Instant::now();
+        let outcome = mission.step();
+        mission_s += t.elapsed().as_secs_f64();
+        let frontend = mission.slam_frontend().expect("a SLAM mission");
+        if frontend.loop_closures() > closures {
+            closures = frontend.loop_closures();
+            let (s, stats) = factorise(&mission);
+            closure_s += s;
+            closure_flops += stats.flops;
+        }
+        if outcome != StepOutcome::Running {
+            break;
+        }
+    }
+    let backend = mission.slam_frontend().expect("a SLAM mission").backend();
+    let (final_s, last) = factorise(&mission);
+    println!(
+        "{world_file}, fit, seed {seed}: {:.0} s simulated in {mission_s:.1} s of wall time (≈ {:.0}× real time)",
+        mission.time_s,
+        mission.time_s / mission_s
+    );
+    println!(
+        "final graph: {} keyframes, {} landmarks, {} unknowns, {} factor entries ({}), {:.2} GFlop per factorisation",
+        backend.keyframe_count(),
+        backend.landmark_count(),
+        last.dim,
+        last.factor_entries,
+        if last.supernodal { "supernodal" } else { "simplicial" },
+        last.flops / 1e9
+    );
+    println!(
+        "  one factorisation: {final_s:.3} s ({:.2} GFlop/s); at the dense rate ≥ {:.3} s",
+        last.flops / final_s / 1e9,
+        last.flops / dense_flops_per_s
+    );
+    println!("loop closures (full optimisations): {closures}");
+    println!(
+        "  one factorisation per closure: {closure_s:.1} s, {:.1} GFlop; at the dense rate ≥ {:.1} s",
+        closure_flops / 1e9,
+        closure_flops / dense_flops_per_s
+    );
+}
+
+/// One factorisation of the whole problem now: its wall time and stats.
+fn factorise(mission: &Mission) -> (f64, FactorStats) {
+    let backend = mission.slam_frontend().expect("a SLAM mission").backend();
+    let t = Instant::now();
+    let marginals = backend.marginals().expect("the problem factorises");
+    (t.elapsed().as_secs_f64(), marginals.factor_stats())
+}
+
+/// Flops per second of faer's dense Cholesky on an n × n positive definite matrix (n³/3 flops),
+/// best of three.
+fn dense_cholesky_rate(n: usize) -> f64 {
+    let b = Mat::<f64>::from_fn(n, n, |i, j| (((i * 7919 + j * 104729) % 1000) as f64 / 1000.0) - 0.5);
+    let mut a = &b * b.transpose();
+    for i in 0..n {
+        a[(i, i)] += n as f64;
+    }
+    let best = (0..3)
+        .map(|_| {
+            let t = Instant::now();
+            let llt = a.llt(Side::Lower).expect("positive definite");
+            std::hint::black_box(&llt);
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min);
+    (n as f64).powi(3) / 3.0 / best
+}
