@@ -13,8 +13,11 @@
 //! summed time and flops of one factorisation per closure, the flops over the dense rate, and
 //! the same for the final graph. Timing only; nothing is asserted.
 //!
-//! `cargo bench --bench slam_bound -- [WORLD.toml] [--seed S] [--time-s T] [--dense-n N]`
-//! (defaults: `benches/worlds/long_40m.toml`, seed 1, the world's time limit).
+//! `cargo bench --bench slam_bound -- [WORLD.toml] [--seed S] [--time-s T] [--dense-n N]
+//! [--structure-out FILE]` (defaults: `benches/worlds/long_40m.toml`, seed 1, the world's time
+//! limit). `--structure-out` writes the final graph's structure for `scripts/ordering_fill.py`
+//! (which compares the flops of other elimination orders): a line `v <var> <dim> <position>` per
+//! free variable (its place in faer's AMD order) and `f <var> <var> …` per factor.
 //!
 //! [`GraphSlam::marginals`]: fitslam_core::slam::GraphSlam::marginals
 //! [`FactorStats`]: fitslam_core::slam::FactorStats
@@ -62,6 +65,10 @@ fn main() {
     }
     let backend = mission.slam_frontend().expect("a SLAM mission").backend();
     let (final_s, last) = factorise(&mission);
+    if let Some(path) = args.text("--structure-out") {
+        std::fs::write(path, structure(&mission)).expect("structure file written");
+        println!("structure written to {path}");
+    }
     println!(
         "{world_file}, fit, seed {seed}: {:.0} s simulated in {mission_s:.1} s of wall time (≈ {:.0}× real time)",
         mission.time_s,
@@ -95,6 +102,25 @@ fn factorise(mission: &Mission) -> (f64, FactorStats) {
     let t = Instant::now();
     let marginals = backend.marginals().expect("the problem factorises");
     (t.elapsed().as_secs_f64(), marginals.factor_stats())
+}
+
+/// The final graph's structure (see the module doc).
+fn structure(mission: &Mission) -> String {
+    use std::fmt::Write;
+    let backend = mission.slam_frontend().expect("a SLAM mission").backend();
+    let marginals = backend.marginals().expect("the problem factorises");
+    let mut out = String::new();
+    let values = backend.values();
+    for (id, v) in values.iter() {
+        if let Some(position) = marginals.elimination_position(id) {
+            writeln!(out, "v {} {} {position}", id.0, v.dim()).expect("a String takes writes");
+        }
+    }
+    for f in 0..backend.graph().len() {
+        let keys: Vec<String> = backend.graph().keys_of(f).iter().map(|k| k.0.to_string()).collect();
+        writeln!(out, "f {}", keys.join(" ")).expect("a String takes writes");
+    }
+    out
 }
 
 /// Flops per second of faer's dense Cholesky on an n × n positive definite matrix (n³/3 flops),

@@ -13,8 +13,13 @@ impl Args {
 
     /// The number after `--name`, if given.
     pub fn value(&self, name: &str) -> Option<f64> {
+        self.text(name).map(|v| v.parse::<f64>().unwrap_or_else(|_| panic!("{name} takes a number, not {v}")))
+    }
+
+    /// The word after `--name`, if given.
+    pub fn text(&self, name: &str) -> Option<&str> {
         let i = self.0.iter().position(|a| a == name)?;
-        self.0.get(i + 1).map(|v| v.parse::<f64>().unwrap_or_else(|_| panic!("{name} takes a number, not {v}")))
+        self.0.get(i + 1).map(String::as_str)
     }
 
     /// The first argument ending in `.toml`, or `default`.

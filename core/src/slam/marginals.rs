@@ -173,6 +173,13 @@ impl Marginals {
         FactorStats { dim: self.system.dim(), factor_entries: values.len(), flops, supernodal }
     }
 
+    /// Where the first column of variable `id` lies in the factor's elimination order (faer's
+    /// fill-reducing permutation); `None` for a fixed or unknown variable.
+    pub fn elimination_position(&self, id: VarId) -> Option<usize> {
+        let c = self.system.column_of(id)?;
+        Some(self.system.factor_parts().0.perm().map_or(c, |p| p.arrays().1[c]))
+    }
+
     /// The information matrix as dense (small problems and tests only).
     pub fn dense_information(&self) -> DMatrix<f64> {
         self.system.dense_hessian()
@@ -699,6 +706,21 @@ mod tests {
         assert!(assert_matches_dense_inverse(&graph, &values, &all), "supernodal factor");
         let m = Marginals::new(&graph, &values, Factorisation::Fastest).unwrap();
         assert!(m.node_count() > 1, "several supernodes: {}", m.node_count());
+    }
+
+    /// Every free variable has its own place in the elimination order, inside the problem; a
+    /// fixed one has none.
+    #[test]
+    fn elimination_positions_are_distinct_and_fixed_variables_have_none() {
+        let (graph, mut values, all) = supernodal_example();
+        values.set_fixed(all[0], true);
+        let m = Marginals::new(&graph, &values, Factorisation::Fastest).unwrap();
+        assert_eq!(m.elimination_position(all[0]), None);
+        let mut positions: Vec<usize> = all[1..].iter().map(|&id| m.elimination_position(id).unwrap()).collect();
+        assert!(positions.iter().all(|&p| p < m.factor_stats().dim));
+        positions.sort_unstable();
+        positions.dedup();
+        assert_eq!(positions.len(), all.len() - 1);
     }
 
     /// Where faer would factorise supernodally, the reproducible choice factorises simplicially
