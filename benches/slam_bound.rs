@@ -7,7 +7,8 @@
 //! linearisation, one numeric factorisation), recording its time and its size and flops
 //! ([`FactorStats`]). It also times faer's dense Cholesky of an n × n matrix (n = `--dense-n`,
 //! default 2000), the fastest a factorisation runs per flop on this machine: the sparse one's
-//! flops divided by that rate bound its time from below, whatever the implementation.
+//! flops divided by that rate bound its time from below for this elimination order (faer's AMD;
+//! `scripts/ordering_fill.py` counts other orders' flops).
 //!
 //! Prints the mission's own wall time (without the extra factorisations), the loop closures, the
 //! summed time and flops of one factorisation per closure, the flops over the dense rate, and
@@ -29,7 +30,7 @@ use std::time::Instant;
 use faer::{Mat, Side};
 use fitslam_core::params::{Params, Strategy};
 use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
-use fitslam_core::slam::FactorStats;
+use fitslam_core::slam::Marginals;
 
 fn main() {
     let args = common::Args::from_env();
@@ -55,18 +56,19 @@ fn main() {
         let frontend = mission.slam_frontend().expect("a SLAM mission");
         if frontend.loop_closures() > closures {
             closures = frontend.loop_closures();
-            let (s, stats) = factorise(&mission);
+            let (s, marginals) = factorise(&mission);
             closure_s += s;
-            closure_flops += stats.flops;
+            closure_flops += marginals.factor_stats().flops;
         }
         if outcome != StepOutcome::Running {
             break;
         }
     }
     let backend = mission.slam_frontend().expect("a SLAM mission").backend();
-    let (final_s, last) = factorise(&mission);
+    let (final_s, marginals) = factorise(&mission);
+    let last = marginals.factor_stats();
     if let Some(path) = args.text("--structure-out") {
-        std::fs::write(path, structure(&mission)).expect("structure file written");
+        std::fs::write(path, structure(&mission, &marginals)).expect("structure file written");
         println!("structure written to {path}");
     }
     println!(
@@ -96,19 +98,18 @@ fn main() {
     );
 }
 
-/// One factorisation of the whole problem now: its wall time and stats.
-fn factorise(mission: &Mission) -> (f64, FactorStats) {
+/// One factorisation of the whole problem now, and its wall time.
+fn factorise(mission: &Mission) -> (f64, Marginals) {
     let backend = mission.slam_frontend().expect("a SLAM mission").backend();
     let t = Instant::now();
     let marginals = backend.marginals().expect("the problem factorises");
-    (t.elapsed().as_secs_f64(), marginals.factor_stats())
+    (t.elapsed().as_secs_f64(), marginals)
 }
 
-/// The final graph's structure (see the module doc).
-fn structure(mission: &Mission) -> String {
+/// The final graph's structure (see the module doc), with `marginals`' elimination order.
+fn structure(mission: &Mission, marginals: &Marginals) -> String {
     use std::fmt::Write;
     let backend = mission.slam_frontend().expect("a SLAM mission").backend();
-    let marginals = backend.marginals().expect("the problem factorises");
     let mut out = String::new();
     let values = backend.values();
     for (id, v) in values.iter() {

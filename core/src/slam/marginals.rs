@@ -72,8 +72,9 @@ pub struct FactorStats {
     pub factor_entries: usize,
     /// Floating-point operations of one numeric factorisation with this structure: per node of k
     /// columns and m rows below them, k³/3 (its diagonal block) + m k² (the panel's triangular
-    /// solve) + m² k (its update of the ancestors). Machine-independent: every factorisation of
-    /// the problem costs at least this divided by the machine's dense rate.
+    /// solve) + m² k (its update of the ancestors). Machine-independent: a factorisation with
+    /// this structure (this elimination order) takes at least this divided by the machine's
+    /// dense rate.
     pub flops: f64,
     /// Whether faer chose the supernodal layout.
     pub supernodal: bool,
