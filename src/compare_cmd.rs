@@ -11,13 +11,15 @@
 //!   over seeds, and per baseline and metric the two-sided Mann–Whitney U test against `fit`
 //!   (against the first strategy listed when `fit` is not).
 
-use crate::explore_cmd::{LocalisationArg, MissionArgs, RunOutput, StrategyArg, localisation_of, progress_bar, run_and_write, strategy_of};
+use crate::mission_run::{MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
 use crate::load;
 use crate::plot::{self, Curve};
 use crate::stats::{Spread, mann_whitney_u, percentile};
 use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
-use fitslam_core::sim::{EndReason, MetricsRow, Summary};
+use clap::Args;
+use fitslam_core::params::Strategy;
+use fitslam_core::explore::EndReason;
+use fitslam_core::sim::{Localisation, MetricsRow, Summary};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -54,7 +56,7 @@ const MAX_JOBS: usize = 1024;
 /// The figures of one run that the summary uses.
 #[derive(Clone, Debug)]
 struct RunFigures {
-    strategy: StrategyArg,
+    strategy: Strategy,
     seed: u64,
     summary: Summary,
     mean_cov_trace: f64,
@@ -82,15 +84,17 @@ const METRICS: [Metric; 9] = [
     Metric { csv: "loop_closures", header: "loop closures", get: |r| r.summary.loop_closures as f64 },
 ];
 
-fn name(s: StrategyArg) -> String {
-    s.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_else(|| format!("{s:?}").to_lowercase())
+fn name(s: Strategy) -> &'static str {
+    s.name()
 }
 
 /// Parses `fit,greedy,…` (no duplicates, at least one).
-fn parse_strategies(text: &str) -> Result<Vec<StrategyArg>> {
+fn parse_strategies(text: &str) -> Result<Vec<Strategy>> {
     let mut out = Vec::new();
     for part in text.split(',').map(str::trim) {
-        let s = StrategyArg::from_str(part, true)
+        let s = part
+            .to_ascii_lowercase()
+            .parse::<Strategy>()
             .map_err(|_| anyhow::anyhow!("--strategies {text:?}: unknown strategy {part:?} (expected fit, greedy, random or u1)"))?;
         if out.contains(&s) {
             bail!("--strategies {text:?}: {part:?} is listed twice");
@@ -116,8 +120,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     };
     let localisation = args.mission.localisation;
     let setup = args.mission.load()?;
-    crate::explore_cmd::create_out_dir(&args.out)?;
-    let runs: Vec<(StrategyArg, u64)> = strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
+    create_out_dir(&args.out)?;
+    let runs: Vec<(Strategy, u64)> = strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
     let jobs = jobs.min(runs.len());
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start the thread pool")?;
     let bar = progress_bar(runs.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
@@ -127,7 +131,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             .map(|&(strategy, seed)| {
                 let dir = args.out.join(name(strategy)).join(format!("seed_{seed}"));
                 let RunOutput { summary, rows, wall_s } =
-                    run_and_write(&setup, strategy_of(strategy), seed, localisation_of(localisation), &dir, &ProgressBar::hidden())?;
+                    run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden())?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", name(strategy)));
                 let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
@@ -171,17 +175,6 @@ fn command_line() -> String {
     s
 }
 
-/// The end reason as `summary.json` and `summary.csv` name it.
-pub fn end_reason(r: Option<EndReason>) -> &'static str {
-    match r {
-        Some(EndReason::NoFrontier) => "no_frontier",
-        Some(EndReason::Trapped) => "trapped",
-        Some(EndReason::TimeLimit) => "time_limit",
-        Some(EndReason::Stuck) => "stuck",
-        None => "none",
-    }
-}
-
 /// One row per run, strategy order then seed order.
 fn summary_csv(figures: &[RunFigures]) -> String {
     let mut s = String::from("strategy,seed,end_reason");
@@ -215,7 +208,7 @@ fn resample(rows: &[MetricsRow], grid: &[f64], get: fn(&MetricsRow) -> f64) -> V
 }
 
 /// Mean and 25–75 % band per strategy over the common grid.
-fn curves(strategies: &[StrategyArg], figures: &[RunFigures], get: fn(&MetricsRow) -> f64) -> Vec<Curve> {
+fn curves(strategies: &[Strategy], figures: &[RunFigures], get: fn(&MetricsRow) -> f64) -> Vec<Curve> {
     let t_end = figures.iter().filter_map(|f| f.rows.last()).map(|r| r.time_s).fold(0.0, f64::max);
     let grid: Vec<f64> = (0..GRID_POINTS).map(|k| t_end * k as f64 / (GRID_POINTS - 1) as f64).collect();
     strategies
@@ -235,7 +228,7 @@ fn curves(strategies: &[StrategyArg], figures: &[RunFigures], get: fn(&MetricsRo
         .collect()
 }
 
-fn write_figures(out: &std::path::Path, world: &str, strategies: &[StrategyArg], figures: &[RunFigures]) -> Result<()> {
+fn write_figures(out: &std::path::Path, world: &str, strategies: &[Strategy], figures: &[RunFigures]) -> Result<()> {
     let subject = format!("{world} (mean over seeds, band 25–75 %)");
     plot::write_mission_figures(
         out,
@@ -261,8 +254,8 @@ fn num(v: f64) -> String {
     }
 }
 
-fn summary_md(world: &str, strategies: &[StrategyArg], figures: &[RunFigures], command: &str, localisation: LocalisationArg) -> String {
-    let values = |s: StrategyArg, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
+fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], command: &str, localisation: Localisation) -> String {
+    let values = |s: Strategy, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
     let mut md = format!("# fitslam compare — {world}\n\n`{command}`\n\n");
     let seeds: Vec<u64> = figures.iter().filter(|f| f.strategy == strategies[0]).map(|f| f.seed).collect();
     let _ = writeln!(
@@ -274,7 +267,7 @@ fn summary_md(world: &str, strategies: &[StrategyArg], figures: &[RunFigures], c
         seeds.len(),
         seeds.first().copied().unwrap_or(0),
         seeds.last().copied().unwrap_or(0),
-        localisation.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default(),
+        localisation.name(),
     );
     md.push_str("| strategy | runs | finished |");
     for m in &METRICS {
@@ -297,8 +290,8 @@ fn summary_md(world: &str, strategies: &[StrategyArg], figures: &[RunFigures], c
         }
         md.push('\n');
     }
-    let reference = strategies.iter().copied().find(|&s| s == StrategyArg::Fit).unwrap_or(strategies[0]);
-    let baselines: Vec<StrategyArg> = strategies.iter().copied().filter(|&s| s != reference).collect();
+    let reference = strategies.iter().copied().find(|&s| s == Strategy::Fit).unwrap_or(strategies[0]);
+    let baselines: Vec<Strategy> = strategies.iter().copied().filter(|&s| s != reference).collect();
     if !baselines.is_empty() {
         let _ = writeln!(
             md,
@@ -367,7 +360,7 @@ mod tests {
 
     #[test]
     fn strategies_parse_and_reject() {
-        assert_eq!(parse_strategies("fit, greedy,U1").unwrap(), vec![StrategyArg::Fit, StrategyArg::Greedy, StrategyArg::U1]);
+        assert_eq!(parse_strategies("fit, greedy,U1").unwrap(), vec![Strategy::Fit, Strategy::Greedy, Strategy::U1]);
         assert!(parse_strategies("fit,best").unwrap_err().to_string().contains("\"best\""));
         assert!(parse_strategies("fit,fit").is_err());
         assert!(parse_strategies("").is_err());

@@ -14,6 +14,7 @@ mod asset_cmd;
 mod compare_cmd;
 mod explore_cmd;
 mod load;
+mod mission_run;
 mod optimize;
 mod params_cmd;
 mod plot;

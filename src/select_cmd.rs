@@ -2,7 +2,7 @@
 
 use crate::load;
 use anyhow::{Result, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use fitslam_core::{
     frontier::{Blacklist, Boundary},
     params::Strategy,
@@ -28,7 +28,7 @@ pub struct SelectArgs {
     pub params: Option<PathBuf>,
     /// Goal selector (overrides the parameter file).
     #[arg(long, value_enum)]
-    pub strategy: Option<StrategyArg>,
+    pub strategy: Option<Strategy>,
     /// Exploration boundary as MIN_X,MIN_Y,MAX_X,MAX_Y (metres); default: the whole map.
     #[arg(long, allow_hyphen_values = true)]
     pub boundary: Option<String>,
@@ -37,29 +37,10 @@ pub struct SelectArgs {
     pub json: bool,
 }
 
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum StrategyArg {
-    Fit,
-    Greedy,
-    Random,
-    U1,
-}
-
-impl From<StrategyArg> for Strategy {
-    fn from(s: StrategyArg) -> Self {
-        match s {
-            StrategyArg::Fit => Strategy::Fit,
-            StrategyArg::Greedy => Strategy::Greedy,
-            StrategyArg::Random => Strategy::Random,
-            StrategyArg::U1 => Strategy::U1,
-        }
-    }
-}
-
 pub fn run(args: &SelectArgs) -> Result<()> {
     let mut params = load::params(args.params.as_deref())?;
     if let Some(s) = args.strategy {
-        params.selector.strategy = s.into();
+        params.selector.strategy = s;
     }
     let robot = load::pose(&args.pose)?;
     let grid = load::map(&args.map, &params)?;

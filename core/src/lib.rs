@@ -15,7 +15,9 @@
 //! | [`path`] | A* and one Dijkstra (notes §4) |
 //! | [`utility`] | u1 (entropy rays, Θ*) and u2 (bearing FIM along the path) (notes §5–6) |
 //! | [`select`] | goal selectors: FIT-SLAM, greedy, random, u1-only, with the whole ranking (notes §7) |
-//! | [`sim`] | ground-truth world: heightfields (procedural, real DEM), noise |
+//! | [`explore`] | the exploration policy: retries, goal keeping, blacklist, trail, set-back (notes §3) |
+//! | [`slam`] | SE(3) factor graphs, batch and keyframe SLAM, marginals, g2o (notes §1) |
+//! | [`sim`] | the simulator: worlds, sensors, localisation, missions, metrics (notes §8) |
 //! | [`params`] | every parameter with the paper's defaults |
 //! | [`math`] | sin, cos, atan2… computed alike on every target (same seed, same run, native and wasm) |
 //! | [`fixtures`] | shared fixture worlds (synthetic map + landmarks, corridor) for tests, benches, examples |
@@ -24,6 +26,7 @@
 #![cfg_attr(test, allow(clippy::disallowed_methods))]
 
 pub mod cloud;
+pub mod explore;
 pub mod fixtures;
 pub mod frontier;
 pub mod grid;

@@ -223,6 +223,7 @@ impl Default for U2Params {
 /// Which goal selector runs (notes §7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Strategy {
     /// FIT-SLAM: u1 then u2.
     Fit,
@@ -232,6 +233,52 @@ pub enum Strategy {
     Random,
     /// Ablation: u1 only (β = 1).
     U1,
+}
+
+impl Strategy {
+    /// Every variant, in declaration order.
+    pub const ALL: [Strategy; 4] = [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1];
+
+    /// The name used in files, on the command line and in the studio (`fit`, `greedy`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::Fit => "fit",
+            Strategy::Greedy => "greedy",
+            Strategy::Random => "random",
+            Strategy::U1 => "u1",
+        }
+    }
+}
+
+impl std::fmt::Display for Strategy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Strategy {
+    type Err = UnknownName;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL.into_iter().find(|v| v.name() == s).ok_or_else(|| UnknownName::new("strategy", s, &Self::ALL))
+    }
+}
+
+/// A name that is none of a choice's variants.
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+#[error("unknown {what} `{given}`: expected one of {expected}")]
+pub struct UnknownName {
+    pub what: &'static str,
+    pub given: String,
+    /// The variants' names, comma-separated.
+    pub expected: String,
+}
+
+impl UnknownName {
+    pub fn new<T: std::fmt::Display>(what: &'static str, given: &str, variants: &[T]) -> Self {
+        let expected = variants.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");
+        Self { what, given: given.into(), expected }
+    }
 }
 
 /// Selector choice.
@@ -257,8 +304,34 @@ pub enum ParamsError {
     Toml { source_name: String, message: String },
     #[error("{source_name}: invalid YAML: {message}")]
     Yaml { source_name: String, message: String },
-    #[error("{source_name}: {message}")]
-    Invalid { source_name: String, message: String },
+    #[error("{source_name}: {error}")]
+    Invalid { source_name: String, error: InvalidParam },
+    #[error("{source_name}: not UTF-8 text")]
+    NotUtf8 { source_name: String },
+    #[error("{source_name}: `{key}` has moved: write it as `{moved_to}`")]
+    Moved { source_name: String, key: String, moved_to: String },
+}
+
+/// A parameter value outside its documented range: the key (its path in the file, e.g.
+/// `u1.alpha` or `explore.tight_inflations_m[1]`) and why. Shown as one sentence: "`key` must
+/// be …" or "`key` (value) is …" where the reason goes on from the key, else "`key`: reason".
+#[derive(Clone, Debug, PartialEq, Error)]
+#[error("{key}{}{reason}", if reason.starts_with("must ") || reason.starts_with('(') { " " } else { ": " })]
+pub struct InvalidParam {
+    pub key: String,
+    pub reason: String,
+}
+
+impl InvalidParam {
+    pub fn new(key: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self { key: key.into(), reason: reason.into() }
+    }
+
+    /// The same error with `prefix` before its key (a struct's error seen from its parent).
+    pub fn under(mut self, prefix: &str) -> Self {
+        self.key.insert_str(0, prefix);
+        self
+    }
 }
 
 /// A TOML error `e` of `text` in one line, "line N: message" (the crate's own Display draws a
@@ -292,7 +365,7 @@ impl Params {
     pub fn from_toml(text: &str, source_name: &str) -> Result<Self, ParamsError> {
         let text = crate::io::without_bom_str(text);
         let p: Params = from_toml_over_default(text).map_err(|e| ParamsError::toml(text, source_name, &e))?;
-        p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
+        p.validate().map_err(|error| ParamsError::Invalid { source_name: source_name.into(), error })?;
         Ok(p)
     }
 
@@ -301,14 +374,14 @@ impl Params {
         let text = crate::io::without_bom_str(text);
         let p: Params = serde_yaml::from_str(text)
             .map_err(|e| ParamsError::Yaml { source_name: source_name.into(), message: e.to_string().replace('\n', " ") })?;
-        p.validate().map_err(|message| ParamsError::Invalid { source_name: source_name.into(), message })?;
+        p.validate().map_err(|error| ParamsError::Invalid { source_name: source_name.into(), error })?;
         Ok(p)
     }
 
     /// Parses TOML or YAML by the file name's extension (`.toml`, `.yaml`/`.yml`).
     pub fn from_bytes(bytes: &[u8], source_name: &str) -> Result<Self, ParamsError> {
         let text = std::str::from_utf8(bytes)
-            .map_err(|_| ParamsError::Invalid { source_name: source_name.into(), message: "not UTF-8 text".into() })?;
+            .map_err(|_| ParamsError::NotUtf8 { source_name: source_name.into() })?;
         let lower = source_name.to_ascii_lowercase();
         if lower.ends_with(".yaml") || lower.ends_with(".yml") {
             Self::from_yaml(text, source_name)
@@ -327,27 +400,32 @@ impl Params {
         serde_yaml::to_string(self).unwrap_or_default()
     }
 
-    /// Checks ranges; returns a message naming the first bad field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks ranges; the error names the first bad field.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        use std::f64::consts::{FRAC_1_SQRT_2, PI, TAU};
         let pos = check_positive;
         let nonneg = check_non_negative;
-        fn unit(name: &str, v: f64) -> Result<(), String> {
-            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} must be in [0, 1] (got {})", Num(v))) }
+        let bad = |key: &str, reason: String| Err(InvalidParam::new(key, reason));
+        fn unit(name: &str, v: f64) -> Result<(), InvalidParam> {
+            if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(InvalidParam::new(name, format!("must be in [0, 1] (got {})", Num(v)))) }
         }
         pos("grid.resolution_m", self.grid.resolution_m)?;
         nonneg("robot.radius_m", self.robot.radius_m)?;
         check_radius_cells("robot.radius_m", self.robot.radius_m, self.grid.resolution_m)?;
         if !self.robot.camera_height_m.is_finite() {
-            return Err("robot.camera_height_m must be finite".into());
+            return bad("robot.camera_height_m", format!("must be finite (got {})", Num(self.robot.camera_height_m)));
         }
         pos("camera.hfov_rad", self.camera.hfov_rad)?;
         pos("camera.vfov_rad", self.camera.vfov_rad)?;
-        if self.camera.hfov_rad > std::f64::consts::TAU || self.camera.vfov_rad >= std::f64::consts::PI {
-            return Err("camera.hfov_rad must be ≤ 2π and camera.vfov_rad < π".into());
+        if self.camera.hfov_rad > TAU {
+            return bad("camera.hfov_rad", format!("must be ≤ 2π (got {})", Num(self.camera.hfov_rad)));
+        }
+        if self.camera.vfov_rad >= PI {
+            return bad("camera.vfov_rad", format!("must be < π (got {})", Num(self.camera.vfov_rad)));
         }
         pos("camera.max_depth_m", self.camera.max_depth_m)?;
         if !(self.camera.min_depth_m >= 0.0 && self.camera.min_depth_m < self.camera.max_depth_m) {
-            return Err("camera.min_depth_m must be in [0, camera.max_depth_m)".into());
+            return bad("camera.min_depth_m", format!("must be in [0, camera.max_depth_m) (got {})", Num(self.camera.min_depth_m)));
         }
         pos("traversability.disc_radius_m", self.traversability.disc_radius_m)?;
         check_radius_cells("traversability.disc_radius_m", self.traversability.disc_radius_m, self.grid.resolution_m)?;
@@ -359,30 +437,36 @@ impl Params {
         nonneg("traversability.min_spread_ratio", self.traversability.min_spread_ratio)?;
         // Points anywhere in a disc of radius r spread at most r/√2 along any direction (all on
         // its rim): a larger ratio would leave every cell unknown.
-        if self.traversability.min_spread_ratio > std::f64::consts::FRAC_1_SQRT_2 {
-            return Err(format!(
-                "traversability.min_spread_ratio ({}) must be ≤ 1/√2 ≈ 0.707: no points in a disc spread wider, so every cell would be unknown",
-                self.traversability.min_spread_ratio
-            ));
+        if self.traversability.min_spread_ratio > FRAC_1_SQRT_2 {
+            let reason = format!(
+                "must be ≤ 1/√2 ≈ 0.707 (got {}): no points in a disc spread wider, so every cell would be unknown",
+                Num(self.traversability.min_spread_ratio)
+            );
+            return bad("traversability.min_spread_ratio", reason);
         }
-        if self.frontier.max_cluster_cells == 0 || self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
-            return Err("frontier: need 0 < min_cluster_cells ≤ max_cluster_cells".into());
+        if self.frontier.max_cluster_cells == 0 {
+            return bad("frontier.max_cluster_cells", "must be ≥ 1".into());
+        }
+        if self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
+            let f = &self.frontier;
+            return bad("frontier.min_cluster_cells", format!("must be ≤ frontier.max_cluster_cells ({}; got {})", f.max_cluster_cells, f.min_cluster_cells));
         }
         nonneg("frontier.blacklist_radius_m", self.frontier.blacklist_radius_m)?;
         unit("u1.alpha", self.u1.alpha)?;
         pos("u1.delta_theta_rad", self.u1.delta_theta_rad)?;
-        if self.u1.delta_theta_rad > std::f64::consts::TAU {
-            return Err("u1.delta_theta_rad must be ≤ 2π".into());
+        if self.u1.delta_theta_rad > TAU {
+            return bad("u1.delta_theta_rad", format!("must be ≤ 2π (got {})", Num(self.u1.delta_theta_rad)));
         }
-        if std::f64::consts::TAU / self.u1.delta_theta_rad > MAX_RAYS as f64 {
-            return Err(format!("u1.delta_theta_rad must be ≥ 2π / {MAX_RAYS} (at most {MAX_RAYS} rays; got {})", self.u1.delta_theta_rad));
+        if TAU / self.u1.delta_theta_rad > MAX_RAYS as f64 {
+            let reason = format!("must be ≥ 2π / {MAX_RAYS} (at most {MAX_RAYS} rays; got {})", Num(self.u1.delta_theta_rad));
+            return bad("u1.delta_theta_rad", reason);
         }
         if !(self.u1.gamma > 0.0 && self.u1.gamma <= 1.0) {
-            return Err(format!("u1.gamma must be in (0, 1] (got {})", Num(self.u1.gamma)));
+            return bad("u1.gamma", format!("must be in (0, 1] (got {})", Num(self.u1.gamma)));
         }
         unit("u2.beta", self.u2.beta)?;
         if self.u2.top_n == 0 {
-            return Err("u2.top_n must be ≥ 1".into());
+            return bad("u2.top_n", "must be ≥ 1".into());
         }
         pos("u2.voxel_m", self.u2.voxel_m)?;
         if let Some(s) = self.u2.waypoint_spacing_m {
@@ -409,22 +493,24 @@ pub const MAX_RAYS: usize = 4096;
 pub const MAX_RADIUS_CELLS: f64 = 1000.0;
 
 /// `Ok` when the radius `radius_m` is at most [`MAX_RADIUS_CELLS`] cells of `resolution_m`.
-pub fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -> Result<(), String> {
+pub fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
     let cells = radius_m / resolution_m;
     if cells <= MAX_RADIUS_CELLS {
         Ok(())
     } else {
-        Err(format!("{name} ({radius_m} m) is {cells:.0} cells of {resolution_m} m, over the limit of {MAX_RADIUS_CELLS}"))
+        let reason = format!("({} m) is {cells:.0} cells of {} m, over the limit of {MAX_RADIUS_CELLS}", Num(radius_m), Num(resolution_m));
+        Err(InvalidParam::new(name, reason))
     }
 }
 
 /// `Ok` when u2's waypoints are at least a cell of `resolution_m` apart (closer ones add nothing
 /// but work: a path of L metres has L / spacing of them).
-pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), String> {
+pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
     if spacing_m >= resolution_m {
         Ok(())
     } else {
-        Err(format!("u2.waypoint_spacing_m ({spacing_m} m) must be at least a grid cell ({resolution_m} m)"))
+        let reason = format!("({} m) must be at least a grid cell ({} m)", Num(spacing_m), Num(resolution_m));
+        Err(InvalidParam::new("u2.waypoint_spacing_m", reason))
     }
 }
 
@@ -469,13 +555,13 @@ impl std::fmt::Display for Num {
 }
 
 /// `Ok` when `v` is finite and > 0, else a message naming the field `name` (for `validate`s).
-pub fn check_positive(name: &str, v: f64) -> Result<(), String> {
-    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number > 0 (got {})", Num(v))) }
+pub fn check_positive(name: &str, v: f64) -> Result<(), InvalidParam> {
+    if v.is_finite() && v > 0.0 { Ok(()) } else { Err(InvalidParam::new(name, format!("must be a finite number > 0 (got {})", Num(v)))) }
 }
 
 /// `Ok` when `v` is finite and ≥ 0, else a message naming the field `name` (for `validate`s).
-pub fn check_non_negative(name: &str, v: f64) -> Result<(), String> {
-    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{name} must be a finite number ≥ 0 (got {})", Num(v))) }
+pub fn check_non_negative(name: &str, v: f64) -> Result<(), InvalidParam> {
+    if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(InvalidParam::new(name, format!("must be a finite number ≥ 0 (got {})", Num(v)))) }
 }
 
 #[cfg(test)]
@@ -495,7 +581,7 @@ mod tests {
         assert_eq!(shown(1.5e-5), "1.5e-5");
         assert_eq!(shown(1e-4), "0.0001");
         assert_eq!((shown(f64::NAN), shown(f64::INFINITY)), ("NaN".to_string(), "inf".to_string()));
-        assert_eq!(check_non_negative("x", -1e300).unwrap_err(), "x must be a finite number ≥ 0 (got -1e300)");
+        assert_eq!(check_non_negative("x", -1e300).unwrap_err().to_string(), "x must be a finite number ≥ 0 (got -1e300)");
     }
 
     #[test]
@@ -518,7 +604,7 @@ mod tests {
         let check = |edit: fn(&mut Params), needle: &str| {
             let mut p = Params::default();
             edit(&mut p);
-            let e = p.validate().unwrap_err();
+            let e = p.validate().unwrap_err().to_string();
             assert!(e.contains(needle), "{e}");
         };
         check(|p| p.u1.delta_theta_rad = 1e-9, "at most 4096 rays");

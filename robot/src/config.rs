@@ -14,7 +14,8 @@
 //! both sections.
 
 use fitslam_core::Params;
-use fitslam_core::path::GoalSetback;
+use fitslam_core::explore::{EXPLORE_KEYS, ExploreParams};
+use fitslam_core::params::{InvalidParam, check_positive};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -147,48 +148,16 @@ pub struct NodeConfig {
     pub goal_response_timeout_s: f64,
     /// Topic goals: reached within this distance, metres. Default 0.3.
     pub goal_tolerance_m: f64,
-    /// Goals end short of unknown ground, along the candidate's path, by this many standard
-    /// deviations of the pose topic's position (sqrt(σx² + σy²) of its covariance), so that an
-    /// error in the pose does not carry the robot past the frontier into ground no sensor has
-    /// seen. tf carries no covariance: no set-back. Defaults 2 σ, at most 1 m.
-    pub goal_setback: GoalSetback,
-    /// Consecutive decisions with no goal (and none active) that end the mission. Default 2.
+    /// Decisions in a row whose answer is "done" (no frontier left; trapped with the recoveries
+    /// spent; stuck) before the mission ends: maps arrive asynchronously, so one decision on a
+    /// map that has not caught up must not end it. Default 2.
     pub done_after_empty_decisions: u32,
-    /// … unless every free cell the robot can reach on the inflated map lies within this
-    /// distance, metres: walled in by its map (e.g. lethal speckle from a registration error), the
-    /// robot is trapped, not done; the node warns, recovers (`trap_recoveries`) or waits for the
-    /// map to change. 0 turns the check off. Default 2.
-    pub trapped_radius_m: f64,
-    /// With `map_source: clouds`, times a trapped node recovers before it only waits: as Nav2's
-    /// clear-costmap recovery does, it forgets its cloud map within `trapped_radius_m` + the
-    /// robot's radius + the traversability disc radius of the robot
-    /// (`fitslam_core::frontier::recovery_radius_m`), and the next clouds map that ground again.
-    /// (An occupancy map comes from elsewhere and is not cleared here.) Default 2.
-    pub trap_recoveries: u32,
-    /// Footprint clearing, as robot costmaps do: when the robot is blocked in its map (no free
-    /// cell of the inflated map within its radius plus one cell, as lethal speckle under it
-    /// makes), the decision is made again with the cells within that distance of it free. Only
-    /// then, so that an obstacle beside the robot is never planned through. As the simulator's
-    /// `clear_footprint`. Default true.
-    pub clear_footprint: bool,
-    /// The robot may go back the way it came: when a decision finds no goal, it is made again
-    /// with every cell the robot's base has driven on (its pose sampled every poll, kept in the
-    /// map frame and laid on each map as it comes), while free in the map, free after inflation
-    /// too. The robot was there, so lethal cells mapped since beside its track (a doorway's
-    /// jambs seen better from inside a room) must not shut it in; cells the map holds lethal
-    /// themselves stay closed. As the simulator's `reuse_trail`. Default true.
-    pub reuse_trail: bool,
-    /// Squeezing through: when a decision finds no goal even with the trail open, it is made
-    /// again with lethal cells inflated by each of these radii in turn, metres, instead of the
-    /// planner's `robot.radius_m`, until one yields a goal (which is then checked and supervised
-    /// at that radius, and the trap check uses the last radius tried). On a traversability map
-    /// the lethal band along a wall (the disc radius) plus the robot radius shuts doorways
-    /// narrower than about 0.95 m that Nav2's costmap, which inflates the wall itself, lets the
-    /// robot pass. Only then, as the simulator's `tight_inflations_m` (where a second radius of
-    /// 0.10 m passes 0.7 m doorways but costs bumper stops on other worlds). Each > 0 and smaller
-    /// than the one before, at most 8; radii at least `robot.radius_m` are skipped; empty turns
-    /// it off. Default [0.20].
-    pub tight_inflations_m: Vec<f64>,
+    /// The exploration policy, as the simulator's (`fitslam_core::explore::ExploreParams`): the
+    /// set-back from unknown ground (by the pose topic's position σ; tf carries no covariance, so
+    /// no set-back), footprint clearing, the trail, the tight inflations, the trap check and its
+    /// recoveries (a trapped node forgets its cloud map, `map_source: clouds`; an occupancy map
+    /// comes from elsewhere and is not cleared here: the node waits for it to change).
+    pub explore: ExploreParams,
     /// Stop after this long even if frontiers remain, seconds; none by default.
     pub max_mission_s: Option<f64>,
     /// How often the inputs are polled, seconds. Default 0.02.
@@ -227,13 +196,8 @@ impl Default for NodeConfig {
             goal_timeout_s: 120.0,
             goal_response_timeout_s: 5.0,
             goal_tolerance_m: 0.3,
-            goal_setback: GoalSetback::default(),
             done_after_empty_decisions: 2,
-            trapped_radius_m: 2.0,
-            trap_recoveries: 2,
-            clear_footprint: true,
-            reuse_trail: true,
-            tight_inflations_m: vec![0.20],
+            explore: ExploreParams::default(),
             max_mission_s: None,
             poll_period_s: 0.02,
             domain_id: None,
@@ -255,8 +219,10 @@ pub struct ConfigFile {
 pub enum ConfigError {
     #[error("{source_name}: invalid YAML: {message}")]
     Yaml { source_name: String, message: String },
-    #[error("{source_name}: {message}")]
-    Invalid { source_name: String, message: String },
+    #[error("{source_name}: {error}")]
+    Invalid { source_name: String, error: InvalidParam },
+    #[error("{source_name}: `{key}` has moved: write it as `{moved_to}`")]
+    Moved { source_name: String, key: String, moved_to: String },
 }
 
 impl ConfigFile {
@@ -267,10 +233,17 @@ impl ConfigFile {
         let cfg: ConfigFile = if text.trim().is_empty() {
             ConfigFile::default()
         } else {
+            if let Ok(value) = serde_yaml::from_str::<serde_yaml::Value>(text)
+                && let Some(node) = value.get("node")
+                && let Some(key) = EXPLORE_KEYS.iter().find(|k| node.get(**k).is_some())
+            {
+                let moved_to = format!("node.explore.{key}");
+                return Err(ConfigError::Moved { source_name: source_name.into(), key: format!("node.{key}"), moved_to });
+            }
             serde_yaml::from_str(text)
                 .map_err(|e| ConfigError::Yaml { source_name: source_name.into(), message: e.to_string().replace('\n', " ") })?
         };
-        cfg.validate().map_err(|message| ConfigError::Invalid { source_name: source_name.into(), message })?;
+        cfg.validate().map_err(|error| ConfigError::Invalid { source_name: source_name.into(), error })?;
         Ok(cfg)
     }
 
@@ -279,46 +252,46 @@ impl ConfigFile {
         serde_yaml::to_string(self).unwrap_or_default()
     }
 
-    /// Checks both sections; the message names the first bad field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks both sections; the error names the first bad field.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
         self.node.validate()?;
-        self.fitslam.validate().map_err(|m| format!("fitslam.{m}"))
+        self.fitslam.validate().map_err(|e| e.under("fitslam."))
     }
 }
 
 impl NodeConfig {
     /// Checks ranges and names.
-    pub fn validate(&self) -> Result<(), String> {
-        let pos = |name: &str, v: f64| fitslam_core::params::check_positive(&format!("node.{name}"), v);
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        let pos = |name: &str, v: f64| check_positive(&format!("node.{name}"), v);
+        let bad = |name: &str, reason: String| Err(InvalidParam::new(format!("node.{name}"), reason));
         pos("replan_period_s", self.replan_period_s)?;
         pos("goal_timeout_s", self.goal_timeout_s)?;
         pos("goal_response_timeout_s", self.goal_response_timeout_s)?;
         pos("goal_tolerance_m", self.goal_tolerance_m)?;
-        self.goal_setback.validate("node.goal_setback")?;
-        fitslam_core::params::check_non_negative("node.trapped_radius_m", self.trapped_radius_m)?;
-        fitslam_core::sim::check_tight_inflations("node.tight_inflations_m", &self.tight_inflations_m)?;
+        self.explore.validate("node.explore.")?;
         pos("pose_timeout_s", self.pose_timeout_s)?;
         pos("poll_period_s", self.poll_period_s)?;
         if let Some(m) = self.max_mission_s {
             pos("max_mission_s", m)?;
         }
         if self.done_after_empty_decisions == 0 {
-            return Err("node.done_after_empty_decisions must be ≥ 1".into());
+            return bad("done_after_empty_decisions", "must be ≥ 1".into());
         }
         pos("cloud_map.size_x_m", self.cloud_map.size_x_m)?;
         pos("cloud_map.size_y_m", self.cloud_map.size_y_m)?;
-        if !(self.cloud_map.origin_x_m.is_finite() && self.cloud_map.origin_y_m.is_finite()) {
-            return Err("node.cloud_map origin must be finite".into());
+        let c = &self.cloud_map;
+        if !(c.origin_x_m.is_finite() && c.origin_y_m.is_finite()) {
+            return bad("cloud_map", format!("origin must be finite (got {}, {})", c.origin_x_m, c.origin_y_m));
         }
         for (name, v) in [("map_frame", &self.map_frame), ("base_frame", &self.base_frame), ("name", &self.name)] {
             if v.trim_start_matches('/').is_empty() {
-                return Err(format!("node.{name} must not be empty"));
+                return bad(name, "must not be empty".into());
             }
         }
         if let Some(d) = self.domain_id
             && d > 232
         {
-            return Err(format!("node.domain_id must be ≤ 232 (got {d})"));
+            return bad("domain_id", format!("must be ≤ 232 (got {d})"));
         }
         Ok(())
     }
@@ -364,5 +337,16 @@ mod tests {
         assert!(e.to_string().contains("fitslam.u1.alpha"), "{e}");
         let e = ConfigFile::from_yaml("node:\n  domain_id: 300\n", "x.yaml").unwrap_err();
         assert!(e.to_string().contains("domain_id"), "{e}");
+    }
+
+    #[test]
+    fn a_moved_key_is_named_with_where_it_went() {
+        let e = ConfigFile::from_yaml("node:\n  reuse_trail: false\n", "x.yaml").unwrap_err();
+        assert_eq!(e.to_string(), "x.yaml: `node.reuse_trail` has moved: write it as `node.explore.reuse_trail`");
+        let c = ConfigFile::from_yaml("node:\n  explore:\n    reuse_trail: false\n    tight_inflations_m: [0.2, 0.1]\n", "x.yaml").unwrap();
+        assert!(!c.node.explore.reuse_trail);
+        assert_eq!(c.node.explore.tight_inflations_m, vec![0.2, 0.1]);
+        let e = ConfigFile::from_yaml("node:\n  explore:\n    tight_inflations_m: [0.1, 0.2]\n", "x.yaml").unwrap_err();
+        assert!(e.to_string().contains("node.explore.tight_inflations_m[1]"), "{e}");
     }
 }

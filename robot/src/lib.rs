@@ -9,7 +9,7 @@
 //! | [`convert`] | messages ⇄ core types, validated (typed errors, never panics) |
 //! | [`tf`] | a latest-only tf2 buffer |
 //! | [`config`] | node configuration + the core's `Params`, one YAML file |
-//! | [`node`] | the state machine: inputs → `fitslam_core::select` → goals; no DDS |
+//! | [`node`] | the node's state: inputs → the core's exploration policy (`fitslam_core::explore`) → goals; no DDS |
 //! | [`markers`] | RViz markers of a decision |
 //! | [`ros`] | the DDS side: participant, endpoints, the polling loop |
 //! | `rerun_log` | rerun recording of maps, decisions and metrics (feature `rerun`) |
@@ -21,10 +21,10 @@
 //! use fitslam_robot::config::NodeConfig;
 //! use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
 //! use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
-//! use fitslam_robot::node::{Command, Explorer};
+//! use fitslam_robot::node::{Command, ExplorerNode};
 //!
 //! let world = corridor_two_frontiers(true); // landmarks east of the robot only
-//! let mut node = Explorer::new(NodeConfig::default(), fitslam_core::Params::default());
+//! let mut node = ExplorerNode::new(NodeConfig::default(), fitslam_core::Params::default());
 //! let header = Header::new(Time::from_secs_f64(1.0), "map");
 //! node.handle_map(&msg_of_occupancy(&world.grid, header.clone()), 0.0);
 //! node.handle_landmarks(&cloud_of_points(&world.landmarks.points, header.clone()), 0.0);

@@ -56,7 +56,7 @@ fn load(cli: &Cli) -> Result<ConfigFile> {
     if cli.localhost_only {
         cfg.node.localhost_only = Some(true);
     }
-    cfg.validate().map_err(anyhow::Error::msg)?;
+    cfg.validate()?;
     Ok(cfg)
 }
 

@@ -12,7 +12,7 @@
 //! | `log` | TextLog | every log line |
 
 use crate::config::ConfigFile;
-use crate::node::{Explorer, Level, LogLine};
+use crate::node::{ExplorerNode, Level, LogLine};
 use crate::ros::Observer;
 use fitslam_core::grid::{CellClass, GridGeometry};
 use std::path::Path;
@@ -58,7 +58,7 @@ impl RerunLogger {
         Ok(Self { rec, maps_logged: 0, landmarks_logged: usize::MAX })
     }
 
-    fn log_map(&mut self, e: &Explorer) {
+    fn log_map(&mut self, e: &ExplorerNode) {
         let Some(map) = e.map() else { return };
         if e.stats().maps == self.maps_logged {
             return;
@@ -83,7 +83,7 @@ impl RerunLogger {
 }
 
 impl Observer for RerunLogger {
-    fn on_decision(&mut self, e: &Explorer, now_s: f64) {
+    fn on_decision(&mut self, e: &ExplorerNode, now_s: f64) {
         self.rec.set_duration_secs("time", now_s);
         self.log_map(e);
         let pts = e.landmark_points();
@@ -143,7 +143,7 @@ impl Observer for RerunLogger {
         let _ = self.rec.log("map/robot", &rerun::Points2D::new([to_px(&g, r.x_m, r.y_m)]).with_radii([4.0]).with_colors([[40, 120, 255]]));
     }
 
-    fn on_status(&mut self, e: &Explorer, now_s: f64) {
+    fn on_status(&mut self, e: &ExplorerNode, now_s: f64) {
         self.rec.set_duration_secs("time", now_s);
         let s = e.status(now_s);
         let known_m2 = e.map().map_or(0.0, |m| {

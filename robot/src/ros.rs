@@ -1,6 +1,6 @@
 //! The ROS 2 side: a DDS participant (ros2-client / RustDDS), the node's subscriptions,
 //! publishers and NavigateToPose action client, and the loop that moves messages between them
-//! and the [`Explorer`]. Nothing here decides anything.
+//! and the [`ExplorerNode`]. Nothing here decides anything.
 //!
 //! The loop polls (non-blocking `take`) every `poll_period_s`: for the map, the landmark map,
 //! the boundary and the pose only the newest message of each burst is decoded; every `/tf`
@@ -10,7 +10,7 @@
 use crate::config::{ConfigFile, GoalInterface, MapSource, PoseSource, ServiceMappingChoice};
 use crate::markers::decision_markers;
 use crate::msgs::{self, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, RosMessage, Time, nav2};
-use crate::node::{Command, Explorer, GoalEvent, Level, LogLine};
+use crate::node::{Command, ExplorerNode, GoalEvent, Level, LogLine};
 use ros2_client::action::{ActionClient, ActionClientQosPolicies, GoalId, GoalStatusEnum};
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
@@ -152,9 +152,9 @@ struct Tracked {
 /// Something that watches the loop (the rerun logger; tests).
 pub trait Observer {
     /// After each decision.
-    fn on_decision(&mut self, _explorer: &Explorer, _now_s: f64) {}
+    fn on_decision(&mut self, _explorer: &ExplorerNode, _now_s: f64) {}
     /// After each status publication (about 1 Hz).
-    fn on_status(&mut self, _explorer: &Explorer, _now_s: f64) {}
+    fn on_status(&mut self, _explorer: &ExplorerNode, _now_s: f64) {}
     /// The node's log lines, as they are printed.
     fn on_log(&mut self, _lines: &[LogLine]) {}
 }
@@ -257,7 +257,7 @@ impl RosNode {
     }
 
     /// Moves every pending message into the explorer.
-    pub fn poll_inputs(&mut self, e: &mut Explorer, now_s: f64) {
+    pub fn poll_inputs(&mut self, e: &mut ExplorerNode, now_s: f64) {
         let errs = &mut self.read_errors;
         if let Some(s) = &self.tf_static_sub {
             for _ in 0..MAX_TAKES_PER_POLL {
@@ -301,7 +301,7 @@ impl RosNode {
         self.poll_action(e, now_s);
     }
 
-    fn poll_action(&mut self, e: &mut Explorer, now_s: f64) {
+    fn poll_action(&mut self, e: &mut ExplorerNode, now_s: f64) {
         let Some(a) = &self.action else { return };
         // Drain what we do not use, so that nothing piles up.
         for _ in 0..MAX_TAKES_PER_POLL {
@@ -363,7 +363,7 @@ impl RosNode {
     }
 
     /// Carries out one command. Send failures are reported back to the explorer as lost goals.
-    pub fn execute(&mut self, e: &mut Explorer, cmd: &Command, map_frame: &str, now_s: f64) {
+    pub fn execute(&mut self, e: &mut ExplorerNode, cmd: &Command, map_frame: &str, now_s: f64) {
         match cmd {
             Command::SendGoal { id, goal } => {
                 let pose = msgs::PoseStamped { header: Header::new(now_stamp(), map_frame), pose: crate::convert::pose_of_pose2(*goal) };
@@ -392,7 +392,7 @@ impl RosNode {
     }
 
     /// Publishes the markers of the explorer's last decision.
-    pub fn publish_markers(&self, e: &Explorer, map_frame: &str) {
+    pub fn publish_markers(&self, e: &ExplorerNode, map_frame: &str) {
         let (Some(d), Some(map)) = (e.last_decision(), e.map()) else { return };
         let header = Header::new(now_stamp(), map_frame);
         let m = decision_markers(d, &map.geometry, e.blacklist(), e.current_goal().map(|g| g.goal), e.params(), &header);
@@ -400,7 +400,7 @@ impl RosNode {
     }
 
     /// Publishes the status JSON; returns it.
-    pub fn publish_status(&self, e: &Explorer, now_s: f64) -> String {
+    pub fn publish_status(&self, e: &ExplorerNode, now_s: f64) -> String {
         let json = serde_json::to_string(&e.status(now_s)).unwrap_or_default();
         let _ = self.status_pub.publish(msgs::StringMsg { data: json.clone() });
         json
@@ -440,7 +440,7 @@ pub fn run(cfg: &ConfigFile, observer: &mut dyn Observer, stop: &AtomicBool) -> 
     );
     let context = make_context(domain, localhost)?;
     let mut ros = RosNode::new(&context, cfg)?;
-    let mut explorer = Explorer::new(cfg.node.clone(), cfg.fitslam.clone());
+    let mut explorer = ExplorerNode::new(cfg.node.clone(), cfg.fitslam.clone());
     let start = Instant::now();
     let poll = Duration::from_secs_f64(cfg.node.poll_period_s);
     let map_frame = cfg.node.map_frame.clone();

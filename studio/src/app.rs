@@ -265,14 +265,14 @@ impl StudioApp {
     pub fn open_lane_in_planner(&mut self, i: usize) {
         let Some(lane) = self.mission.runner.as_mut().and_then(|r| r.lanes.get_mut(i)) else { return };
         let m = &mut lane.mission;
-        let name = format!("{} / {} at t = {:.1} s", m.world.spec.name, crate::sim_runner::strategy_label(lane.strategy), m.time_s);
+        let name = format!("{} / {} at t = {:.1} s", m.world().spec.name, lane.strategy.name(), m.time_s());
         let map = crate::scene::MapLayers::from_score(m.layers().score.clone(), name.clone(), crate::scene::MapKind::Traversability);
         let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
-        let mut scene = Scene::new(map, landmarks, Some(m.est), self.params.frontier.blacklist_radius_m);
-        scene.robot = m.est;
-        scene.boundary = m.world.boundary.clone();
-        scene.blacklist = m.blacklist.clone();
-        let (strategy, seed) = (lane.strategy, m.seed);
+        let mut scene = Scene::new(map, landmarks, Some(m.estimate()), self.params.frontier.blacklist_radius_m);
+        scene.robot = m.estimate();
+        scene.boundary = m.world().boundary.clone();
+        scene.blacklist = m.explorer().blacklist().clone();
+        let (strategy, seed) = (lane.strategy, m.seed());
         self.scene = scene;
         self.params.selector.strategy = strategy;
         self.params.selector.seed = seed;

@@ -11,7 +11,7 @@
 
 use crate::app::StudioApp;
 use crate::canvas::{self, View};
-use crate::sim_runner::{self, LOCALISATIONS, MissionConfig, RunState, STRATEGIES, SimRunner, strategy_label};
+use crate::sim_runner::{self, MissionConfig, RunState, SimRunner};
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, Vec2};
 use egui_plot::{Legend, Line, Plot, PlotPoints};
 use fitslam_core::params::Strategy;
@@ -151,18 +151,18 @@ impl MissionView {
             .lanes
             .iter()
             .map(|l| {
-                let last = l.mission.rows.last();
+                let last = l.mission.rows().last();
                 serde_json::json!({
-                    "strategy": strategy_label(l.strategy),
+                    "strategy": l.strategy.name(),
                     "strategy_id": l.strategy,
-                    "time_s": l.mission.time_s,
-                    "rows": l.mission.rows.len(),
+                    "time_s": l.mission.time_s(),
+                    "rows": l.mission.rows().len(),
                     "unexplored_pct": last.map(|r| r.unexplored_pct),
-                    "first_unexplored_pct": l.mission.rows.first().map(|r| r.unexplored_pct),
+                    "first_unexplored_pct": l.mission.rows().first().map(|r| r.unexplored_pct),
                     "cov_trace": last.map(|r| r.cov_trace),
                     "decisions": l.decisions,
                     "end": l.end.map(|e| format!("{e:?}")),
-                    "metrics_csv": (r.state == RunState::Paused).then(|| l.mission.metrics_csv()),
+                    "metrics_csv": (r.state == RunState::Paused).then(|| fitslam_core::sim::metrics_csv(l.mission.rows())),
                 })
             })
             .collect();
@@ -227,14 +227,14 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
     ui.label("strategies:");
     ui.horizontal_wrapped(|ui| {
         const NAMES: [&str; 4] = ["strategy_fit", "strategy_greedy", "strategy_random", "strategy_u1"];
-        for (k, s) in STRATEGIES.into_iter().enumerate() {
+        for (k, s) in Strategy::ALL.into_iter().enumerate() {
             let mut on = m.config.strategies.contains(&s);
-            let r = ui.checkbox(&mut on, strategy_label(s));
+            let r = ui.checkbox(&mut on, s.name());
             rects.push((NAMES[k], r.rect));
             if r.changed() {
                 if on {
                     m.config.strategies.push(s);
-                    m.config.strategies.sort_by_key(|x| STRATEGIES.iter().position(|y| y == x));
+                    m.config.strategies.sort_by_key(|x| Strategy::ALL.iter().position(|y| y == x));
                 } else {
                     m.config.strategies.retain(|x| *x != s);
                 }
@@ -248,7 +248,7 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
     let combo =
         egui::ComboBox::from_label("localisation").selected_text(sim_runner::localisation_label(m.config.localisation)).show_ui(ui, |ui| {
             const NAMES: [&str; 3] = ["localisation_ground_truth", "localisation_odometry", "localisation_slam"];
-            for (k, l) in LOCALISATIONS.into_iter().enumerate() {
+            for (k, l) in Localisation::ALL.into_iter().enumerate() {
                 let r = ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
                 rects.push((NAMES[k], r.rect));
             }
@@ -363,12 +363,12 @@ fn plots(ui: &mut egui::Ui, m: &mut MissionView) {
             r.lanes
                 .iter()
                 .map(|l| {
-                    let mut pts: Vec<[f64; 2]> = l.mission.rows.iter().map(|row| [row.time_s, f(row)]).collect();
+                    let mut pts: Vec<[f64; 2]> = l.mission.rows().iter().map(|row| [row.time_s, f(row)]).collect();
                     // Plus "now" between two rows, from the last row (rows come once a second).
-                    if let Some(last) = l.mission.rows.last()
-                        && l.mission.time_s > last.time_s
+                    if let Some(last) = l.mission.rows().last()
+                        && l.mission.time_s() > last.time_s
                     {
-                        pts.push([l.mission.time_s, f(last)]);
+                        pts.push([l.mission.time_s(), f(last)]);
                     }
                     (l.strategy, pts)
                 })
@@ -387,7 +387,7 @@ fn plots(ui: &mut egui::Ui, m: &mut MissionView) {
             .include_x(0.0)
             .show(&mut cols[0], |p| {
                 for (s, pts) in unexplored {
-                    p.line(Line::new(strategy_label(s), PlotPoints::new(pts)).color(strategy_color(s)).width(2.0));
+                    p.line(Line::new(s.name(), PlotPoints::new(pts)).color(strategy_color(s)).width(2.0));
                 }
             });
         Plot::new("plot_cov")
@@ -399,7 +399,7 @@ fn plots(ui: &mut egui::Ui, m: &mut MissionView) {
             .include_x(0.0)
             .show(&mut cols[1], |p| {
                 for (s, pts) in cov {
-                    p.line(Line::new(strategy_label(s), PlotPoints::new(pts)).color(strategy_color(s)).width(2.0));
+                    p.line(Line::new(s.name(), PlotPoints::new(pts)).color(strategy_color(s)).width(2.0));
                 }
             });
     });
@@ -411,8 +411,8 @@ fn lane_texture(ui: &egui::Ui, m: &mut MissionView, i: usize) -> Option<egui::Te
     let r = m.runner.as_mut()?;
     let lane = r.lanes.get_mut(i)?;
     let mission = &mut lane.mission;
-    let tau = mission.params.traversability.tau;
-    let t_ms = (mission.time_s * 1e3).round() as u64;
+    let tau = mission.params().traversability.tau;
+    let t_ms = (mission.time_s() * 1e3).round() as u64;
     if m.textures.len() <= i {
         m.textures.resize_with(i + 1, || None);
     }
@@ -437,7 +437,7 @@ fn lane_texture(ui: &egui::Ui, m: &mut MissionView, i: usize) -> Option<egui::Te
                 let [r, g, b] = score_rgb(*s);
                 Color32::from_rgb(r, g, b)
             }),
-            MissionLayer::Truth => canvas::layer_image(&mission.world.gt_occupancy, |v| canvas::occupancy_pixel(*v)),
+            MissionLayer::Truth => canvas::layer_image(&mission.world().gt_occupancy, |v| canvas::occupancy_pixel(*v)),
         };
         let max = ui.ctx().input(|i| i.max_texture_side);
         if image.size[0] > max || image.size[1] > max {
@@ -491,16 +491,16 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
     let Some(r) = &m.runner else { return false };
     let Some(lane) = r.lanes.get(i) else { return false };
     let mission = &lane.mission;
-    let last = mission.rows.last();
+    let last = mission.rows().last();
     let mut open = false;
     ui.horizontal_wrapped(|ui| {
-        ui.colored_label(strategy_color(lane.strategy), egui::RichText::new(strategy_label(lane.strategy)).strong());
+        ui.colored_label(strategy_color(lane.strategy), egui::RichText::new(lane.strategy.name()).strong());
         ui.label(format!(
             "t {:.1} s · {:.1} % unexplored · tr(cov) {:.3} · {:.1} m · {} decisions{}{}{}",
-            mission.time_s,
+            mission.time_s(),
             last.map(|r| r.unexplored_pct).unwrap_or(100.0),
             last.map(|r| r.cov_trace).unwrap_or(0.0),
-            mission.distance_m,
+            mission.distance_m(),
             lane.decisions,
             match lane.trap_recoveries {
                 0 => String::new(),
@@ -511,7 +511,7 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
                 n => format!(
                     " · {n} path{} planned with a tight inflation ({} m)",
                     if n == 1 { "" } else { "s" },
-                    mission.mission.tight_inflations_m.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" or ")
+                    mission.mission_params().explore.tight_inflations_m.iter().map(|r| r.to_string()).collect::<Vec<_>>().join(" or ")
                 ),
             },
             match lane.end {
@@ -533,7 +533,7 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
         rects.push((NAMES[i], rect));
     }
     painter.rect_filled(rect, 0.0, Color32::from_rgb(24, 24, 28));
-    let g = mission.world.field.geometry;
+    let g = mission.world().field.geometry;
     let (x0, y0, x1, y1) = g.bounds_m();
     let view = View::fit(rect, (x0, y0, x1, y1));
     match tex {
@@ -552,40 +552,40 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
         }
     }
     // Exploration boundary.
-    let [bx0, by0, bx1, by1] = mission.world.boundary_box_m;
+    let [bx0, by0, bx1, by1] = mission.world().boundary_box_m;
     let corners = [[bx0, by0], [bx1, by0], [bx1, by1], [bx0, by1]].map(|[x, y]| view.to_screen(x, y));
     painter.add(Shape::closed_line(corners.to_vec(), Stroke::new(1.2, Color32::from_rgb(255, 220, 0))));
 
     // The last decision's candidates and the path being driven (the goal's candidate path, set
     // back from unknown ground by the position uncertainty).
     if m.show_candidates
-        && let Some(d) = &mission.last_decision
+        && let Some(d) = &mission.last_decision()
     {
         for (k, c) in d.candidates.iter().enumerate() {
             canvas::draw_candidate(&painter, &view, d, k, c, false, false);
         }
     }
-    if mission.goal.is_some() && mission.driven_path_m().len() >= 2 {
+    if mission.goal().is_some() && mission.driven_path_m().len() >= 2 {
         let pts: Vec<Pos2> = mission.driven_path_m().iter().map(|p| view.to_screen(p[0], p[1])).collect();
         painter.add(Shape::line(pts, Stroke::new(2.0, Color32::from_rgb(255, 215, 0))));
     }
-    if let Some(goal) = mission.goal {
-        canvas::draw_goal(&painter, &view, goal);
+    if let Some(goal) = mission.goal() {
+        canvas::draw_goal(&painter, &view, goal.goal);
     }
     // Trajectories: true (white) and estimated (the strategy's colour), up to now.
-    let track = |poses: &[fitslam_core::sim::mission::StampedPose], now: fitslam_core::Pose2| {
+    let track = |poses: &[fitslam_core::sim::StampedPose], now: fitslam_core::Pose2| {
         let mut pts: Vec<Pos2> = poses.iter().map(|p| view.to_screen(p.position_m[0], p.position_m[1])).collect();
         pts.push(view.to_screen(now.x_m, now.y_m));
         pts
     };
-    painter.add(Shape::line(track(&mission.trajectory_gt, mission.gt), Stroke::new(1.2, Color32::from_gray(230))));
-    painter.add(Shape::line(track(&mission.trajectory_est, mission.est), Stroke::new(1.8, strategy_color(lane.strategy))));
+    painter.add(Shape::line(track(&mission.trajectory_gt(), mission.true_pose()), Stroke::new(1.2, Color32::from_gray(230))));
+    painter.add(Shape::line(track(&mission.trajectory_est(), mission.estimate()), Stroke::new(1.8, strategy_color(lane.strategy))));
     // The robot: estimate (disc + heading), truth (ring) when they differ.
-    let body_r = view.len(mission.params.robot.radius_m).max(5.0);
-    let gt = view.to_screen(mission.gt.x_m, mission.gt.y_m);
+    let body_r = view.len(mission.params().robot.radius_m).max(5.0);
+    let gt = view.to_screen(mission.true_pose().x_m, mission.true_pose().y_m);
     painter.circle_stroke(gt, body_r, Stroke::new(1.5, Color32::from_gray(230)));
-    let p = view.to_screen(mission.est.x_m, mission.est.y_m);
-    let heading = p + Vec2::new(mission.est.yaw_rad.cos() as f32, -(mission.est.yaw_rad.sin() as f32)) * (body_r + 10.0);
+    let p = view.to_screen(mission.estimate().x_m, mission.estimate().y_m);
+    let heading = p + Vec2::new(mission.estimate().yaw_rad.cos() as f32, -(mission.estimate().yaw_rad.sin() as f32)) * (body_r + 10.0);
     canvas::draw_robot(&painter, p, body_r, heading, false);
     painter.text(
         rect.left_top() + Vec2::new(6.0, 6.0),

@@ -140,7 +140,7 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
         }
     });
     if let Err(e) = app.params.validate() {
-        ui.colored_label(egui::Color32::from_rgb(255, 120, 110), e);
+        ui.colored_label(egui::Color32::from_rgb(255, 120, 110), e.to_string());
     }
     for (k, r) in rects {
         app.widget_rects.insert(k, r);

@@ -88,22 +88,6 @@ impl BuiltInWorld {
     }
 }
 
-/// The strategies offered side by side.
-pub const STRATEGIES: [Strategy; 4] = [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1];
-
-/// The localisation modes offered.
-pub const LOCALISATIONS: [Localisation; 3] = [Localisation::GroundTruth, Localisation::Odometry, Localisation::Slam];
-
-/// Short name of a strategy (legends, labels).
-pub fn strategy_label(s: Strategy) -> &'static str {
-    match s {
-        Strategy::Fit => "fit",
-        Strategy::Greedy => "greedy",
-        Strategy::Random => "random",
-        Strategy::U1 => "u1",
-    }
-}
-
 /// Short name of a localisation mode.
 pub fn localisation_label(l: Localisation) -> String {
     match l {
@@ -268,7 +252,7 @@ impl SimRunner {
                 self.config.seed,
                 self.config.localisation,
             )
-            .map_err(|e| format!("{} / {}: {e}", self.config.world, strategy_label(s)))?;
+            .map_err(|e| format!("{} / {}: {e}", self.config.world, s.name()))?;
             let decisions = mission.summary().decisions;
             let mut lane = Lane { strategy: s, mission, end: None, decisions, trap_recoveries: 0, tight_plans: 0 };
             lane.mission.set_clock(Box::new(|| web_time::Instant::now().duration_since(clock_origin()).as_secs_f64() * 1e3));
@@ -285,9 +269,9 @@ impl SimRunner {
 
     /// Simulated time of the least advanced running lane (of the most advanced if all ended).
     pub fn time_s(&self) -> f64 {
-        let running = self.lanes.iter().filter(|l| l.running()).map(|l| l.mission.time_s);
+        let running = self.lanes.iter().filter(|l| l.running()).map(|l| l.mission.time_s());
         let t = running.fold(f64::INFINITY, f64::min);
-        if t.is_finite() { t } else { self.lanes.iter().map(|l| l.mission.time_s).fold(0.0, f64::max) }
+        if t.is_finite() { t } else { self.lanes.iter().map(|l| l.mission.time_s()).fold(0.0, f64::max) }
     }
 
     /// Whether every lane has ended.
@@ -343,8 +327,8 @@ impl SimRunner {
                         .lanes
                         .iter()
                         .enumerate()
-                        .filter(|(_, l)| l.running() && l.mission.time_s + 0.5 * l.mission.mission.dt_s <= self.target_s)
-                        .min_by(|a, b| a.1.mission.time_s.total_cmp(&b.1.mission.time_s))
+                        .filter(|(_, l)| l.running() && l.mission.time_s() + 0.5 * l.mission.mission_params().dt_s <= self.target_s)
+                        .min_by(|a, b| a.1.mission.time_s().total_cmp(&b.1.mission.time_s()))
                         .map(|(i, _)| i);
                     let Some(i) = next else { break };
                     self.lanes[i].step();
@@ -423,11 +407,11 @@ pub fn run_to_end(
     let w = world(world_name).ok_or_else(|| format!("no built-in world named '{world_name}'"))?;
     let params = Params::default();
     let mut mission = Mission::new(w.build(&params)?, params, mission_params, strategy, seed, localisation)
-        .map_err(|e| format!("{world_name} / {}: {e}", strategy_label(strategy)))?;
+        .map_err(|e| format!("{world_name} / {}: {e}", strategy.name()))?;
     let end = mission.run().end_reason;
     Ok(WholeMission {
-        metrics_csv: mission.metrics_csv(),
-        trajectory_est_tum: Mission::tum(&mission.trajectory_est),
+        metrics_csv: fitslam_core::sim::metrics_csv(mission.rows()),
+        trajectory_est_tum: fitslam_core::sim::tum(mission.trajectory_est()),
         end: end.map_or_else(String::new, |e| format!("{e:?}")),
     })
 }
@@ -474,7 +458,7 @@ mod tests {
         while lane.lanes[0].running() {
             lane.lanes[0].step();
         }
-        assert_eq!(whole.metrics_csv, lane.lanes[0].mission.metrics_csv());
+        assert_eq!(whole.metrics_csv, fitslam_core::sim::metrics_csv(lane.lanes[0].mission.rows()));
         assert_eq!(whole.end, format!("{:?}", lane.lanes[0].end.unwrap()));
         assert!(whole.metrics_csv.lines().count() > 10 && whole.trajectory_est_tum.lines().count() > 10);
         assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth, MissionParams::default()).is_err());
@@ -499,14 +483,17 @@ mod tests {
         let mut c = config(vec![Strategy::Greedy], 1);
         c.sim_params_toml = " \n".into();
         assert_eq!(c.mission_params(), Ok(MissionParams::default()));
-        c.sim_params_toml = "tight_inflations_m = [0.2, 0.1]\n[lidar]\nmax_range_m = 8.0\n".into();
+        c.sim_params_toml = "[explore]\ntight_inflations_m = [0.2, 0.1]\n[lidar]\nmax_range_m = 8.0\n".into();
         let p = c.mission_params().unwrap();
-        assert_eq!((p.tight_inflations_m.as_slice(), p.lidar.max_range_m), ([0.2, 0.1].as_slice(), 8.0));
+        assert_eq!((p.explore.tight_inflations_m.as_slice(), p.lidar.max_range_m), ([0.2, 0.1].as_slice(), 8.0));
         assert_eq!(p.drive, MissionParams::default().drive);
         c.sim_params_toml = "[lidar]\nmax_range_m = \"far\"\n".into();
         let e = c.mission_params().unwrap_err();
         assert!(e.contains("simulator parameters") && e.contains("line 2"), "{e}");
         c.sim_params_toml = "tight_inflations_m = [0.1, 0.2]".into();
+        let e = c.mission_params().unwrap_err();
+        assert!(e.contains("`tight_inflations_m` has moved") && e.contains("[explore]"), "{e}");
+        c.sim_params_toml = "[explore]\ntight_inflations_m = [0.1, 0.2]".into();
         let e = SimRunner::new(c, &Params::default()).err().unwrap();
         assert!(e.contains("tight_inflations_m[1] must be smaller"), "{e}");
     }
@@ -529,7 +516,7 @@ mod tests {
             for _ in 0..20 {
                 r.advance(0.05, frozen());
             }
-            r.lanes.iter().map(|l| l.mission.metrics_csv()).collect::<Vec<_>>()
+            r.lanes.iter().map(|l| fitslam_core::sim::metrics_csv(l.mission.rows())).collect::<Vec<_>>()
         };
         let (a, b) = (run(), run());
         assert_eq!(a, b);
@@ -546,7 +533,7 @@ mod tests {
         r.play();
         r.advance(0.1, frozen()); // target 1 s
         for l in &r.lanes {
-            assert!((l.mission.time_s - 1.0).abs() < 1e-6, "{}", l.mission.time_s);
+            assert!((l.mission.time_s() - 1.0).abs() < 1e-6, "{}", l.mission.time_s());
         }
         assert_eq!(r.last_frame_ticks, 20);
     }
@@ -573,7 +560,7 @@ mod tests {
     fn step_tick_and_step_decision() {
         let mut r = SimRunner::new(config(vec![Strategy::Fit, Strategy::Greedy], 2), &Params::default()).unwrap();
         r.step_tick();
-        assert!(r.lanes.iter().all(|l| (l.mission.time_s - 0.1).abs() < 1e-9));
+        assert!(r.lanes.iter().all(|l| (l.mission.time_s() - 0.1).abs() < 1e-9));
         assert_eq!(r.state, RunState::Paused);
         let before: Vec<u64> = r.lanes.iter().map(|l| l.mission.summary().decisions).collect();
         r.step_decision();
@@ -586,7 +573,7 @@ mod tests {
         assert_eq!(r.state, RunState::Paused);
         for (l, b) in r.lanes.iter().zip(before) {
             assert!(l.end.is_some() || l.mission.summary().decisions == b + 1, "{:?}", l.strategy);
-            assert!(l.mission.last_decision.is_some());
+            assert!(l.mission.last_decision().is_some());
         }
     }
 }

@@ -49,7 +49,7 @@ fn play_advances_time_and_fills_the_plots() {
 
     h.get_by_label("Step tick").click();
     h.run_ok();
-    assert!(runner(&h).lanes.iter().all(|l| (l.mission.time_s - 0.1).abs() < 1e-9), "one tick is 0.1 s");
+    assert!(runner(&h).lanes.iter().all(|l| (l.mission.time_s() - 0.1).abs() < 1e-9), "one tick is 0.1 s");
 
     h.get_by_label("Play").click();
     for _ in 0..8 {
@@ -60,14 +60,14 @@ fn play_advances_time_and_fills_the_plots() {
     let t = r.time_s();
     assert!(t > 0.1, "simulated time advanced while playing: {t}");
     for l in &r.lanes {
-        assert!((l.mission.time_s - t).abs() < 0.15, "lanes in lockstep: {} vs {t}", l.mission.time_s);
+        assert!((l.mission.time_s() - t).abs() < 0.15, "lanes in lockstep: {} vs {t}", l.mission.time_s());
     }
     // Rows come once per simulated second; the plots show every row of every lane (+ "now").
-    let rows: usize = r.lanes.iter().map(|l| l.mission.rows.len()).sum();
+    let rows: usize = r.lanes.iter().map(|l| l.mission.rows().len()).sum();
     assert!(rows > 3, "rows recorded: {rows}");
     h.step();
     let points = h.state().mission.plot_points;
-    let rows: usize = runner(&h).lanes.iter().map(|l| l.mission.rows.len()).sum();
+    let rows: usize = runner(&h).lanes.iter().map(|l| l.mission.rows().len()).sum();
     assert!(points >= 2 * rows, "plots got {points} points for {rows} rows");
     // The lanes' maps are drawn and published.
     assert!(h.state().widget_rects.contains_key("mission_lane2"));
@@ -98,7 +98,7 @@ fn step_decision_runs_each_lane_to_its_next_decision() {
     assert_eq!(r.state, RunState::Paused);
     for (l, b) in r.lanes.iter().zip(before) {
         assert_eq!(l.decisions, b + 1, "{:?}", l.strategy);
-        assert!(l.mission.last_decision.is_some());
+        assert!(l.mission.last_decision().is_some());
     }
 }
 
@@ -123,7 +123,7 @@ fn strategy_checkboxes_apply_on_reset_and_a_lane_opens_in_the_planner() {
             break;
         }
     }
-    let est = runner(&h).lanes[0].mission.est;
+    let est = runner(&h).lanes[0].mission.estimate();
     h.get_by_label("open in planner").click();
     h.run_ok();
     let app = h.state();
@@ -151,12 +151,12 @@ fn simulator_parameters_typed_in_apply_at_reset_and_a_wrong_one_is_shown() {
         h.get_by_label("Reset").click();
         h.run_ok();
     };
-    text_box(&mut h, "tight_inflations_m = [0.2, 0.1]");
+    text_box(&mut h, "[explore]\ntight_inflations_m = [0.2, 0.1]");
     let p = runner(&h).config.mission_params().expect("valid text");
-    assert_eq!(p.tight_inflations_m, vec![0.2, 0.1]);
-    assert_eq!(runner(&h).lanes[0].mission.mission.tight_inflations_m, vec![0.2, 0.1]);
+    assert_eq!(p.explore.tight_inflations_m, vec![0.2, 0.1]);
+    assert_eq!(runner(&h).lanes[0].mission.mission_params().explore.tight_inflations_m, vec![0.2, 0.1]);
     assert!(h.state().mission.error.is_none());
-    // Appended: a second key whose value is out of range.
+    // Appended to the same table: a second key whose value is out of range.
     text_box(&mut h, "\ntrapped_radius_m = -1.0");
     assert!(h.state().mission.runner.is_none());
     let e = h.state().mission.error.clone().expect("an error");

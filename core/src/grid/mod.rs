@@ -3,12 +3,10 @@
 mod geometry;
 mod inflate;
 mod occupancy;
-mod trail;
 
 pub use geometry::{Cell, GridGeometry};
 pub use inflate::{free_traversed, inflate_lethal, inflate_lethal_into};
 pub use occupancy::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid, UNKNOWN, cells_in_disc, fill_disc};
-pub use trail::{MAX_TRAIL_STEP_M, WorldTrail, segment_cells};
 
 use serde::{Deserialize, Serialize};
 

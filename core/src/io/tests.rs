@@ -148,10 +148,10 @@ fn a_byte_order_mark_is_read_past_by_every_text_loader() {
         assert_ne!(p, crate::Params::default(), "{name} was read");
     }
 
-    let sim = "max_failed_decisions = 7\n";
+    let sim = "[explore]\nmax_failed_decisions = 7\n";
     let bom_sim = String::from_utf8(with_bom(sim)).unwrap();
     let m = crate::sim::MissionParams::from_toml(&bom_sim, "m.toml").unwrap();
-    assert_eq!((m.max_failed_decisions, &m), (7, &crate::sim::MissionParams::from_toml(sim, "m.toml").unwrap()));
+    assert_eq!((m.explore.max_failed_decisions, &m), (7, &crate::sim::MissionParams::from_toml(sim, "m.toml").unwrap()));
 
     let world = include_str!("../../../assets/worlds/tiny_test.toml");
     let bom_world = String::from_utf8(with_bom(world)).unwrap();

@@ -62,7 +62,7 @@ pub struct Prepared {
 
 /// Step 1: validate, inflate (into `buffers`' storage), locate (and if needed snap) the robot.
 pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers) -> Result<Prepared, SelectError> {
-    params.validate().map_err(SelectError::InvalidParams)?;
+    params.validate()?;
     let g = input.grid.geometry;
     if input.grid.data.len() != g.len() {
         return Err(SelectError::GridSizeMismatch { data_len: input.grid.data.len(), cells: g.len() });
@@ -74,8 +74,8 @@ pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers
         return Err(SelectError::RobotPoseNotFinite);
     }
     // The map's own resolution may differ from the parameters' grid: the kernels are sized on it.
-    check_radius_cells("robot.radius_m", params.robot.radius_m, g.resolution_m).map_err(SelectError::InvalidParams)?;
-    check_waypoint_spacing(params.waypoint_spacing_m(), g.resolution_m).map_err(SelectError::InvalidParams)?;
+    check_radius_cells("robot.radius_m", params.robot.radius_m, g.resolution_m)?;
+    check_waypoint_spacing(params.waypoint_spacing_m(), g.resolution_m)?;
     let requested =
         g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
     let mut inflated = OccupancyGrid { geometry: g, data: std::mem::take(&mut buffers.inflated) };

@@ -90,7 +90,7 @@ impl<'a> DecisionInput<'a> {
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SelectError {
     #[error("invalid parameters: {0}")]
-    InvalidParams(String),
+    InvalidParams(#[from] crate::params::InvalidParam),
     #[error("grid has {data_len} values but its geometry has {cells} cells")]
     GridSizeMismatch { data_len: usize, cells: usize },
     #[error("traversed cell {index} is outside the grid's {cells} cells")]

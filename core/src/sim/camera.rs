@@ -9,6 +9,7 @@ use super::lidar::{RayCaster, gaussian};
 use super::{Heightfield, line_of_sight};
 use crate::math;
 use crate::params::CameraParams;
+pub use crate::slam::keyframes::CameraObservation;
 use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -27,16 +28,6 @@ impl Default for CameraNoise {
     fn default() -> Self {
         Self { bearing_sigma_rad: 0.01, depth_sigma_coeff: 0.005 }
     }
-}
-
-/// One landmark observation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CameraObservation {
-    pub landmark_id: u64,
-    /// Measured point, robot frame (x forward, y left, z up), metres.
-    pub point_in_robot: Vector3<f64>,
-    /// Its covariance, m².
-    pub covariance: Matrix3<f64>,
 }
 
 /// Landmarks bucketed on a coarse grid for frustum queries.

@@ -1,30 +1,38 @@
 //! The simulator (notes §8): ground-truth worlds (procedural, real DEM or map_server terrain,
-//! rocks, boxes, ramps, landmarks; [`world`]), the robot ([`robot`]), its sensors ([`lidar`],
-//! [`camera`], [`odometry`]) and whole missions ([`mission`]), plus the asset-building helpers
-//! (visible ground points, deterministic noise).
+//! rocks, boxes, ramps, landmarks; [`world`]), the robot ([`robot`]) and its sensors
+//! ([`lidar`], [`camera`], [`odometry`]) in one world simulator ([`world_sim`]), localisation
+//! ([`localisation`]: ground truth, odometry, keyframe SLAM), metrics ([`metrics`]) and whole
+//! missions ([`mission`]) driven by the core's exploration policy ([`crate::explore`]), plus the
+//! asset-building helpers (visible ground points, deterministic noise).
 
 pub mod camera;
 mod corridor;
 mod heightfield;
 mod landmarks;
 pub mod lidar;
+pub mod localisation;
+pub mod metrics;
 pub mod mission;
 mod noise;
 mod obstacles;
 pub mod odometry;
+pub mod params;
 pub mod robot;
 mod scan;
-pub mod slam_frontend;
 pub mod world;
+pub mod world_sim;
 
+pub use crate::explore::EndReason;
 pub use heightfield::{DemScaling, Heightfield, HeightfieldError};
 pub use landmarks::{LandmarkDensity, scatter_landmarks, texture_richness};
-pub use mission::{
-    EndReason, Localisation, MetricsRow, Mission, MissionError, MissionParams, StepOutcome, Summary, check_tight_inflations,
-};
+pub use localisation::{Localisation, Localiser, PoseCovariance};
+pub use metrics::{Metrics, MetricsRow, StampedPose, Summary, metrics_csv, timing_csv, tum};
+pub use mission::{Mission, MissionError, StepOutcome};
 pub use noise::{fractal_noise, hash_unit};
 pub use obstacles::{Rock, scatter_rocks};
+pub use params::MissionParams;
 pub use scan::{line_of_sight, visible_ground_points};
-pub use world::{World, WorldError, WorldSpec};
+pub use world::{StartError, World, WorldError, WorldSpec};
+pub use world_sim::{BodyPose, Motion, WorldSim};
 #[cfg(test)]
 mod tests;

@@ -1,6 +1,8 @@
 //! Whole-simulator tests: world files, ground truth, and tiny missions (fast in debug).
 
-use super::mission::{EndReason, Localisation, Mission, MissionParams, StepOutcome};
+use super::mission::{Mission, StepOutcome};
+use super::{EndReason, Localisation, MissionParams};
+use crate::explore::ExploreParams;
 use super::world::{World, WorldSpec};
 use crate::params::{Params, Strategy};
 
@@ -115,17 +117,17 @@ fn worlds_too_large_to_build_are_errors() {
     };
     // 5 m at 10 µm cells: 2.5e11 heightfield cells (the limit is the traversability map's).
     let e = build(&format!("cell_m = 0.00001\n{TINY}")).unwrap_err().to_string();
-    assert!(e.starts_with("w.toml: terrain:") && e.contains("500000 × 500000 cells, over the limit"), "{e}");
+    assert!(e.starts_with("w.toml: terrain.size_m (5)") && e.contains("500000 × 500000 cells, over the limit"), "{e}");
     // One landmark site per µm²: 2.5e13 sites.
     let e = build(&format!("{TINY}\n[landmarks]\nspacing_m = 0.000001\n")).unwrap_err().to_string();
-    assert!(e.starts_with("landmarks: spacing_m 1e-6 gives 2.500e13 sites"), "{e}");
+    assert!(e.starts_with("landmarks.spacing_m (1e-6) gives 2.500e13 sites"), "{e}");
     let e = build(&format!("{TINY}\n[rocks]\nspacing_m = 0.000001\ndensity = 0.5\nradius_m = [0.1, 0.2]\nheight_m = [0.1, 0.2]\n"))
         .unwrap_err()
         .to_string();
-    assert!(e.starts_with("rocks: spacing_m 1e-6 gives"), "{e}");
+    assert!(e.starts_with("rocks.spacing_m (1e-6) gives"), "{e}");
     let rocks = "[rocks]\nspacing_m = 1.0\ndensity = 1.0\nradius_m = [0.1, 0.2]\nheight_m = [0.1, 0.2]\n";
     let e = build(&format!("{TINY}\n{rocks}[landmarks]\nrock_density_per_m2 = 1e12\n")).unwrap_err().to_string();
-    assert!(e.starts_with("landmarks: rock_density_per_m2 1e12 puts"), "{e}");
+    assert!(e.starts_with("landmarks.rock_density_per_m2 (1e12) puts"), "{e}");
     // The same world at sane values builds.
     assert!(build(&format!("{TINY}\n{rocks}")).is_ok());
 }
@@ -134,7 +136,7 @@ fn worlds_too_large_to_build_are_errors() {
 fn simulator_settings_beyond_the_work_bounds_are_rejected() {
     for (text, needle) in [
         ("dt_s = 1e-9", "dt_s must be ≥ 0.001 s"),
-        ("[lidar]\nazimuth_step_rad = 1e-9", "rays per scan"),
+        ("[lidar]\nazimuth_step_rad = 1e-9", "lidar.azimuth_step_rad (1e-9) gives 1.005e11 rays per scan"),
         ("depth_rays = [100000, 100000]", "depth_rays: 100000 × 100000 rays per frame"),
     ] {
         let e = MissionParams::from_toml(text, "sim.toml").unwrap_err();
@@ -241,21 +243,21 @@ fn tiny_mission(strategy: Strategy, seed: u64, safety_stop: bool, time_limit_s: 
 /// of a goal it had reached before (any of them, not only the last), and how many it reached.
 fn goals_near_reached_ones(m: &mut Mission) -> (usize, usize) {
     let (mut reached, mut near) = (Vec::<[f64; 2]>::new(), 0);
-    let mut goal = m.goal;
+    let mut goal = m.goal().map(|g| g.goal);
     let mut goals_reached = 0;
     while matches!(m.step(), StepOutcome::Running) {
-        if m.goal == goal {
+        if m.goal().map(|g| g.goal) == goal {
             continue;
         }
         if goal.is_some() && m.summary().goals_reached > goals_reached {
             goals_reached += 1;
             reached.extend(goal.map(|g| [g.x_m, g.y_m]));
         }
-        if let Some(g) = m.goal {
-            let radius_m = m.blacklist.radius_m();
+        if let Some(g) = m.goal().map(|g| g.goal) {
+            let radius_m = m.explorer().blacklist().radius_m();
             near += usize::from(reached.iter().any(|r| (g.x_m - r[0]).hypot(g.y_m - r[1]) <= radius_m));
         }
-        goal = m.goal;
+        goal = m.goal().map(|g| g.goal);
     }
     (near, reached.len())
 }
@@ -289,7 +291,7 @@ fn a_start_the_robot_does_not_fit_is_refused() {
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
     let d = world.nearest_gt_lethal_m(2.3, 2.6, 0.25).unwrap();
     assert!(d > 0.0 && d <= 0.15, "{d}");
-    let e = world.check_start(0.25).unwrap_err();
+    let e = world.check_start(0.25).unwrap_err().to_string();
     assert!(e.contains("start (2.30, 2.60)") && e.contains("within the robot radius 0.25 m"), "{e}");
     // A robot smaller than the gap fits; the shipped tiny world's start fits the default robot.
     assert!(world.check_start(0.5 * d).is_ok());
@@ -304,11 +306,11 @@ fn a_tiny_mission_explores_to_completion_without_entering_untraversable_terrain(
     assert_eq!((s.gt_violations, s.safety_stops), (0, 0));
     assert!(s.unexplored_pct < 10.0, "{s:?}");
     assert!(s.goals_reached >= 1 && s.distance_m > 1.0, "{s:?}");
-    let first = m.rows.first().unwrap().unexplored_pct;
+    let first = m.rows().first().unwrap().unexplored_pct;
     assert!(first > s.unexplored_pct + 20.0, "{first} → {}", s.unexplored_pct);
     // Unexplored never grows (points are only added).
-    assert!(m.rows.windows(2).all(|w| w[1].unexplored_pct <= w[0].unexplored_pct + 1e-9));
-    assert_eq!(m.rows.last().unwrap().ate_m, 0.0);
+    assert!(m.rows().windows(2).all(|w| w[1].unexplored_pct <= w[0].unexplored_pct + 1e-9));
+    assert_eq!(m.rows().last().unwrap().ate_m, 0.0);
 }
 
 #[test]
@@ -342,10 +344,10 @@ fn check_setbacks(m: &mut Mission) -> (usize, usize) {
         paths += 1;
         last = path.to_vec();
         let end = *path.last().unwrap();
-        assert!(path.len() == 1 || crate::path::known_around(grid, end, margin_m), "t {} s: end {end:?}, margin {margin_m} m", m.time_s);
+        assert!(path.len() == 1 || crate::path::known_around(grid, end, margin_m), "t {} s: end {end:?}, margin {margin_m} m", m.time_s());
         // The chosen candidate's path, or the kept goal's on a periodic replan.
-        let whole = m.last_decision.as_ref().is_some_and(|d| d.candidates.iter().any(|c| c.path_m == path));
-        assert!(whole || margin_m > 0.0, "t {} s: no margin, yet the path was cut", m.time_s);
+        let whole = m.last_decision().is_some_and(|d| d.candidates.iter().any(|c| c.path_m == path));
+        assert!(whole || margin_m > 0.0, "t {} s: no margin, yet the path was cut", m.time_s());
         cut += usize::from(!whole);
     }
 }
@@ -371,7 +373,7 @@ fn same_seed_same_metrics_and_other_seed_other_noise() {
         let mp = MissionParams { time_limit_s: Some(60.0), ..MissionParams::default() };
         let mut m = Mission::new(world, params, mp, Strategy::Random, seed, Localisation::Odometry).unwrap();
         m.run();
-        (m.metrics_csv(), Mission::tum(&m.trajectory_est))
+        (crate::sim::metrics_csv(m.rows()), crate::sim::tum(m.trajectory_est()))
     };
     let a = run(5);
     assert_eq!(a, run(5));
@@ -387,11 +389,11 @@ fn odometry_localisation_drifts_and_its_covariance_grows() {
     let mp = MissionParams { time_limit_s: Some(60.0), ..MissionParams::default() };
     let mut m = Mission::new(world, params, mp, Strategy::Greedy, 2, Localisation::Odometry).unwrap();
     m.run();
-    let last = m.rows.last().unwrap();
+    let last = m.rows().last().unwrap();
     assert!(last.cov_trace > 0.0 && last.pos_cov_trace > 0.0 && last.rot_cov_trace > 0.0);
     assert!((last.cov_trace - last.pos_cov_trace - last.rot_cov_trace).abs() < 1e-15);
-    assert!(m.rows.iter().any(|r| r.ate_m > 0.0));
-    let mid = &m.rows[m.rows.len() / 2];
+    assert!(m.rows().iter().any(|r| r.ate_m > 0.0));
+    let mid = &m.rows()[m.rows().len() / 2];
     assert!(last.pos_cov_trace >= mid.pos_cov_trace);
 }
 
@@ -412,14 +414,14 @@ fn a_tiny_slam_mission_explores_safely_with_bounded_error_and_loop_closures() {
     assert!(s.keyframes > 10 && s.landmarks_mapped > 10 && s.slam_errors == 0, "{s:?}");
     // The tiny world is revisited all the time: loops close, counted monotonically per row.
     assert!(s.loop_closures >= 1, "{s:?}");
-    assert!(m.rows.windows(2).all(|w| w[1].loop_closures >= w[0].loop_closures));
-    assert_eq!(m.rows.last().unwrap().loop_closures, s.loop_closures);
+    assert!(m.rows().windows(2).all(|w| w[1].loop_closures >= w[0].loop_closures));
+    assert_eq!(m.rows().last().unwrap().loop_closures, s.loop_closures);
     // The error stays at the centimetre level over the whole mission (observed max ≈ 3 cm).
-    let max_ate = m.rows.iter().map(|r| r.ate_m).fold(0.0, f64::max);
+    let max_ate = m.rows().iter().map(|r| r.ate_m).fold(0.0, f64::max);
     assert!(max_ate < 0.1, "max ATE {max_ate}");
-    assert!(m.rows.iter().any(|r| r.ate_m > 0.0));
+    assert!(m.rows().iter().any(|r| r.ate_m > 0.0));
     // A 6×6 covariance: traces add up, both parts positive once moving.
-    let last = m.rows.last().unwrap();
+    let last = m.rows().last().unwrap();
     assert!(last.pos_cov_trace > 0.0 && last.rot_cov_trace > 0.0);
     assert!((last.cov_trace - last.pos_cov_trace - last.rot_cov_trace).abs() < 1e-15);
     // The planner's landmark map carries the SLAM covariances.
@@ -434,7 +436,7 @@ fn slam_missions_are_deterministic_per_seed() {
     let run = |seed: u64| {
         let mut m = tiny_slam_mission(seed, 40.0);
         m.run();
-        (m.metrics_csv(), Mission::tum(&m.trajectory_est))
+        (crate::sim::metrics_csv(m.rows()), crate::sim::tum(m.trajectory_est()))
     };
     let a = run(7);
     assert_eq!(a, run(7));
@@ -445,12 +447,12 @@ fn slam_missions_are_deterministic_per_seed() {
 fn slam_covariance_grows_between_exact_marginals_and_drops_at_loop_closures() {
     let mut m = tiny_slam_mission(2, 120.0);
     m.run();
-    let rows = &m.rows;
+    let rows = &m.rows();
     // While driving without a closure the (compounded) covariance grows row to row somewhere…
     assert!(rows.windows(2).any(|w| w[1].cov_trace > w[0].cov_trace && w[1].distance_m > w[0].distance_m));
     // …and some loop closure comes with a drop.
     let drops = rows.windows(2).filter(|w| w[1].loop_closures > w[0].loop_closures && w[1].cov_trace < w[0].cov_trace).count();
-    assert!(drops >= 1, "{}", m.metrics_csv());
+    assert!(drops >= 1, "{}", crate::sim::metrics_csv(m.rows()));
 }
 
 /// Regression (paper world, random, seed 13): a robot whose own cell stays untraversable in its
@@ -466,13 +468,14 @@ fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
         + "\n[[boxes]]\nmin_m = [1.0, 1.0]\nmax_m = [1.4, 1.4]\nheight_m = 0.3\n";
     let spec = WorldSpec::from_toml(&text, "stuck.toml").unwrap();
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
-    let mission = MissionParams { max_failed_decisions: 3, clear_footprint: false, ..MissionParams::default() };
+    let explore = ExploreParams { max_failed_decisions: 3, clear_footprint: false, ..ExploreParams::default() };
+    let mission = MissionParams { explore: explore.clone(), ..MissionParams::default() };
     let mut m = Mission::new(world.clone(), params.clone(), mission.clone(), Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
     let s = m.run();
     assert_eq!(s.end_reason, Some(EndReason::Stuck), "{s:?}");
     assert_eq!(s.planning_errors, 3);
     assert!(s.time_s < 60.0 && s.gt_violations == 0, "{s:?}");
-    let cleared = MissionParams { clear_footprint: true, time_limit_s: Some(60.0), ..mission };
+    let cleared = MissionParams { explore: ExploreParams { clear_footprint: true, ..explore }, time_limit_s: Some(60.0), ..mission };
     let s = Mission::new(world, params, cleared, Strategy::Fit, 1, Localisation::GroundTruth).unwrap().run();
     assert_eq!((s.planning_errors, s.gt_violations), (0, 0), "{s:?}");
     assert_ne!(s.end_reason, Some(EndReason::Stuck));
@@ -491,7 +494,7 @@ fn a_trapped_robot_forgets_its_map_around_itself_and_explores_on() {
     assert_eq!((s.gt_violations, s.safety_stops), (0, 0), "{s:?}");
     assert!(s.unexplored_pct < 10.0 && s.goals_reached >= 1, "{s:?}");
     // Forgetting makes known ground unknown again: the only time the unexplored share grows.
-    assert!(m.rows.windows(2).any(|w| w[1].unexplored_pct > w[0].unexplored_pct + 1.0));
+    assert!(m.rows().windows(2).any(|w| w[1].unexplored_pct > w[0].unexplored_pct + 1.0));
 }
 
 #[test]
@@ -516,10 +519,11 @@ const RING_RADII_M: (f64, f64) = (0.8, 0.84);
 /// points, as registration speckle would wall it; the summary, the finished mission and the start.
 fn run_in_a_planted_ring(trap_recoveries: u32, localisation: Localisation) -> (super::Summary, Mission, [f64; 2]) {
     let params = Params::default();
-    let mp = MissionParams { trap_recoveries, time_limit_s: Some(300.0), ..MissionParams::default() };
+    let explore = ExploreParams { trap_recoveries, ..ExploreParams::default() };
+    let mp = MissionParams { explore, time_limit_s: Some(300.0), ..MissionParams::default() };
     let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Fit, 1, localisation).unwrap();
-    let (x0, y0) = (m.gt.x_m, m.gt.y_m);
-    let z = m.world.field.height_at(x0, y0).unwrap() + 0.4;
+    let (x0, y0) = (m.true_pose().x_m, m.true_pose().y_m);
+    let z = m.world().field.height_at(x0, y0).unwrap() + 0.4;
     let pts = (0..3000).map(|k| {
         let (a, r) = (k as f64 * std::f64::consts::TAU / 1000.0, RING_RADII_M.0 + 0.02 * (k / 1000) as f64);
         nalgebra::Point3::new(x0 + r * a.cos(), y0 + r * a.sin(), z)
@@ -567,7 +571,7 @@ fn a_robot_not_blocked_plans_on_its_map_as_it_is() {
     let inflated = crate::grid::inflate_lethal(&grid, params.robot.radius_m);
     for p in m.driven_path_m() {
         let i = g.index(g.cell_of(p[0], p[1]).unwrap()).unwrap();
-        assert_eq!(inflated.data[i], crate::grid::FREE, "path point {p:?} at t {} s", m.time_s);
+        assert_eq!(inflated.data[i], crate::grid::FREE, "path point {p:?} at t {} s", m.time_s());
     }
     let s = m.run();
     assert_eq!((s.gt_violations, s.safety_stops, s.planning_errors), (0, 0, 0), "{s:?}");
@@ -579,16 +583,17 @@ fn a_robot_not_blocked_plans_on_its_map_as_it_is() {
 /// inflated). The summary and the trail's length when the ring was planted.
 fn run_in_a_ring_open_on_the_trail(reuse_trail: bool) -> (super::Summary, usize) {
     let params = Params::default();
-    let mp = MissionParams { reuse_trail, trap_recoveries: 0, time_limit_s: Some(300.0), ..MissionParams::default() };
+    let explore = ExploreParams { reuse_trail, trap_recoveries: 0, ..ExploreParams::default() };
+    let mp = MissionParams { explore, time_limit_s: Some(300.0), ..MissionParams::default() };
     let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
-    let (xs, ys) = (m.gt.x_m, m.gt.y_m);
-    while (m.gt.x_m - xs).hypot(m.gt.y_m - ys) < 1.5 {
+    let (xs, ys) = (m.true_pose().x_m, m.true_pose().y_m);
+    while (m.true_pose().x_m - xs).hypot(m.true_pose().y_m - ys) < 1.5 {
         assert!(matches!(m.step(), StepOutcome::Running));
     }
-    let (x0, y0) = (m.gt.x_m, m.gt.y_m);
+    let (x0, y0) = (m.true_pose().x_m, m.true_pose().y_m);
     let g = m.layers().geometry();
     let trail: Vec<(f64, f64)> = m.trail().iter().map(|&i| g.center_of(g.cell_at(i))).collect();
-    let z = m.world.field.height_at(x0, y0).unwrap() + 0.4;
+    let z = m.world().field.height_at(x0, y0).unwrap() + 0.4;
     let pts: Vec<_> = (0..3000)
         .map(|k| {
             let (a, r) = (k as f64 * std::f64::consts::TAU / 1000.0, RING_RADII_M.0 + 0.02 * (k / 1000) as f64);
@@ -649,7 +654,7 @@ fn two_rooms(params: &Params, door_m: f64) -> World {
 fn a_doorway_the_full_inflation_shuts_is_passed_with_a_tight_one() {
     let params = Params::default();
     let run = |door_m: f64, tight_inflations_m: Vec<f64>| {
-        let mp = MissionParams { tight_inflations_m, ..MissionParams::default() };
+        let mp = MissionParams { explore: ExploreParams { tight_inflations_m, ..ExploreParams::default() }, ..MissionParams::default() };
         let world = two_rooms(&params, door_m);
         Mission::new(world, params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
     };
@@ -660,7 +665,7 @@ fn a_doorway_the_full_inflation_shuts_is_passed_with_a_tight_one() {
     };
     let off = run(0.9, vec![]);
     assert!(off.unexplored_pct > 10.0 && off.tight_plans == 0, "{off:?}");
-    passed(&run(0.9, MissionParams::default().tight_inflations_m));
+    passed(&run(0.9, ExploreParams::default().tight_inflations_m));
     // Radii as wide as the robot's are skipped: the same mission as without them.
     let wide = run(0.9, vec![params.robot.radius_m]);
     assert_eq!((wide.time_s, wide.unexplored_pct, wide.tight_plans), (off.time_s, off.unexplored_pct, 0));
@@ -673,10 +678,10 @@ fn a_doorway_the_full_inflation_shuts_is_passed_with_a_tight_one() {
 fn the_trail_is_every_cell_the_robot_drove_on_4_connected() {
     let mut m = tiny_mission(Strategy::Greedy, 2, true, 60.0);
     let g = m.layers().geometry();
-    let start = g.index(g.cell_of(m.gt.x_m, m.gt.y_m).unwrap()).unwrap();
+    let start = g.index(g.cell_of(m.true_pose().x_m, m.true_pose().y_m).unwrap()).unwrap();
     let mut driven = vec![start];
     while matches!(m.step(), StepOutcome::Running) {
-        driven.push(g.index(g.cell_of(m.gt.x_m, m.gt.y_m).unwrap()).unwrap());
+        driven.push(g.index(g.cell_of(m.true_pose().x_m, m.true_pose().y_m).unwrap()).unwrap());
     }
     let trail: std::collections::HashSet<usize> = m.trail().iter().copied().collect();
     assert_eq!(trail.len(), m.trail().len(), "no cell twice");
@@ -711,9 +716,10 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("[odometry]\nrotation_sigma_per_sqrt_m = -0.01", "odometry.rotation_sigma_per_sqrt_m"),
         ("[odometry]\nslip_per_rad = nan", "odometry.slip_per_rad"),
         ("[drive]\nheading_gain = nan", "drive.heading_gain"),
-        ("tight_inflations_m = [0.2, -0.1]", "tight_inflations_m[1] must be a finite number > 0"),
-        ("tight_inflations_m = [0.1, 0.2]", "tight_inflations_m[1] must be smaller than the radius before it (0.1; got 0.2)"),
-        ("tight_inflations_m = [0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1]", "tight_inflations_m: 9 radii, over the limit of 8"),
+        ("[explore]\ntight_inflations_m = [0.2, -0.1]", "explore.tight_inflations_m[1] must be a finite number > 0"),
+        ("[explore]\ntight_inflations_m = [0.1, 0.2]", "explore.tight_inflations_m[1] must be smaller than the radius before it (0.1; got 0.2)"),
+        ("[explore]\ntight_inflations_m = [0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1]", "explore.tight_inflations_m: 9 radii, over the limit of 8"),
+        ("[explore]\nmax_failed_decisions = 0", "explore.max_failed_decisions must be ≥ 1"),
         ("[drive]\nbody_half_m = nan", "drive.body_half_m"),
         ("[drive]\nbody_half_m = 1e6", "drive.body_half_m must be ≤ 5 m"),
         ("[drive]\nturn_in_place_rad = nan", "drive.turn_in_place_rad"),
@@ -727,6 +733,7 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("[lidar]\nhalf_vfov_rad = 2.0", "lidar.half_vfov_rad must be ≤"),
         ("[lidar]\nmount_height_m = nan", "lidar.mount_height_m"),
         ("[lidar]\nmin_range_m = 20.0", "lidar.min_range_m (20) must be < lidar.max_range_m (10)"),
+        ("[lidar]\nazimuth_step_rad = 1e-9", "lidar.azimuth_step_rad (1e-9) gives"),
         ("[lidar]\nmin_range_m = nan", "lidar.min_range_m"),
         ("[lidar]\nazimuth_step_rad = 7.0", "lidar.azimuth_step_rad must be ≤"),
         ("[lidar]\nrings = 0", "lidar.rings"),
@@ -738,8 +745,8 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("dt_s = nan", "dt_s"),
         ("scan_every_m = nan", "scan_every_m"),
         ("time_limit_s = inf", "time_limit_s"),
-        ("trapped_radius_m = nan", "trapped_radius_m"),
-        ("[goal_setback]\nsigmas = nan", "goal_setback.sigmas"),
+        ("[explore]\ntrapped_radius_m = nan", "explore.trapped_radius_m"),
+        ("[explore.goal_setback]\nsigmas = nan", "explore.goal_setback.sigmas"),
         ("[slam]\nz_sigma_per_sqrt_m = nan", "slam.z_sigma_per_sqrt_m"),
         ("[slam]\nmarginal_every_keyframes = 0", "slam.marginal_every_keyframes"),
         ("[slam.graph]\nwindow_keyframes = 0", "slam.graph.window_keyframes"),
@@ -755,6 +762,12 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         }
     }
     assert!(wrong.is_empty(), "not refused by key:\n{}", wrong.join("\n"));
+    // A key of the exploration policy where it was before the [explore] table: where it went.
+    for key in crate::explore::EXPLORE_KEYS {
+        let text = if *key == "goal_setback" { "[goal_setback]\nsigmas = 2.0".to_string() } else { format!("{key} = 1") };
+        let e = MissionParams::from_toml(&text, "sim.toml").unwrap_err().to_string();
+        assert_eq!(e, format!("sim.toml: `{key}` has moved: write it as `[explore] {key}`"));
+    }
     // The bounds themselves are allowed, and so is a depth camera with no rays (turned off).
     for text in [
         "dt_s = 1.0",
@@ -845,7 +858,7 @@ fn a_world_time_limit_or_boundary_out_of_range_says_what_is_wrong() {
     let params = Params::default();
     let spec = WorldSpec::from_toml(&TINY.replace("start = [1.0, 1.0, 0.0]", "start = [0.2, 0.2, 0.0]"), "w.toml").unwrap();
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
-    let e = world.check_start(params.robot.radius_m).unwrap_err();
+    let e = world.check_start(params.robot.radius_m).unwrap_err().to_string();
     assert!(e.starts_with("start (0.20, 0.20) is outside the exploration boundary [0.5, 0.5, 4.5, 4.5] (by default"), "{e}");
 }
 

@@ -21,7 +21,7 @@ use crate::frontier::Boundary;
 use crate::grid::{Cell, FREE, GridGeometry, LETHAL, OccupancyGrid};
 use crate::io::MapError;
 use crate::math;
-use crate::params::{Num, TraversabilityParams};
+use crate::params::{InvalidParam, Num, TraversabilityParams};
 use crate::pose::Pose2;
 use crate::traversability::{MAX_CELLS, TraversabilityError, TraversabilityMap};
 use nalgebra::Point3;
@@ -36,7 +36,9 @@ pub enum WorldError {
     /// A value out of range, or a world the machine cannot hold (named by the file when parsed
     /// from one).
     #[error("{0}")]
-    Invalid(String),
+    Invalid(InvalidParam),
+    #[error("{name}: {error}")]
+    InvalidFile { name: String, error: InvalidParam },
     #[error("{name}: {message}")]
     Load { name: String, message: String },
     #[error(transparent)]
@@ -257,7 +259,7 @@ impl WorldSpec {
         let spec: WorldSpec =
             toml::from_str(text).map_err(|e| WorldError::Toml { name: name.into(), message: crate::params::toml_error_line(text, &e) })?;
         spec.validate().map_err(|e| match e {
-            WorldError::Invalid(m) => WorldError::Invalid(format!("{name}: {m}")),
+            WorldError::Invalid(error) => WorldError::InvalidFile { name: name.into(), error },
             other => other,
         })?;
         Ok(spec)
@@ -271,10 +273,8 @@ impl WorldSpec {
         for (what, spacing_m) in spacings {
             let n = sites(spacing_m);
             if n.is_nan() || n > MAX_SCATTER_SITES {
-                return Err(WorldError::Invalid(format!(
-                    "{what}: spacing_m {} gives {n:.3e} sites on this terrain, over the limit of {MAX_SCATTER_SITES}",
-                    Num(spacing_m)
-                )));
+                let reason = format!("({}) gives {n:.3e} sites on this terrain, over the limit of {MAX_SCATTER_SITES}", Num(spacing_m));
+                return Err(WorldError::Invalid(InvalidParam::new(format!("{what}.spacing_m"), reason)));
             }
         }
         Ok(())
@@ -289,35 +289,36 @@ impl WorldSpec {
         let (min_x, min_y, max_x, max_y) = geometry.bounds_m();
         let (w, h) = (max_x - min_x, max_y - min_y);
         if r.radius_m[1] > 0.5 * w.min(h) {
-            return Err(WorldError::Invalid(format!(
-                "rocks.radius_m: the largest radius {} m is wider than the terrain ({w} m × {h} m): at most half its shorter side, {} m",
+            let reason = format!(
+                "the largest radius {} m is wider than the terrain ({w} m × {h} m): at most half its shorter side, {} m",
                 r.radius_m[1],
                 0.5 * w.min(h)
-            )));
+            );
+            return Err(WorldError::Invalid(InvalidParam::new("rocks.radius_m", reason)));
         }
         Ok(())
     }
 
     /// Checks ranges.
     pub fn validate(&self) -> Result<(), WorldError> {
-        let bad = |m: String| Err(WorldError::Invalid(m));
+        let bad = |key: &str, reason: String| Err(WorldError::Invalid(InvalidParam::new(key, reason)));
         let pos = |v: f64| v.is_finite() && v > 0.0;
         if !pos(self.cell_m) || self.cell_m > 1.0 {
-            return bad(format!("cell_m must be in (0, 1] (got {})", Num(self.cell_m)));
+            return bad("cell_m", format!("must be in (0, 1] (got {})", Num(self.cell_m)));
         }
         crate::params::check_positive("time_limit_s", self.time_limit_s).map_err(WorldError::Invalid)?;
         if !self.start.iter().all(|v| v.is_finite()) {
-            return bad("start must be finite".into());
+            return bad("start", format!("must be finite (got {:?})", self.start));
         }
         // The heightfield's cells, checked before they are allocated (the ground-truth map has as
         // many, and its limit is the traversability map's).
         let cells = |size_m: f64| {
             let side = (size_m / self.cell_m).round().max(2.0);
             if side * side > MAX_CELLS as f64 {
-                return bad(format!(
-                    "terrain: size_m {size_m} at cell_m {} is {side} × {side} cells, over the limit of {MAX_CELLS} (coarser cell_m?)",
-                    self.cell_m
-                ));
+                return bad(
+                    "terrain.size_m",
+                    format!("({size_m}) at cell_m {} is {side} × {side} cells, over the limit of {MAX_CELLS} (coarser cell_m?)", self.cell_m),
+                );
             }
             Ok(())
         };
@@ -332,30 +333,38 @@ impl WorldSpec {
                 tilt_y_deg,
                 ..
             } => {
-                if !pos(*size_m) || *size_m > 500.0 || !pos(*hill_wavelength_m) || !pos(*ridge_wavelength_m) {
-                    return bad("terrain: size_m in (0, 500] and wavelengths > 0".into());
+                if !pos(*size_m) || *size_m > 500.0 {
+                    return bad("terrain.size_m", format!("must be in (0, 500] (got {})", Num(*size_m)));
+                }
+                for (key, v) in [("hill_wavelength_m", *hill_wavelength_m), ("ridge_wavelength_m", *ridge_wavelength_m)] {
+                    if !pos(v) {
+                        return bad(&format!("terrain.{key}"), format!("must be a finite number > 0 (got {})", Num(v)));
+                    }
                 }
                 for (key, v) in [("hill_height_m", *hill_height_m), ("ridge_height_m", *ridge_height_m)] {
                     if !v.is_finite() {
-                        return bad(format!("terrain.{key} must be finite (got {})", Num(v)));
+                        return bad(&format!("terrain.{key}"), format!("must be finite (got {})", Num(v)));
                     }
                 }
                 for (key, v) in [("tilt_x_deg", *tilt_x_deg), ("tilt_y_deg", *tilt_y_deg)] {
                     if v.is_nan() || v.abs() >= 90.0 {
-                        return bad(format!("terrain.{key} must be in (-90, 90) degrees (got {})", Num(v)));
+                        return bad(&format!("terrain.{key}"), format!("must be in (-90, 90) degrees (got {})", Num(v)));
                     }
                 }
                 cells(*size_m)?;
             }
             TerrainSpec::Dem { size_m, relief_scale, .. } => {
-                if !pos(*size_m) || *size_m > 500.0 || !(relief_scale.is_finite() && *relief_scale >= 0.0) {
-                    return bad("terrain: size_m in (0, 500] and relief_scale ≥ 0".into());
+                if !pos(*size_m) || *size_m > 500.0 {
+                    return bad("terrain.size_m", format!("must be in (0, 500] (got {})", Num(*size_m)));
+                }
+                if !(relief_scale.is_finite() && *relief_scale >= 0.0) {
+                    return bad("terrain.relief_scale", format!("must be a finite number ≥ 0 (got {})", Num(*relief_scale)));
                 }
                 cells(*size_m)?;
             }
             TerrainSpec::MapServer { wall_height_m, .. } => {
                 if !pos(*wall_height_m) {
-                    return bad("terrain: wall_height_m must be > 0".into());
+                    return bad("terrain.wall_height_m", format!("must be a finite number > 0 (got {})", Num(*wall_height_m)));
                 }
             }
         }
@@ -365,11 +374,14 @@ impl WorldSpec {
                 || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1] && r.radius_m[1].is_finite())
                 || !(r.height_m[0] >= 0.0 && r.height_m[0] <= r.height_m[1] && r.height_m[1].is_finite())
             {
-                return bad(format!(
-                    "rocks: spacing_m > 0, density in [0, 1], finite 0 < min ≤ max for radius_m and 0 ≤ min ≤ max for height_m \
-                     (got spacing_m {}, density {}, radius_m {:?}, height_m {:?})",
-                    r.spacing_m, r.density, r.radius_m, r.height_m
-                ));
+                return bad(
+                    "rocks",
+                    format!(
+                        "need spacing_m > 0, density in [0, 1], finite 0 < min ≤ max for radius_m and 0 ≤ min ≤ max for height_m \
+                         (got spacing_m {}, density {}, radius_m {:?}, height_m {:?})",
+                        r.spacing_m, r.density, r.radius_m, r.height_m
+                    ),
+                );
             }
             crate::params::check_non_negative("rocks.keep_clear_m", r.keep_clear_m).map_err(WorldError::Invalid)?;
         }
@@ -379,27 +391,38 @@ impl WorldSpec {
         for (i, r) in self.ramps.iter().enumerate() {
             check_box(&format!("ramps[{i}]"), r.min_m, r.max_m, r.height_m)?;
             if !["x", "-x", "y", "-y"].contains(&r.rises_along.as_str()) {
-                return bad(format!("ramps[{i}].rises_along must be x, -x, y or -y (got {:?})", r.rises_along));
+                return bad(&format!("ramps[{i}].rises_along"), format!("must be x, -x, y or -y (got {:?})", r.rises_along));
             }
         }
-        if !pos(self.landmarks.spacing_m) || !pos(self.landmarks.texture_wavelength_m) {
-            return bad("landmarks: spacing_m and texture_wavelength_m must be > 0".into());
+        for (key, v) in [("spacing_m", self.landmarks.spacing_m), ("texture_wavelength_m", self.landmarks.texture_wavelength_m)] {
+            if !pos(v) {
+                return bad(&format!("landmarks.{key}"), format!("must be a finite number > 0 (got {})", Num(v)));
+            }
         }
         let l = &self.landmarks;
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;
         if !(nonneg(l.rock_density_per_m2) && nonneg(l.max_height_m) && (0.0..=1.0).contains(&l.max_probability) && l.contrast.is_finite())
         {
-            return bad("landmarks: rock_density_per_m2 and max_height_m ≥ 0, max_probability in [0, 1], contrast finite".into());
+            return bad(
+                "landmarks",
+                format!(
+                    "need rock_density_per_m2 and max_height_m ≥ 0, max_probability in [0, 1], contrast finite (got {}, {}, {}, {})",
+                    Num(l.rock_density_per_m2),
+                    Num(l.max_height_m),
+                    Num(l.max_probability),
+                    Num(l.contrast)
+                ),
+            );
         }
         if let Some(b) = self.boundary {
             if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
-                return bad("boundary must be [min_x, min_y, max_x, max_y] with min < max".into());
+                return bad("boundary", format!("must be [min_x, min_y, max_x, max_y] with min < max (got {b:?})"));
             }
             // No cell is explorable from a start outside the boundary (the start cell is the
             // seed of the explorable region): say so here rather than "not traversable" later.
             let [x, y, _] = self.start;
             if !(b[0] <= x && x <= b[2] && b[1] <= y && y <= b[3]) {
-                return bad(format!("start ({x}, {y}) is outside the boundary {b:?}"));
+                return bad("start", format!("({x}, {y}) is outside the boundary {b:?}"));
             }
         }
         Ok(())
@@ -410,14 +433,25 @@ impl WorldSpec {
 /// finite height > 0 (both only raise the terrain, to at most `height_m` above the ground at a
 /// reference point: a height ≤ 0 would raise nothing, and a pit cannot be dug with one).
 fn check_box(key: &str, min_m: [f64; 2], max_m: [f64; 2], height_m: f64) -> Result<(), WorldError> {
-    let bad = |m: String| Err(WorldError::Invalid(m));
+    let bad = |reason: String| Err(WorldError::Invalid(InvalidParam::new(key, reason)));
     if !min_m.iter().chain(&max_m).all(|v| v.is_finite()) {
-        return bad(format!("{key}: min_m and max_m must be finite (got min_m {min_m:?}, max_m {max_m:?})"));
+        return bad(format!("min_m and max_m must be finite (got min_m {min_m:?}, max_m {max_m:?})"));
     }
     if !(min_m[0] < max_m[0] && min_m[1] < max_m[1]) {
-        return bad(format!("{key}: min_m must be < max_m on each axis (got min_m {min_m:?}, max_m {max_m:?})"));
+        return bad(format!("min_m must be < max_m on each axis (got min_m {min_m:?}, max_m {max_m:?})"));
     }
     crate::params::check_positive(&format!("{key}.height_m"), height_m).map_err(WorldError::Invalid)
+}
+
+/// Why a robot cannot start where a world puts it ([`World::check_start`]).
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum StartError {
+    #[error("start ({x_m:.2}, {y_m:.2}) is outside the exploration boundary {boundary_m:?}{}", if *.default_boundary { " (by default the terrain inset by 0.5 m)" } else { "" })]
+    OutsideBoundary { x_m: f64, y_m: f64, boundary_m: [f64; 4], default_boundary: bool },
+    #[error("start ({x_m:.2}, {y_m:.2}) is not on ground-truth traversable terrain")]
+    NotTraversable { x_m: f64, y_m: f64 },
+    #[error("start ({x_m:.2}, {y_m:.2}): untraversable ground {distance_m:.2} m away, within the robot radius {robot_radius_m} m; move the start")]
+    TooClose { x_m: f64, y_m: f64, distance_m: f64, robot_radius_m: f64 },
 }
 
 /// A built world: ground truth for the simulator and the metrics.
@@ -495,17 +529,16 @@ impl World {
                 if let Some(i) = g.cell_of(spec.start[0], spec.start[1]).and_then(|c| g.index(c))
                     && grid.data[i] != FREE
                 {
-                    return Err(WorldError::Invalid(format!(
-                        "start ({}, {}) is inside a wall: an occupied or unknown pixel of {image_name}",
-                        spec.start[0], spec.start[1]
-                    )));
+                    let reason = format!("({}, {}) is inside a wall: an occupied or unknown pixel of {image_name}", spec.start[0], spec.start[1]);
+                    return Err(WorldError::Invalid(InvalidParam::new("start", reason)));
                 }
                 Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() }
             }
         };
         let start_xy = (spec.start[0], spec.start[1]);
         if field.geometry.cell_of(start_xy.0, start_xy.1).is_none() {
-            return Err(WorldError::Invalid(format!("start ({}, {}) is outside the terrain", start_xy.0, start_xy.1)));
+            let reason = format!("({}, {}) is outside the terrain", start_xy.0, start_xy.1);
+            return Err(WorldError::Invalid(InvalidParam::new("start", reason)));
         }
         spec.check_scatter_sites(&field.geometry)?;
         spec.check_rock_radius(&field.geometry)?;
@@ -533,10 +566,11 @@ impl World {
         let rock_side_landmarks: f64 =
             rocks.iter().map(|r| (std::f64::consts::TAU * r.radius_m * r.height_m * spec.landmarks.rock_density_per_m2).round()).sum();
         if rock_side_landmarks > MAX_SCATTER_SITES {
-            return Err(WorldError::Invalid(format!(
-                "landmarks: rock_density_per_m2 {} puts {rock_side_landmarks:.3e} landmarks on the rocks, over the limit of {MAX_SCATTER_SITES}",
+            let reason = format!(
+                "({}) puts {rock_side_landmarks:.3e} landmarks on the rocks, over the limit of {MAX_SCATTER_SITES}",
                 Num(spec.landmarks.rock_density_per_m2)
-            )));
+            );
+            return Err(WorldError::Invalid(InvalidParam::new("landmarks.rock_density_per_m2", reason)));
         }
         // Map frame: z = 0 on the ground under the start.
         let z0 = field.height_at(start_xy.0, start_xy.1).unwrap_or(0.0);
@@ -574,20 +608,17 @@ impl World {
     /// Whether a robot of `robot_radius_m` can start here: its whole footprint on ground-truth
     /// traversable ground. Otherwise its planner has no free cell to leave from, and a mission
     /// would end at once (the loaders of the tool and the studio refuse such worlds).
-    pub fn check_start(&self, robot_radius_m: f64) -> Result<(), String> {
-        let (x, y) = (self.start.x_m, self.start.y_m);
+    pub fn check_start(&self, robot_radius_m: f64) -> Result<(), StartError> {
+        let (x_m, y_m) = (self.start.x_m, self.start.y_m);
         if self.explorable_count == 0 {
             let b = self.boundary_box_m;
-            if !(b[0] <= x && x <= b[2] && b[1] <= y && y <= b[3]) {
-                let whose = if self.spec.boundary.is_some() { "" } else { " (by default the terrain inset by 0.5 m)" };
-                return Err(format!("start ({x:.2}, {y:.2}) is outside the exploration boundary {b:?}{whose}"));
+            if !(b[0] <= x_m && x_m <= b[2] && b[1] <= y_m && y_m <= b[3]) {
+                return Err(StartError::OutsideBoundary { x_m, y_m, boundary_m: b, default_boundary: self.spec.boundary.is_none() });
             }
-            return Err(format!("start ({x:.2}, {y:.2}) is not on ground-truth traversable terrain"));
+            return Err(StartError::NotTraversable { x_m, y_m });
         }
-        match self.nearest_gt_lethal_m(x, y, robot_radius_m) {
-            Some(d) => Err(format!(
-                "start ({x:.2}, {y:.2}): untraversable ground {d:.2} m away, within the robot radius {robot_radius_m} m; move the start"
-            )),
+        match self.nearest_gt_lethal_m(x_m, y_m, robot_radius_m) {
+            Some(distance_m) => Err(StartError::TooClose { x_m, y_m, distance_m, robot_radius_m }),
             None => Ok(()),
         }
     }
@@ -632,11 +663,12 @@ fn check_covers_cells(key: &str, geometry: &GridGeometry, min_m: [f64; 2], max_m
         return Ok(());
     }
     let (x0, y0, x1, y1) = geometry.bounds_m();
-    Err(WorldError::Invalid(format!(
-        "{key} (min_m {min_m:?}, max_m {max_m:?}) holds no cell centre of the terrain [{x0}, {y0}, {x1}, {y1}] at {} m: \
+    let reason = format!(
+        "(min_m {min_m:?}, max_m {max_m:?}) holds no cell centre of the terrain [{x0}, {y0}, {x1}, {y1}] at {} m: \
          it lies outside the terrain or is thinner than a cell, and would have no effect",
         geometry.resolution_m
-    )))
+    );
+    Err(WorldError::Invalid(InvalidParam::new(key, reason)))
 }
 
 /// GT traversability: the estimator on four noise-free points per cell.

@@ -36,12 +36,14 @@
 //! | [`marginals`] | marginal covariances by solving `H X = E` |
 //! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
 //! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
-//! | [`graph_slam`] | keyframe SLAM for the simulator: sliding window, full optimisation, covariances |
+//! | [`graph_slam`] | keyframe graph SLAM back end: sliding window, full optimisation, covariances |
+//! | [`keyframes`] | keyframe SLAM front end: odometry in SE(3), landmark and gravity factors, keyframe clouds and re-registration |
 
 pub mod factors;
 pub mod g2o;
 pub mod graph;
 pub mod graph_slam;
+pub mod keyframes;
 pub mod lie;
 pub mod linear_system;
 pub mod marginals;

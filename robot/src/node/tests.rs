@@ -1,6 +1,11 @@
 //! The state machine with fake inputs: no DDS, explicit clock.
 
 use super::*;
+use crate::msgs;
+use fitslam_core::explore::ExploreParams;
+use nalgebra::Point3;
+use fitslam_core::frontier::BlacklistReason;
+use fitslam_core::grid::{CellClass, GridGeometry};
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
 use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
@@ -27,7 +32,7 @@ fn tf_msg(parent: &str, child: &str, p: Pose2, stamp_s: f64) -> TFMessage {
 }
 
 /// map → odom (identity) and odom → base_link at `robot`.
-fn feed_pose(e: &mut Explorer, robot: Pose2, now_s: f64) {
+fn feed_pose(e: &mut ExplorerNode, robot: Pose2, now_s: f64) {
     e.handle_tf(&tf_msg("map", "odom", Pose2::new(0.0, 0.0, 0.0), now_s), false, now_s);
     e.handle_tf(&tf_msg("odom", "base_link", robot, now_s), false, now_s);
 }
@@ -40,7 +45,7 @@ fn cancels(cmds: &[Command]) -> Vec<u64> {
     cmds.iter().filter_map(|c| if let Command::CancelGoal { id } = c { Some(*id) } else { None }).collect()
 }
 
-fn log_has(e: &mut Explorer, needle: &str) -> bool {
+fn log_has(e: &mut ExplorerNode, needle: &str) -> bool {
     e.drain_log().iter().any(|l| l.text.contains(needle))
 }
 
@@ -50,9 +55,9 @@ fn free_on_inflated(grid: &OccupancyGrid, radius_m: f64, g: Pose2) -> bool {
 }
 
 /// The corridor world fed at t = 0; returns the explorer and the world.
-fn corridor_explorer(cfg: NodeConfig) -> (Explorer, fitslam_core::fixtures::SyntheticWorld) {
+fn corridor_explorer(cfg: NodeConfig) -> (ExplorerNode, fitslam_core::fixtures::SyntheticWorld) {
     let w = corridor_two_frontiers(true);
-    let mut e = Explorer::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default());
     e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
     e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
     feed_pose(&mut e, w.robot, 0.0);
@@ -62,7 +67,7 @@ fn corridor_explorer(cfg: NodeConfig) -> (Explorer, fitslam_core::fixtures::Synt
 #[test]
 fn waits_for_the_map_then_the_pose_then_sends_a_free_goal_east() {
     let w = corridor_two_frontiers(true);
-    let mut e = Explorer::new(NodeConfig::default(), Params::default());
+    let mut e = ExplorerNode::new(NodeConfig::default(), Params::default());
     assert!(e.tick(0.0).is_empty());
     assert_eq!(e.phase(), Phase::WaitingForMap);
     assert!(log_has(&mut e, "waiting for the map on /map"));
@@ -245,12 +250,19 @@ fn a_map_that_changes_size_and_makes_the_goal_lethal_cancels_it() {
 }
 
 #[test]
-fn reaching_a_goal_blacklists_it_as_reselected_and_a_closed_world_ends_the_mission() {
+fn a_reached_goal_chosen_again_is_blacklisted_as_reselected_and_a_closed_world_ends_the_mission() {
     let (mut e, w) = corridor_explorer(NodeConfig::default());
-    let (id1, g1) = goals(&e.tick(0.0))[0];
+    let (id1, _) = goals(&e.tick(0.0))[0];
+    let [fx, fy] = e.current_goal().unwrap().frontier_m;
     e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
     e.on_goal_event(id1, GoalEvent::Succeeded, 0.2);
-    assert_eq!(e.blacklist().contains(g1.x_m, g1.y_m), Some(BlacklistReason::Reselected));
+    // Remembered, not yet blacklisted: the map may have moved the frontier on.
+    assert_eq!(e.blacklist().contains(fx, fy), None);
+    // The robot did not move, so the same frontier is chosen again: blacklisted, the other one
+    // (west) is sent at once.
+    let g2 = goals(&e.tick(0.2));
+    assert_eq!(e.blacklist().contains(fx, fy), Some(BlacklistReason::Reselected));
+    assert!(g2.len() == 1 && g2[0].1.x_m < w.robot.x_m, "{g2:?}");
     // Close the corridor: everything known, no frontier.
     let mut grid = w.grid.clone();
     for v in &mut grid.data {
@@ -258,11 +270,15 @@ fn reaching_a_goal_blacklists_it_as_reselected_and_a_closed_world_ends_the_missi
             *v = LETHAL;
         }
     }
-    e.handle_map(&map_msg(&grid, 2.0), 0.2);
-    assert!(e.tick(0.2).is_empty());
-    let cmds = e.tick(1.2);
-    assert_eq!(cmds, vec![Command::MissionComplete]);
-    assert_eq!(e.status(1.2).phase, Phase::Done);
+    e.handle_map(&map_msg(&grid, 2.0), 0.3);
+    feed_pose(&mut e, w.robot, 1.2);
+    let mut cmds = e.tick(1.2);
+    assert!(!e.is_done(), "one empty decision does not end it: {cmds:?}");
+    feed_pose(&mut e, w.robot, 2.5);
+    cmds.extend(e.tick(2.5));
+    assert_eq!(cmds.last(), Some(&Command::MissionComplete), "{cmds:?}");
+    assert!(cancels(&cmds).contains(&g2[0].0), "the running goal is cancelled: {cmds:?}");
+    assert_eq!(e.status(2.5).phase, Phase::Done);
 }
 
 #[test]
@@ -279,7 +295,7 @@ fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
                 *v = LETHAL;
             }
         }
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         e.handle_map(&map_msg(&grid, 1.0), 0.0);
         feed_pose(&mut e, w.robot, 0.0);
         let mut cmds = e.tick(0.0);
@@ -294,7 +310,7 @@ fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
     assert!(!e.is_done() && e.phase() == Phase::Planning);
     assert!(log_has(&mut e, "walled in by its map, not done"));
     // With the check off, two empty decisions end the mission as before.
-    let (e, cmds) = trapped(NodeConfig { trapped_radius_m: 0.0, ..NodeConfig::default() });
+    let (e, cmds) = trapped(NodeConfig { explore: ExploreParams { trapped_radius_m: 0.0, ..ExploreParams::default() }, ..NodeConfig::default() });
     assert_eq!(cmds, vec![Command::MissionComplete]);
     assert!(e.is_done());
 }
@@ -308,7 +324,7 @@ fn a_robot_blocked_by_speckle_under_it_decides_on_its_cleared_footprint() {
         let w = corridor_two_frontiers(true);
         let mut grid = w.grid.clone();
         fill_disc(&mut grid, w.robot.x_m, w.robot.y_m, 0.2, LETHAL);
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         e.handle_map(&map_msg(&grid, 1.0), 0.0);
         e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
         feed_pose(&mut e, w.robot, 0.0);
@@ -321,7 +337,7 @@ fn a_robot_blocked_by_speckle_under_it_decides_on_its_cleared_footprint() {
     assert_eq!(e.stats().footprint_clearings, 1);
     let log = e.drain_log();
     assert!(log.iter().any(|l| l.text.contains("robot blocked in its map: decided with the cells within 0.35 m of it free")), "{log:?}");
-    let (mut e, sent, _) = run(NodeConfig { clear_footprint: false, ..NodeConfig::default() });
+    let (mut e, sent, _) = run(NodeConfig { explore: ExploreParams { clear_footprint: false, ..ExploreParams::default() }, ..NodeConfig::default() });
     assert!(sent.is_empty(), "{sent:?}");
     assert_eq!((e.stats().footprint_clearings, e.stats().decision_errors), (0, 1));
     assert!(log_has(&mut e, "is blocked and no free cell lies within"));
@@ -348,8 +364,8 @@ fn hall_and_room(door_y_m: std::ops::Range<f64>, west_wall: bool, unknown: impl 
 
 /// An explorer given `grid` at t = 0 and the pose (2.0, 1.5) m (in [`hall_and_room`]'s hall),
 /// ticked once a second `ticks` times: it and every command.
-fn in_the_hall(cfg: NodeConfig, grid: &OccupancyGrid, ticks: u32) -> (Explorer, Vec<Command>) {
-    let mut e = Explorer::new(cfg, Params::default());
+fn in_the_hall(cfg: NodeConfig, grid: &OccupancyGrid, ticks: u32) -> (ExplorerNode, Vec<Command>) {
+    let mut e = ExplorerNode::new(cfg, Params::default());
     e.handle_map(&map_msg(grid, 0.0), 0.0);
     let mut cmds = Vec::new();
     for k in 0..ticks {
@@ -374,14 +390,14 @@ fn a_door_the_full_inflation_shuts_is_passed_with_a_tight_one() {
         assert!(!free_on_inflated(&grid, 0.25, door) && free_on_inflated(&grid, opens_at_m, door));
         assert!(fewer.iter().all(|&r| !free_on_inflated(&grid, r, door)));
         let run = |cfg: NodeConfig| in_the_hall(cfg, &grid, 3);
-        let (mut e, cmds) = run(NodeConfig { tight_inflations_m: radii, ..NodeConfig::default() });
+        let (mut e, cmds) = run(NodeConfig { explore: ExploreParams { tight_inflations_m: radii, ..ExploreParams::default() }, ..NodeConfig::default() });
         let sent = goals(&cmds);
         assert_eq!(sent.len(), 1, "door {door_y_m:?}: {cmds:?}");
         assert!(sent[0].1.x_m > 4.1, "the goal is in the room: {sent:?}");
         assert_eq!(e.stats().tight_goals, 1);
         assert!(log_has(&mut e, &format!("decided with lethal cells inflated by {opens_at_m} m")));
         assert!(!e.is_done());
-        let (e, cmds) = run(NodeConfig { tight_inflations_m: fewer, ..NodeConfig::default() });
+        let (e, cmds) = run(NodeConfig { explore: ExploreParams { tight_inflations_m: fewer, ..ExploreParams::default() }, ..NodeConfig::default() });
         assert_eq!(cmds, vec![Command::MissionComplete], "door {door_y_m:?}");
         assert!(e.is_done() && e.stats().tight_goals == 0);
     }
@@ -394,7 +410,8 @@ fn a_door_the_full_inflation_shuts_is_passed_with_a_tight_one() {
 #[test]
 fn a_goal_found_with_a_tight_inflation_is_kept_at_that_inflation() {
     let grid = hall_and_room(1.3..1.75, true, |x| x > 4.06);
-    let cfg = NodeConfig { goal_interface: GoalInterface::Topic, tight_inflations_m: vec![0.20, 0.10], ..NodeConfig::default() };
+    let explore = ExploreParams { tight_inflations_m: vec![0.20, 0.10], ..ExploreParams::default() };
+    let cfg = NodeConfig { goal_interface: GoalInterface::Topic, explore, ..NodeConfig::default() };
     let (e, cmds) = in_the_hall(cfg, &grid, 12);
     let sent = goals(&cmds);
     assert_eq!(sent.len(), 1, "{cmds:?}");
@@ -411,7 +428,7 @@ fn a_goal_found_with_a_tight_inflation_is_kept_at_that_inflation() {
 fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
     let grid = hall_and_room(1.3..1.7, false, |x| x < 0.5);
     let run = |cfg: NodeConfig, grid: &OccupancyGrid| {
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         let mut cmds = Vec::new();
         // Drive from the hall at (2, 1.5) into the room at (5.2, 1.5), 2 cm per 20 ms tick,
         // before the map comes (the node only waits for it).
@@ -436,7 +453,7 @@ fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
     let goal = sent[0].1;
     assert!(goal.x_m < 4.0, "the goal is in the hall: {goal:?}");
     assert!(!e.is_done());
-    let (mut e, sent) = run(NodeConfig { reuse_trail: false, ..NodeConfig::default() }, &grid);
+    let (mut e, sent) = run(NodeConfig { explore: ExploreParams { reuse_trail: false, ..ExploreParams::default() }, ..NodeConfig::default() }, &grid);
     assert!(sent.is_empty(), "{sent:?}");
     assert!(log_has(&mut e, "walled in by its map, not done"));
     // With the hall mapped too, no frontier is left: along its trail the robot reaches the whole
@@ -451,7 +468,7 @@ fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
 /// A cloud map: a flat floor of radius 2.5 m around the robot at the origin, and in the first
 /// cloud a ring of points 0.4 m up, 0.6 m around it (lethal speckle). Trapped, the node forgets
 /// its map around the robot; the next cloud (floor only) maps the ground again and a goal
-/// follows. With no recovery left it only waits.
+/// follows. With no recovery left the mission ends, trapped.
 #[test]
 fn a_trapped_node_forgets_its_cloud_map_around_the_robot() {
     let floor: Vec<Point3<f64>> = (-125..=125)
@@ -467,10 +484,10 @@ fn a_trapped_node_forgets_its_cloud_map_around_the_robot() {
         let cfg = NodeConfig {
             map_source: MapSource::Clouds,
             cloud_map: crate::config::CloudMapConfig { origin_x_m: -4.0, origin_y_m: -4.0, size_x_m: 8.0, size_y_m: 8.0 },
-            trap_recoveries: recoveries,
+            explore: ExploreParams { trap_recoveries: recoveries, ..ExploreParams::default() },
             ..NodeConfig::default()
         };
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         feed_pose(&mut e, Pose2::new(0.0, 0.0, 0.0), 0.0);
         e.handle_cloud(&cloud_of_points(&first, header(0.0, "map")), 0.0);
         let mut cmds = e.tick(0.0);
@@ -488,9 +505,9 @@ fn a_trapped_node_forgets_its_cloud_map_around_the_robot() {
     assert!(g[0].1.x_m.hypot(g[0].1.y_m) > 1.5, "{g:?}");
     // The ring's cells are free again: only the new cloud's points are there.
     assert_eq!(e.map().unwrap().at_world(0.6, 0.0), Some(&FREE));
-    let (e, cmds, log) = run(0);
-    assert!(log.iter().any(|l| l.text.contains("waiting for the map to change")), "{log:?}");
-    assert!(cmds.is_empty() && !e.is_done() && e.phase() == Phase::Planning, "{cmds:?}");
+    let (e, cmds, _) = run(0);
+    assert_eq!(cmds, vec![Command::MissionComplete]);
+    assert!(e.status(1.0).done_reason.unwrap().contains("trapped: walled in by its map after 0 recoveries"));
     assert_eq!(e.stats().trap_recoveries, 0);
 }
 
@@ -506,14 +523,14 @@ fn time_limit_cancels_the_goal_and_ends() {
 
 #[test]
 fn topic_goals_succeed_when_the_robot_is_close() {
-    let cfg = NodeConfig { goal_interface: GoalInterface::Topic, tight_inflations_m: vec![0.20, 0.10], ..NodeConfig::default() };
+    let explore = ExploreParams { tight_inflations_m: vec![0.20, 0.10], ..ExploreParams::default() };
+    let cfg = NodeConfig { goal_interface: GoalInterface::Topic, explore, ..NodeConfig::default() };
     let (mut e, _w) = corridor_explorer(cfg);
     let (id1, g1) = goals(&e.tick(0.0))[0];
     assert!(e.current_goal().unwrap().accepted_s.is_some());
     feed_pose(&mut e, Pose2::new(g1.x_m + 0.2, g1.y_m, 0.0), 0.5);
     let _ = e.tick(0.5);
     assert_eq!(e.stats().succeeded, 1);
-    assert_eq!(e.blacklist().contains(g1.x_m, g1.y_m), Some(BlacklistReason::Reselected));
     assert!(e.current_goal().is_none_or(|g| g.id != id1));
 }
 
@@ -521,7 +538,7 @@ fn topic_goals_succeed_when_the_robot_is_close() {
 fn pose_topic_is_used_and_transformed_into_the_map_frame() {
     let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
     let w = corridor_two_frontiers(true);
-    let mut e = Explorer::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default());
     e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
     // Pose given in odom, which sits 1 m east of map.
     e.handle_tf(&tf_msg("map", "odom", Pose2::new(1.0, 0.0, 0.0), 0.0), true, 0.0);
@@ -545,7 +562,7 @@ fn the_camera_sits_above_the_robots_height_in_the_map() {
     let w = corridor_two_frontiers(true);
     let info = |landmarks_dz: f64, robot_z: f64| {
         let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
         let lifted: Vec<_> = w.landmarks.points.iter().map(|p| Point3::new(p.x, p.y, p.z + landmarks_dz)).collect();
         e.handle_landmarks(&cloud_of_points(&lifted, header(1.0, "map")), 0.0);
@@ -575,7 +592,7 @@ fn a_pose_covariance_sets_the_goal_back_from_unknown_ground() {
     let w = corridor_two_frontiers(true);
     let run = |var_m2: f64| {
         let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
         e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
         let mut p = msgs::PoseWithCovarianceStamped { header: header(1.0, "map"), ..Default::default() };
@@ -621,7 +638,7 @@ fn clouds_build_the_map() {
         cloud_map: crate::config::CloudMapConfig { origin_x_m: -4.0, origin_y_m: -4.0, size_x_m: 8.0, size_y_m: 8.0 },
         ..NodeConfig::default()
     };
-    let mut e = Explorer::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default());
     // A flat floor of radius 2.5 m around the robot, in the laser frame 0.2 m above base_link.
     let mut pts = Vec::new();
     for i in -125..=125 {
@@ -660,7 +677,7 @@ fn pose_covariance_discounts_registration_noise_in_cloud_maps() {
             cloud_map: crate::config::CloudMapConfig { origin_x_m: -1.0, origin_y_m: -1.0, size_x_m: 8.0, size_y_m: 2.0 },
             ..NodeConfig::default()
         };
-        let mut e = Explorer::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default());
         let mut p = msgs::PoseWithCovarianceStamped { header: header(0.0, "map"), ..Default::default() };
         p.pose.pose = pose_of_pose2(Pose2::new(0.0, 0.0, 0.0));
         p.pose.covariance[21] = tilt_var;
@@ -686,7 +703,7 @@ fn pose_covariance_discounts_registration_noise_in_cloud_maps() {
 fn every_goal_is_free_on_random_worlds() {
     for seed in 0..4 {
         let w = synthetic_world(&SyntheticWorldSpec::small(seed));
-        let mut e = Explorer::new(NodeConfig::default(), Params::default());
+        let mut e = ExplorerNode::new(NodeConfig::default(), Params::default());
         e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
         e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
         let mut t = 0.0;

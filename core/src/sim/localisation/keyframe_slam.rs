@@ -1,0 +1,162 @@
+//! Keyframe graph SLAM as the simulated robot's localisation ([`crate::slam::keyframes`]):
+//! odometry + IMU attitude lifted to SE(3), camera landmarks at keyframes, sliding window / full
+//! optimisation on loop closure, 6×6 pose covariance, the traversability map re-registered from
+//! the keyframe clouds when a loop closure moves the keyframes, the planner's landmark map with
+//! SLAM covariances.
+
+use super::{Localisation, LocalisationStats, Localiser, PoseCovariance};
+use crate::PointCloud;
+use crate::math;
+use crate::pose::Pose2;
+use crate::sim::world_sim::{BodyPose, Motion, WorldSim};
+use crate::slam::keyframes::{SlamFrontend, SlamParams};
+use crate::slam::{CovarianceTraces, Se3, SlamError};
+use crate::traversability::TraversabilityMap;
+use nalgebra::{Matrix3, Matrix6, Point3, UnitQuaternion, Vector3};
+
+/// The simulator's SLAM.
+pub struct KeyframeSlamLocaliser {
+    frontend: SlamFrontend,
+    params: SlamParams,
+    est: Pose2,
+    /// 6×6 covariance of the estimate (ξ = (δt, δφ), body frame).
+    cov6: Matrix6<f64>,
+    /// Its (x, y, yaw) block on world axes.
+    xy_yaw: Matrix3<f64>,
+    slam_errors: u64,
+    /// Buffers for registering a scan.
+    body_points: Vec<Vector3<f64>>,
+    registered: Vec<(Point3<f64>, f64)>,
+}
+
+impl KeyframeSlamLocaliser {
+    /// The first keyframe is the start pose (the map frame), with the camera's first view.
+    /// Fails on a start pose the SLAM cannot take (not finite).
+    pub fn new(sim: &mut WorldSim, params: SlamParams) -> Result<Self, SlamError> {
+        let (gp, gr) = sim.body_pose();
+        let observations = sim.observe_landmarks().to_vec();
+        let start = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
+        let frontend = SlamFrontend::new(params.clone(), start, &observations)?;
+        Ok(Self {
+            est: sim.pose(),
+            frontend,
+            params,
+            cov6: Matrix6::zeros(),
+            xy_yaw: Matrix3::zeros(),
+            slam_errors: 0,
+            body_points: Vec::new(),
+            registered: Vec::new(),
+        })
+    }
+
+    /// Refreshes the covariances from the front end.
+    fn update_covariance(&mut self) {
+        let c = self.frontend.covariance();
+        self.cov6 = c;
+        // World-axis (x, y, yaw) block: rotate the body-frame position and rotation blocks.
+        let r = self.frontend.estimate().rotation_matrix();
+        let mut rr = Matrix6::zeros();
+        rr.fixed_view_mut::<3, 3>(0, 0).copy_from(&r);
+        rr.fixed_view_mut::<3, 3>(3, 3).copy_from(&r);
+        let w = rr * c * rr.transpose();
+        let idx = [0usize, 1, 5];
+        self.xy_yaw = Matrix3::from_fn(|i, j| w[(idx[i], idx[j])]);
+    }
+
+    /// The 6×6 covariance of the estimate (ξ = (δt, δφ), body frame).
+    pub fn covariance6(&self) -> &Matrix6<f64> {
+        &self.cov6
+    }
+}
+
+impl Localiser for KeyframeSlamLocaliser {
+    fn kind(&self) -> Localisation {
+        Localisation::Slam
+    }
+
+    fn propagate(&mut self, sim: &mut WorldSim, _motion: &Motion, dt_s: f64) {
+        let step = sim.body_increment(dt_s, &self.params);
+        self.frontend.odometry_step(&step);
+        self.est = pose2_of(&self.frontend.estimate());
+        self.update_covariance();
+    }
+
+    /// A keyframe when due: the camera observes from the true pose, the accelerometer measures
+    /// up; after a loop closure that moved the keyframes the map is rebuilt from their clouds.
+    fn keyframe(&mut self, sim: &mut WorldSim, map: &mut TraversabilityMap) {
+        if !self.frontend.keyframe_due() {
+            return;
+        }
+        sim.observe_landmarks();
+        let up = sim.gravity_up(self.params.gravity_sigma_rad);
+        let outcome = self.frontend.add_keyframe(sim.last_observations(), Some(up));
+        self.est = pose2_of(&self.frontend.estimate());
+        match outcome {
+            Ok(o) if o.reregister => {
+                self.frontend.reregister_map(map);
+            }
+            Ok(_) => {}
+            Err(_) => self.slam_errors += 1,
+        }
+        self.update_covariance();
+    }
+
+    fn pose(&self) -> Pose2 {
+        self.est
+    }
+
+    fn body_pose(&self, _sim: &WorldSim) -> BodyPose {
+        let e = self.frontend.estimate();
+        (Point3::from(e.translation), e.rotation.to_rotation_matrix())
+    }
+
+    fn covariance(&self) -> PoseCovariance {
+        let t = CovarianceTraces::of(&self.cov6);
+        PoseCovariance { xy_yaw: self.xy_yaw, pos_trace: t.pos_cov_trace, rot_trace: t.rot_cov_trace }
+    }
+
+    /// Kept in the keyframe's cloud too, for re-registration.
+    fn register(&mut self, sim: &WorldSim, points: &[Point3<f64>], map: &mut TraversabilityMap) {
+        let (gp, gr) = sim.body_pose();
+        let (gt_inv, gp_c) = (gr.inverse(), gp.coords);
+        self.body_points.clear();
+        self.body_points.extend(points.iter().map(|p| gt_inv * (p.coords - gp_c)));
+        self.registered.clear();
+        self.frontend.register_points(&self.body_points, &mut self.registered);
+        map.insert_points_with_variance(self.registered.iter().copied());
+    }
+
+    fn prepare_decision(&mut self) {
+        self.frontend.refresh_landmark_covariances();
+    }
+
+    fn landmark_map(&self, _sigma_landmark_m: f64) -> PointCloud {
+        self.frontend.landmark_map()
+    }
+
+    /// Forgets the keyframe clouds there too, so that no later re-registration brings it back.
+    fn forget_disc(&mut self, map: &mut TraversabilityMap, x_m: f64, y_m: f64, radius_m: f64) {
+        self.frontend.forget_disc(map, x_m, y_m, radius_m);
+    }
+
+    fn stats(&self) -> LocalisationStats {
+        let b = self.frontend.backend();
+        LocalisationStats {
+            loop_closures: self.frontend.loop_closures(),
+            keyframes: b.keyframe_count(),
+            reregistrations: self.frontend.reregistrations(),
+            slam_errors: self.slam_errors,
+            landmarks_mapped: b.landmark_count(),
+        }
+    }
+
+    fn slam(&self) -> Option<&SlamFrontend> {
+        Some(&self.frontend)
+    }
+}
+
+/// The planar pose (x, y, yaw) of a 3D pose.
+fn pose2_of(t: &Se3) -> Pose2 {
+    let r = t.rotation_matrix();
+    Pose2 { x_m: t.translation.x, y_m: t.translation.y, yaw_rad: math::atan2(r[(1, 0)], r[(0, 0)]) }
+}
