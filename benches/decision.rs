@@ -8,6 +8,8 @@
 //!
 //! `cargo bench --bench decision` (optionally `-- RUNS`).
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a bench: a failure should stop it
+
 use fitslam_core::fixtures::{SyntheticWorldSpec, synthetic_world};
 use fitslam_core::frontier::Blacklist;
 use fitslam_core::frontier::cluster_frontier_cells;

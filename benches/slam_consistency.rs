@@ -11,10 +11,12 @@
 //! the paper world, 3 seeds, 400 s, the simulator's `SlamParams`; `--window 100000` makes every
 //! update a full optimisation, `--max-observations 0` drops the landmark factors).
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a bench: a failure should stop it
+
 mod common;
 
 use fitslam_core::params::{Params, Strategy};
-use fitslam_core::sim::mission::StampedPose;
+use fitslam_core::sim::StampedPose;
 use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
 use nalgebra::{DMatrix, DVector, Quaternion, UnitQuaternion, Vector3, Vector6};
 
@@ -51,16 +53,17 @@ fn main() {
         let mut seen = 0;
         loop {
             let out = m.step();
-            if m.trajectory_est.len() > seen {
-                seen = m.trajectory_est.len();
-                let xi = right_error(&m.trajectory_est[seen - 1], &m.trajectory_gt[seen - 1]);
+            if m.trajectory_est().len() > seen {
+                seen = m.trajectory_est().len();
+                let xi = right_error(&m.trajectory_est()[seen - 1], &m.trajectory_gt()[seen - 1]);
+                let cov6 = m.covariance().full6.expect("SLAM gives the 6×6 marginal");
                 for (k, (_, idx)) in blocks.iter().enumerate() {
                     let e = DVector::from_iterator(idx.len(), idx.iter().map(|&i| xi[i]));
-                    let c = DMatrix::from_fn(idx.len(), idx.len(), |a, b| m.est_cov6[(idx[a], idx[b])]);
+                    let c = DMatrix::from_fn(idx.len(), idx.len(), |a, b| cov6[(idx[a], idx[b])]);
                     nees[k] += c.try_inverse().map_or(f64::NAN, |ci| (e.transpose() * ci * &e)[0]);
                 }
                 tilt_err2 += 0.5 * (xi[3] * xi[3] + xi[4] * xi[4]);
-                tilt_var += 0.5 * (m.est_cov6[(3, 3)] + m.est_cov6[(4, 4)]);
+                tilt_var += 0.5 * (cov6[(3, 3)] + cov6[(4, 4)]);
                 rows += 1;
             }
             if !matches!(out, StepOutcome::Running) {

@@ -11,14 +11,14 @@
 //!   over seeds, and per baseline and metric the two-sided Mann–Whitney U test against `fit`
 //!   (against the first strategy listed when `fit` is not).
 
-use crate::mission_run::{MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
 use crate::load;
+use crate::mission_run::{MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
 use crate::plot::{self, Curve};
 use crate::stats::{Spread, mann_whitney_u, percentile};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use fitslam_core::params::Strategy;
 use fitslam_core::explore::EndReason;
+use fitslam_core::params::Strategy;
 use fitslam_core::sim::{Localisation, MetricsRow, Summary};
 use indicatif::ProgressBar;
 use rayon::prelude::*;

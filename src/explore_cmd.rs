@@ -47,4 +47,3 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
     )?;
     Ok(())
 }
-

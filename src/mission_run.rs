@@ -10,9 +10,11 @@ use crate::plot::{self, Curve};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use fitslam_core::explore::EndReason;
-use fitslam_core::params::{Params, Strategy};
-use fitslam_core::sim::{Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary, World, WorldSpec, metrics_csv, timing_csv, tum};
 use fitslam_core::io;
+use fitslam_core::params::{Params, Strategy};
+use fitslam_core::sim::{
+    Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary, World, WorldSpec, metrics_csv, timing_csv, tum,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

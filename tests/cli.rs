@@ -1,6 +1,8 @@
 //! The `fitslam` command line, end to end: the documented JSON keys on the built-in asset, and one
 //! clear line with a non-zero exit (never a panic) on every kind of bad input.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -180,7 +182,10 @@ fn bad_inputs_print_one_clear_line_and_exit_non_zero() {
     assert!(stderr.lines().count() == 1 && stderr.contains("warning: ") && stderr.contains("one.csv: no cell is known"), "{stderr}");
     // A spread ratio no disc of points can reach.
     let params = write("spread.toml", b"[traversability]\nmin_spread_ratio = 5\n");
-    assert_clear_error(&run(&["params", "--params", &params]), "spread.toml: traversability.min_spread_ratio must be ≤ 1/√2 ≈ 0.707 (got 5)");
+    assert_clear_error(
+        &run(&["params", "--params", &params]),
+        "spread.toml: traversability.min_spread_ratio must be ≤ 1/√2 ≈ 0.707 (got 5)",
+    );
     // build-asset: every option checked up front (--size-m 10000 aborted allocating 320 GB,
     // --lidar-range-m 1e9 hung, --lidar-range-m 0 made an empty scene).
     let dem = asset("data/terrain/jacksboro_fault_dem.png");

@@ -2,6 +2,8 @@
 //! aggregate outputs exist, summary.md has one row per strategy, summary.csv is byte-identical
 //! with 1 and 2 threads, and bad input exits 1 with one line.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 

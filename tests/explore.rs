@@ -2,6 +2,8 @@
 //! the documented keys and no ground-truth violation, and the same seed gives a byte-identical
 //! metrics.csv.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 use std::path::PathBuf;
 use std::process::Command;
 

@@ -3,6 +3,8 @@
 //! ("Traversability on real LiDAR"); the floors pinned here sit slightly below what was measured.
 //! Run with `--nocapture` to see the figures.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 use fitslam_core::grid::inflate_lethal;
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::{Cell, GridGeometry, Params, PointCloud, io};

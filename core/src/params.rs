@@ -380,8 +380,7 @@ impl Params {
 
     /// Parses TOML or YAML by the file name's extension (`.toml`, `.yaml`/`.yml`).
     pub fn from_bytes(bytes: &[u8], source_name: &str) -> Result<Self, ParamsError> {
-        let text = std::str::from_utf8(bytes)
-            .map_err(|_| ParamsError::NotUtf8 { source_name: source_name.into() })?;
+        let text = std::str::from_utf8(bytes).map_err(|_| ParamsError::NotUtf8 { source_name: source_name.into() })?;
         let lower = source_name.to_ascii_lowercase();
         if lower.ends_with(".yaml") || lower.ends_with(".yml") {
             Self::from_yaml(text, source_name)
@@ -449,7 +448,10 @@ impl Params {
         }
         if self.frontier.min_cluster_cells > self.frontier.max_cluster_cells {
             let f = &self.frontier;
-            return bad("frontier.min_cluster_cells", format!("must be ≤ frontier.max_cluster_cells ({}; got {})", f.max_cluster_cells, f.min_cluster_cells));
+            return bad(
+                "frontier.min_cluster_cells",
+                format!("must be ≤ frontier.max_cluster_cells ({}; got {})", f.max_cluster_cells, f.min_cluster_cells),
+            );
         }
         nonneg("frontier.blacklist_radius_m", self.frontier.blacklist_radius_m)?;
         unit("u1.alpha", self.u1.alpha)?;

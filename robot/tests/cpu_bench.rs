@@ -9,6 +9,8 @@
 //! `cargo test -p fitslam-robot --release --no-default-features --test cpu_bench -- --ignored --nocapture`
 //! (`FITSLAM_CPU_BENCH_S` sets the window, default 60 s).
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 mod common;
 
 use common::{NodeProcess, RobotSide, private_domain, scratch_dir};

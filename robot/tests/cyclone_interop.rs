@@ -7,6 +7,8 @@
 //!
 //! Needs `cyclonedds` for python3; without it this test FAILS and says how to install it.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 mod common;
 
 use common::{NodeProcess, private_domain, scratch_dir};

@@ -3,6 +3,8 @@
 //! must survive (late and NaN messages, a growing map, aborts, a pose that stops) only slow it
 //! down.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 mod common;
 
 use common::sim::{GridSim, SimRobot, two_rooms};

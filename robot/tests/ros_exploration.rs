@@ -5,6 +5,8 @@
 //! faults: dropped, late and NaN maps, a map that grows (changes size), one aborted goal and a
 //! pose that stops updating for a few seconds.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 mod common;
 
 use common::core_sim::CoreSim;

@@ -7,6 +7,8 @@
 //! seconds (default 10), and prints the simulated time per lane per real second. The browser's
 //! figure comes from `studio/web-test/browser-test.mjs` (`mission_speed.json`).
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a example: a failure should stop it
+
 use fitslam_core::Params;
 use fitslam_core::params::Strategy;
 use fitslam_core::sim::Localisation;

@@ -5,6 +5,8 @@
 //! slider a user drags), the same work the studio does per slider step; prints the median and
 //! maximum wall-clock time of the core's `select` call and of the core stages inside it.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a example: a failure should stop it
+
 use fitslam_core::Params;
 use fitslam_core::select::DecisionInput;
 use fitslam_core::select::candidates::{PlanBuffers, frontiers_and_distances, prepare, score_u1, score_u2};

@@ -578,8 +578,8 @@ fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'sta
         pts.push(view.to_screen(now.x_m, now.y_m));
         pts
     };
-    painter.add(Shape::line(track(&mission.trajectory_gt(), mission.true_pose()), Stroke::new(1.2, Color32::from_gray(230))));
-    painter.add(Shape::line(track(&mission.trajectory_est(), mission.estimate()), Stroke::new(1.8, strategy_color(lane.strategy))));
+    painter.add(Shape::line(track(mission.trajectory_gt(), mission.true_pose()), Stroke::new(1.2, Color32::from_gray(230))));
+    painter.add(Shape::line(track(mission.trajectory_est(), mission.estimate()), Stroke::new(1.8, strategy_color(lane.strategy))));
     // The robot: estimate (disc + heading), truth (ring) when they differ.
     let body_r = view.len(mission.params().robot.radius_m).max(5.0);
     let gt = view.to_screen(mission.true_pose().x_m, mission.true_pose().y_m);

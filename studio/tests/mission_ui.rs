@@ -2,6 +2,8 @@
 //! a user; assertions on the missions the studio runs (simulated time, metrics rows, the points
 //! handed to the plots, decisions). The small `tiny_test` world keeps them fast.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use fitslam_core::params::Strategy;

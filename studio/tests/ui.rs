@@ -3,6 +3,8 @@
 //! definitions (e.g. α = 1 ranks by path length alone, so the nearest candidate must win), not
 //! from recorded output.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use fitslam_core::Params;

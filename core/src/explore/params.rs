@@ -78,8 +78,15 @@ impl Default for ExploreParams {
 
 /// The keys of [`ExploreParams`]: a configuration file that still has one of them beside the
 /// `explore` table (where they were before it existed) is told where it moved.
-pub const EXPLORE_KEYS: &[&str] =
-    &["goal_setback", "clear_footprint", "reuse_trail", "tight_inflations_m", "max_failed_decisions", "trapped_radius_m", "trap_recoveries"];
+pub const EXPLORE_KEYS: &[&str] = &[
+    "goal_setback",
+    "clear_footprint",
+    "reuse_trail",
+    "tight_inflations_m",
+    "max_failed_decisions",
+    "trapped_radius_m",
+    "trap_recoveries",
+];
 
 impl ExploreParams {
     /// Checks every field; the first bad one is named under `prefix` (e.g. `explore.`).

@@ -2,23 +2,15 @@
 //! reached goals, failures and the end of a mission.
 
 use super::*;
+use crate::GridGeometry;
 use crate::fixtures::corridor_two_frontiers;
 use crate::grid::{FREE, Grid, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::Params;
 use crate::pose::Pose2;
 use crate::utility::LandmarkVoxels;
-use crate::GridGeometry;
 
 fn situation(landmarks: &LandmarkVoxels, robot: Pose2) -> Situation<'_> {
-    Situation {
-        landmarks,
-        robot,
-        boundary: None,
-        ground_z_m: 0.0,
-        position_var_m2: 0.0,
-        replanning: false,
-        can_forget_map: true,
-    }
+    Situation { landmarks, robot, boundary: None, ground_z_m: 0.0, position_var_m2: 0.0, replanning: false, can_forget_map: true }
 }
 
 fn greedy() -> Params {

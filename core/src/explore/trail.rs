@@ -209,10 +209,12 @@ mod tests {
     #[test]
     fn cells_extended_as_positions_arrive_equal_cells_built_at_once() {
         let g = GridGeometry::new(0.0, 0.0, 0.05, 60, 60);
-        let path: Vec<[f64; 2]> = (0..200).map(|k| {
-            let s = f64::from(k) * 0.013;
-            [0.3 + s, 0.4 + 0.7 * s + 0.1 * crate::math::sin(3.0 * s)]
-        }).collect();
+        let path: Vec<[f64; 2]> = (0..200)
+            .map(|k| {
+                let s = f64::from(k) * 0.013;
+                [0.3 + s, 0.4 + 0.7 * s + 0.1 * crate::math::sin(3.0 * s)]
+            })
+            .collect();
         let mut incremental = Trail::default();
         for (k, p) in path.iter().enumerate() {
             incremental.push(p[0], p[1]);

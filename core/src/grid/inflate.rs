@@ -87,16 +87,13 @@ pub fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut Occupa
 fn lethal_mask(chunk: &[i8]) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if let Ok(cells) = <&[i8; 64]>::try_from(chunk) {
-        use std::arch::x86_64::{__m128i, _mm_cmpgt_epi8, _mm_loadu_si128, _mm_movemask_epi8, _mm_set1_epi8};
+        // Signed compare: unknown (−1) is below the threshold, as it must be.
+        use safe_arch::{cmp_gt_mask_i8_m128i, load_unaligned_m128i, move_mask_i8_m128i, set_splat_i8_m128i};
+        let threshold = set_splat_i8_m128i(LETHAL_THRESHOLD - 1);
         let mut bits = 0u64;
-        for (k, sixteen) in cells.chunks_exact(16).enumerate() {
-            // SAFETY: SSE2 is part of x86-64's baseline; the load reads the 16 bytes of
-            // `sixteen` (unaligned loads allowed). Signed compare: unknown (−1) is below the
-            // threshold, as it must be.
-            let mask = unsafe {
-                let v = _mm_loadu_si128(sixteen.as_ptr().cast::<__m128i>());
-                _mm_movemask_epi8(_mm_cmpgt_epi8(v, _mm_set1_epi8(LETHAL_THRESHOLD - 1)))
-            };
+        for (k, sixteen) in cells.as_chunks::<16>().0.iter().enumerate() {
+            let v = load_unaligned_m128i(&sixteen.map(|v| v as u8));
+            let mask = move_mask_i8_m128i(cmp_gt_mask_i8_m128i(v, threshold));
             bits |= u64::from(mask as u16) << (16 * k);
         }
         return bits;

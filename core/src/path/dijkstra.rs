@@ -401,16 +401,15 @@ fn extend_codes(cost: &mut Vec<u64>, cells: &[i8], allow_unknown: bool) {
     const LANES: usize = 8;
     let uniform = |v: i8| u64::from_ne_bytes([v as u8; LANES]);
     let runs = [grid::FREE, grid::LETHAL, grid::UNKNOWN].map(|v| (uniform(v), [code(v, allow_unknown); LANES]));
-    let mut words = cells.chunks_exact(LANES);
-    for word in &mut words {
-        let bytes: [i8; LANES] = word.try_into().expect("chunks_exact");
+    let (words, remainder) = cells.as_chunks::<LANES>();
+    for bytes in words {
         let bits = u64::from_ne_bytes(bytes.map(|v| v as u8));
         match runs.iter().find(|(w, _)| *w == bits) {
             Some((_, codes)) => cost.extend_from_slice(codes),
             None => cost.extend(bytes.iter().map(|&v| code(v, allow_unknown))),
         }
     }
-    cost.extend(words.remainder().iter().map(|&v| code(v, allow_unknown)));
+    cost.extend(remainder.iter().map(|&v| code(v, allow_unknown)));
 }
 
 /// Fills `cost` with the padded window's codes: the border holds the grid's cells around the
@@ -457,13 +456,10 @@ const PREFETCH_AHEAD: usize = 16;
 #[inline(always)]
 fn prefetch_rows(cost: &[u64], p: usize, pw: usize) {
     #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let base = cost.as_ptr();
-        for q in [p - pw, p, p + pw] {
-            // SAFETY: SSE is part of x86_64's baseline, and a prefetch is a hint that never
-            // faults or reads into the program, whatever the address.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(base.wrapping_add(q).cast()) };
+    for q in [p.wrapping_sub(pw), p, p + pw] {
+        // A hint: it never faults and changes no result.
+        if let Some(c) = cost.get(q) {
+            safe_arch::prefetch_t0(c);
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

@@ -4,9 +4,9 @@
 //! The unexplored share counts explorable ground-truth cells still unknown in the robot's map,
 //! from the map's known/unknown flags (no estimate needed: O(cells whose disc changed) per row).
 
+use super::World;
 use super::localisation::{Localisation, PoseCovariance};
 use super::world_sim::BodyPose;
-use super::World;
 use crate::explore::EndReason;
 use crate::params::{Strategy, TraversabilityParams};
 use crate::traversability::TraversabilityMap;

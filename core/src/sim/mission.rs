@@ -326,7 +326,8 @@ impl Mission {
             Action::Goal(plan) => {
                 self.follower = PathFollower::new(plan.path_m);
                 let d = &self.mission.drive;
-                self.goal_deadline_s = self.time_s + self.mission.goal_timeout_factor * plan.rho_m / d.max_speed_mps + self.mission.goal_timeout_extra_s;
+                self.goal_deadline_s =
+                    self.time_s + self.mission.goal_timeout_factor * plan.rho_m / d.max_speed_mps + self.mission.goal_timeout_extra_s;
                 self.next_replan_s = self.time_s + self.mission.replan_period_s;
                 self.phase = Phase::Driving;
             }

@@ -1,9 +1,9 @@
 //! Whole-simulator tests: world files, ground truth, and tiny missions (fast in debug).
 
 use super::mission::{Mission, StepOutcome};
+use super::world::{World, WorldSpec};
 use super::{EndReason, Localisation, MissionParams};
 use crate::explore::ExploreParams;
-use super::world::{World, WorldSpec};
 use crate::params::{Params, Strategy};
 
 const TINY: &str = include_str!("../../../assets/worlds/tiny_test.toml");
@@ -717,8 +717,14 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("[odometry]\nslip_per_rad = nan", "odometry.slip_per_rad"),
         ("[drive]\nheading_gain = nan", "drive.heading_gain"),
         ("[explore]\ntight_inflations_m = [0.2, -0.1]", "explore.tight_inflations_m[1] must be a finite number > 0"),
-        ("[explore]\ntight_inflations_m = [0.1, 0.2]", "explore.tight_inflations_m[1] must be smaller than the radius before it (0.1; got 0.2)"),
-        ("[explore]\ntight_inflations_m = [0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1]", "explore.tight_inflations_m: 9 radii, over the limit of 8"),
+        (
+            "[explore]\ntight_inflations_m = [0.1, 0.2]",
+            "explore.tight_inflations_m[1] must be smaller than the radius before it (0.1; got 0.2)",
+        ),
+        (
+            "[explore]\ntight_inflations_m = [0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1]",
+            "explore.tight_inflations_m: 9 radii, over the limit of 8",
+        ),
         ("[explore]\nmax_failed_decisions = 0", "explore.max_failed_decisions must be ≥ 1"),
         ("[drive]\nbody_half_m = nan", "drive.body_half_m"),
         ("[drive]\nbody_half_m = 1e6", "drive.body_half_m must be ≤ 5 m"),

@@ -317,7 +317,10 @@ impl WorldSpec {
             if side * side > MAX_CELLS as f64 {
                 return bad(
                     "terrain.size_m",
-                    format!("({size_m}) at cell_m {} is {side} × {side} cells, over the limit of {MAX_CELLS} (coarser cell_m?)", self.cell_m),
+                    format!(
+                        "({size_m}) at cell_m {} is {side} × {side} cells, over the limit of {MAX_CELLS} (coarser cell_m?)",
+                        self.cell_m
+                    ),
                 );
             }
             Ok(())
@@ -450,7 +453,9 @@ pub enum StartError {
     OutsideBoundary { x_m: f64, y_m: f64, boundary_m: [f64; 4], default_boundary: bool },
     #[error("start ({x_m:.2}, {y_m:.2}) is not on ground-truth traversable terrain")]
     NotTraversable { x_m: f64, y_m: f64 },
-    #[error("start ({x_m:.2}, {y_m:.2}): untraversable ground {distance_m:.2} m away, within the robot radius {robot_radius_m} m; move the start")]
+    #[error(
+        "start ({x_m:.2}, {y_m:.2}): untraversable ground {distance_m:.2} m away, within the robot radius {robot_radius_m} m; move the start"
+    )]
     TooClose { x_m: f64, y_m: f64, distance_m: f64, robot_radius_m: f64 },
 }
 
@@ -529,7 +534,8 @@ impl World {
                 if let Some(i) = g.cell_of(spec.start[0], spec.start[1]).and_then(|c| g.index(c))
                     && grid.data[i] != FREE
                 {
-                    let reason = format!("({}, {}) is inside a wall: an occupied or unknown pixel of {image_name}", spec.start[0], spec.start[1]);
+                    let reason =
+                        format!("({}, {}) is inside a wall: an occupied or unknown pixel of {image_name}", spec.start[0], spec.start[1]);
                     return Err(WorldError::Invalid(InvalidParam::new("start", reason)));
                 }
                 Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() }

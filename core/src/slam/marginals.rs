@@ -510,9 +510,8 @@ fn forward_node_fixed<const D: usize>(node: &Node, y: &mut [f64], lane: usize, s
         }
         let targets = (start + j + 1..start + size).chain(node.pattern.iter().copied());
         for (&l, row) in col[j + 1..].iter().zip(targets) {
-            let t: &mut [f64; D] = (&mut y[row * stride + lane..][..D]).try_into().expect("D lanes");
-            for a in 0..D {
-                t[a] -= l * yj[a];
+            for (t, y) in y[row * stride + lane..][..D].iter_mut().zip(&yj) {
+                *t -= l * y;
             }
         }
     }

@@ -487,7 +487,7 @@ impl ExplorerNode {
                 self.phase = if self.goal.is_some() { Phase::Navigating } else { Phase::Planning };
                 if self.empty_decisions >= self.cfg.done_after_empty_decisions {
                     let text = self.done_text(reason);
-                    return self.finish(&text, now_s, out);
+                    self.finish(&text, now_s, out);
                 }
             }
         }
@@ -615,7 +615,8 @@ impl ExplorerNode {
     /// cell of the robot's trail that the map holds free counts as free too.
     pub fn goal_is_free(&mut self, x_m: f64, y_m: f64, inflation_m: f64, on_trail: bool) -> bool {
         use fitslam_core::grid::CellClass;
-        let free_inflated = self.inflated(inflation_m).and_then(|g| g.at_world(x_m, y_m)).is_some_and(|&v| CellClass::of(v) == CellClass::Free);
+        let free_inflated =
+            self.inflated(inflation_m).and_then(|g| g.at_world(x_m, y_m)).is_some_and(|&v| CellClass::of(v) == CellClass::Free);
         if free_inflated || !on_trail {
             return free_inflated;
         }

@@ -1,17 +1,17 @@
 //! The state machine with fake inputs: no DDS, explicit clock.
 
 use super::*;
-use crate::msgs;
-use fitslam_core::explore::ExploreParams;
-use nalgebra::Point3;
-use fitslam_core::frontier::BlacklistReason;
-use fitslam_core::grid::{CellClass, GridGeometry};
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
 use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
+use crate::msgs;
 use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
+use fitslam_core::explore::ExploreParams;
 use fitslam_core::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
+use fitslam_core::frontier::BlacklistReason;
+use fitslam_core::grid::{CellClass, GridGeometry};
 use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN, fill_disc};
 use fitslam_core::path::known_around;
+use nalgebra::Point3;
 
 fn header(stamp_s: f64, frame: &str) -> Header {
     Header::new(Time::from_secs_f64(stamp_s), frame)
@@ -310,7 +310,8 @@ fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
     assert!(!e.is_done() && e.phase() == Phase::Planning);
     assert!(log_has(&mut e, "walled in by its map, not done"));
     // With the check off, two empty decisions end the mission as before.
-    let (e, cmds) = trapped(NodeConfig { explore: ExploreParams { trapped_radius_m: 0.0, ..ExploreParams::default() }, ..NodeConfig::default() });
+    let (e, cmds) =
+        trapped(NodeConfig { explore: ExploreParams { trapped_radius_m: 0.0, ..ExploreParams::default() }, ..NodeConfig::default() });
     assert_eq!(cmds, vec![Command::MissionComplete]);
     assert!(e.is_done());
 }
@@ -337,7 +338,8 @@ fn a_robot_blocked_by_speckle_under_it_decides_on_its_cleared_footprint() {
     assert_eq!(e.stats().footprint_clearings, 1);
     let log = e.drain_log();
     assert!(log.iter().any(|l| l.text.contains("robot blocked in its map: decided with the cells within 0.35 m of it free")), "{log:?}");
-    let (mut e, sent, _) = run(NodeConfig { explore: ExploreParams { clear_footprint: false, ..ExploreParams::default() }, ..NodeConfig::default() });
+    let (mut e, sent, _) =
+        run(NodeConfig { explore: ExploreParams { clear_footprint: false, ..ExploreParams::default() }, ..NodeConfig::default() });
     assert!(sent.is_empty(), "{sent:?}");
     assert_eq!((e.stats().footprint_clearings, e.stats().decision_errors), (0, 1));
     assert!(log_has(&mut e, "is blocked and no free cell lies within"));
@@ -390,14 +392,16 @@ fn a_door_the_full_inflation_shuts_is_passed_with_a_tight_one() {
         assert!(!free_on_inflated(&grid, 0.25, door) && free_on_inflated(&grid, opens_at_m, door));
         assert!(fewer.iter().all(|&r| !free_on_inflated(&grid, r, door)));
         let run = |cfg: NodeConfig| in_the_hall(cfg, &grid, 3);
-        let (mut e, cmds) = run(NodeConfig { explore: ExploreParams { tight_inflations_m: radii, ..ExploreParams::default() }, ..NodeConfig::default() });
+        let (mut e, cmds) =
+            run(NodeConfig { explore: ExploreParams { tight_inflations_m: radii, ..ExploreParams::default() }, ..NodeConfig::default() });
         let sent = goals(&cmds);
         assert_eq!(sent.len(), 1, "door {door_y_m:?}: {cmds:?}");
         assert!(sent[0].1.x_m > 4.1, "the goal is in the room: {sent:?}");
         assert_eq!(e.stats().tight_goals, 1);
         assert!(log_has(&mut e, &format!("decided with lethal cells inflated by {opens_at_m} m")));
         assert!(!e.is_done());
-        let (e, cmds) = run(NodeConfig { explore: ExploreParams { tight_inflations_m: fewer, ..ExploreParams::default() }, ..NodeConfig::default() });
+        let (e, cmds) =
+            run(NodeConfig { explore: ExploreParams { tight_inflations_m: fewer, ..ExploreParams::default() }, ..NodeConfig::default() });
         assert_eq!(cmds, vec![Command::MissionComplete], "door {door_y_m:?}");
         assert!(e.is_done() && e.stats().tight_goals == 0);
     }
@@ -453,7 +457,8 @@ fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
     let goal = sent[0].1;
     assert!(goal.x_m < 4.0, "the goal is in the hall: {goal:?}");
     assert!(!e.is_done());
-    let (mut e, sent) = run(NodeConfig { explore: ExploreParams { reuse_trail: false, ..ExploreParams::default() }, ..NodeConfig::default() }, &grid);
+    let (mut e, sent) =
+        run(NodeConfig { explore: ExploreParams { reuse_trail: false, ..ExploreParams::default() }, ..NodeConfig::default() }, &grid);
     assert!(sent.is_empty(), "{sent:?}");
     assert!(log_has(&mut e, "walled in by its map, not done"));
     // With the hall mapped too, no frontier is left: along its trail the robot reaches the whole

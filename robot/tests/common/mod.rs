@@ -1,6 +1,6 @@
 //! Shared test helpers: the simulated robot and the loopback DDS plumbing.
 
-#![allow(dead_code)]
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 pub mod core_sim;
 pub mod sim;

@@ -52,7 +52,7 @@ impl Localiser for DeadReckoning {
 
     fn covariance(&self) -> PoseCovariance {
         let c = &self.cov;
-        PoseCovariance { xy_yaw: *c, pos_trace: c[(0, 0)] + c[(1, 1)], rot_trace: c[(2, 2)] }
+        PoseCovariance { xy_yaw: *c, pos_trace: c[(0, 0)] + c[(1, 1)], rot_trace: c[(2, 2)], full6: None }
     }
 
     fn register(&mut self, sim: &WorldSim, points: &[Point3<f64>], map: &mut TraversabilityMap) {

@@ -62,11 +62,6 @@ impl KeyframeSlamLocaliser {
         let idx = [0usize, 1, 5];
         self.xy_yaw = Matrix3::from_fn(|i, j| w[(idx[i], idx[j])]);
     }
-
-    /// The 6×6 covariance of the estimate (ξ = (δt, δφ), body frame).
-    pub fn covariance6(&self) -> &Matrix6<f64> {
-        &self.cov6
-    }
 }
 
 impl Localiser for KeyframeSlamLocaliser {
@@ -112,7 +107,7 @@ impl Localiser for KeyframeSlamLocaliser {
 
     fn covariance(&self) -> PoseCovariance {
         let t = CovarianceTraces::of(&self.cov6);
-        PoseCovariance { xy_yaw: self.xy_yaw, pos_trace: t.pos_cov_trace, rot_trace: t.rot_cov_trace }
+        PoseCovariance { xy_yaw: self.xy_yaw, pos_trace: t.pos_cov_trace, rot_trace: t.rot_cov_trace, full6: Some(self.cov6) }
     }
 
     /// Kept in the keyframe's cloud too, for re-registration.

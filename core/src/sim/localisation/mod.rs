@@ -20,7 +20,7 @@ use super::world_sim::{BodyPose, Motion, WorldSim};
 use crate::PointCloud;
 use crate::slam::keyframes::SlamFrontend;
 use crate::traversability::TraversabilityMap;
-use nalgebra::{Matrix3, Point3, Vector3};
+use nalgebra::{Matrix3, Matrix6, Point3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -77,6 +77,8 @@ pub struct PoseCovariance {
     pub pos_trace: f64,
     /// Trace of the rotation block, rad² (SLAM: of the 6×6 marginal; else σ_yaw²).
     pub rot_trace: f64,
+    /// The body pose's whole 6×6 marginal in the right-perturbation (δt, δφ), SLAM only.
+    pub full6: Option<Matrix6<f64>>,
 }
 
 /// Counters of the SLAM's work (zeros without SLAM).

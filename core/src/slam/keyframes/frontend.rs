@@ -3,13 +3,13 @@
 use nalgebra::{Matrix3, Matrix6, Point3, Vector3};
 use std::collections::BTreeMap;
 
+use super::clouds::tilt_variance;
+use super::odometry::with_floor;
+use super::*;
 use crate::cloud::PointCloud;
 use crate::slam::lie::so3_log;
 use crate::slam::{GraphSlam, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
 use crate::traversability::TraversabilityMap;
-use super::clouds::tilt_variance;
-use super::odometry::with_floor;
-use super::*;
 
 /// A landmark observed by the camera: its id (known data association), the measured point in the
 /// robot frame (x forward, y left, z up), metres, and its covariance, m².

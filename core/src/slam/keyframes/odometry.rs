@@ -2,8 +2,8 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
-use crate::slam::lie::{hat, so3_exp};
 use crate::slam::Se3;
+use crate::slam::lie::{hat, so3_exp};
 
 /// Diagonal floor of an odometry factor's covariance (m², rad²).
 const COV_FLOOR: f64 = 1e-8;

@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::slam::optimizer::OptimizerParams;
 use crate::slam::GraphSlamParams;
+use crate::slam::optimizer::OptimizerParams;
 
 /// Parameters of the SLAM front end (see the module doc).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -2,16 +2,16 @@
 
 use super::clouds::tilt_variance;
 use super::odometry::with_floor;
-use crate::slam::Se3;
-use crate::slam::lie::so3_log;
-use crate::traversability::TraversabilityMap;
-use nalgebra::{Matrix3, Matrix6, Vector3};
 use super::*;
 use crate::grid::GridGeometry;
 use crate::pose::{Pose2, wrap_pi};
 use crate::sim::odometry::OdometryNoise;
 use crate::slam::CovarianceTraces;
+use crate::slam::Se3;
+use crate::slam::lie::so3_log;
+use crate::traversability::TraversabilityMap;
 use nalgebra::UnitQuaternion;
+use nalgebra::{Matrix3, Matrix6, Vector3};
 
 #[test]
 fn keyframe_clouds_keep_one_point_per_voxel_per_keyframe() {
@@ -251,4 +251,3 @@ fn covariance_grows_while_driving_and_drops_at_the_loop_closure() {
     let err = (fe.estimate().translation - Vector3::new(truth.x_m, truth.y_m, 0.0)).norm();
     assert!(err < 1e-3, "{err}"); // the arc integrated in chords: sub-millimetre
 }
-
