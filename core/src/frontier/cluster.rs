@@ -31,9 +31,14 @@
 //! log is the per-wave sort), on the caller's `u8` state layer plus a few reused index buffers.
 
 use super::FrontierCluster;
-use super::wfd::FRONTIER;
 use crate::grid::GridGeometry;
 use crate::params::FrontierParams;
+
+/// Values of the state layer the frontier search ([`super::wfd`]) writes and the clustering
+/// reads (and marks further).
+pub(super) const UNREACHED: u8 = 0;
+pub(super) const REACHED: u8 = 1;
+pub(super) const FRONTIER: u8 = 2;
 
 /// After the first sweep.
 const SWEPT1: u8 = 3;

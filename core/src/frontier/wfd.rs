@@ -13,15 +13,10 @@
 //! N grid cells (the BFS touches only reachable cells; the state layer is allocated zeroed), plus
 //! O(F log F) to sort the F frontier cells by index, plus O(F·V) for a boundary of V vertices.
 
-use super::cluster::cluster_frontier;
+use super::cluster::{FRONTIER, REACHED, UNREACHED, cluster_frontier};
 use super::{Boundary, FrontierCluster, FrontierError};
 use crate::grid::{Cell, CellClass, GridGeometry, OccupancyGrid};
 use crate::params::FrontierParams;
-
-/// State layer values shared with the clustering step.
-pub(super) const UNREACHED: u8 = 0;
-pub(super) const REACHED: u8 = 1;
-pub(super) const FRONTIER: u8 = 2;
 
 /// Whether flat cell `i`'s centre lies inside `boundary` (no boundary: everywhere).
 #[inline]

@@ -7,6 +7,12 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Largest number of cells a map may have (a traversability map, a loaded image), 2²³ (≈ 8.4 M:
+/// 145 m × 145 m at 0.05 m). A cell of the traversability map costs ≈ 250 bytes (moments 104,
+/// disc sums 96, layers), so this bounds a map at ≈ 2 GB; an absurd extent or resolution (two far-apart points of a cloud, a
+/// mistyped resolution) is refused instead of exhausting memory. Larger areas need coarser cells.
+pub const MAX_CELLS: usize = 1 << 23;
+
 /// A cell address: column (x) and row (y). Signed so that neighbour arithmetic may step outside
 /// the grid; [`GridGeometry::index`] says whether it is inside.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

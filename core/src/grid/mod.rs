@@ -4,7 +4,7 @@ mod geometry;
 mod inflate;
 mod occupancy;
 
-pub use geometry::{Cell, GridGeometry};
+pub use geometry::{Cell, GridGeometry, MAX_CELLS};
 pub use inflate::{free_traversed, inflate_lethal, inflate_lethal_into};
 pub use occupancy::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid, UNKNOWN, cells_in_disc, fill_disc};
 

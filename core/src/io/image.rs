@@ -85,10 +85,10 @@ pub(crate) fn decode_image(bytes: &[u8], name: &str) -> Result<Raster, MapError>
 }
 
 /// Refuses an image of more pixels than a map may have cells
-/// ([`crate::traversability::MAX_CELLS`]), from its header, before anything is decoded: every
+/// ([`crate::grid::MAX_CELLS`]), from its header, before anything is decoded: every
 /// pixel becomes a cell of the grids built from it.
 fn check_pixels(name: &str, width: usize, height: usize) -> Result<(), MapError> {
-    let limit = crate::traversability::MAX_CELLS;
+    let limit = crate::grid::MAX_CELLS;
     match width.checked_mul(height) {
         Some(n) if n <= limit => Ok(()),
         _ => Err(image_err(name, format!("{width} × {height} pixels is over the limit of {limit} cells (a coarser or cropped image?)"))),

@@ -21,6 +21,7 @@ pub mod robot;
 mod scan;
 pub mod world;
 pub mod world_sim;
+mod world_spec;
 
 pub use crate::explore::EndReason;
 pub use heightfield::{DemScaling, Heightfield, HeightfieldError};

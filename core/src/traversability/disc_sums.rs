@@ -13,7 +13,6 @@
 //! when the disc radius changes; built either way they agree with the per-cell fusion to rounding.
 //! Memory: 96 bytes per cell, beside the cell moments' 104.
 
-use super::estimate::disc_offsets;
 use super::moments::{CellMoments, add_outer};
 use crate::grid::GridGeometry;
 
@@ -176,6 +175,19 @@ impl DiscSums {
 pub(super) fn centre_local(g: &GridGeometry, index: usize) -> (f64, f64) {
     let (col, row) = (index % g.width, index / g.width);
     ((col as f64 + 0.5) * g.resolution_m, (row as f64 + 0.5) * g.resolution_m)
+}
+
+/// (dx, dy) offsets of the cells whose centre lies within `radius_m` of a cell's centre
+/// (always including (0, 0)), row-major order.
+pub fn disc_offsets(radius_m: f64, resolution_m: f64) -> Vec<(i32, i32)> {
+    let r = if radius_m.is_finite() && resolution_m > 0.0 { (radius_m / resolution_m).max(0.0) } else { 0.0 };
+    // 1e-9 tolerance: a radius that is an exact multiple of the resolution includes that ring.
+    let r_cells = (r + 1e-9).floor().min(10_000.0) as i32;
+    let r2 = r * r + 1e-9;
+    (-r_cells..=r_cells)
+        .flat_map(|dy| (-r_cells..=r_cells).map(move |dx| (dx, dy)))
+        .filter(|&(dx, dy)| f64::from(dx * dx + dy * dy) <= r2)
+        .collect()
 }
 
 #[cfg(test)]

@@ -126,19 +126,6 @@ pub fn to_occupancy(score: &Grid<f32>, tau: f64) -> OccupancyGrid {
     Grid { geometry: score.geometry, data }
 }
 
-/// (dx, dy) offsets of the cells whose centre lies within `radius_m` of a cell's centre
-/// (always including (0, 0)), row-major order.
-pub fn disc_offsets(radius_m: f64, resolution_m: f64) -> Vec<(i32, i32)> {
-    let r = if radius_m.is_finite() && resolution_m > 0.0 { (radius_m / resolution_m).max(0.0) } else { 0.0 };
-    // 1e-9 tolerance: a radius that is an exact multiple of the resolution includes that ring.
-    let r_cells = (r + 1e-9).floor().min(10_000.0) as i32;
-    let r2 = r * r + 1e-9;
-    (-r_cells..=r_cells)
-        .flat_map(|dy| (-r_cells..=r_cells).map(move |dx| (dx, dy)))
-        .filter(|&(dx, dy)| f64::from(dx * dx + dy * dy) <= r2)
-        .collect()
-}
-
 /// One cell's result (NaN fields when unknown).
 pub(super) struct CellEstimate {
     pub(super) slope_rad: f64,

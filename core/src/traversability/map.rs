@@ -21,14 +21,8 @@ use super::TraversabilityError;
 use super::disc_sums::DiscSums;
 use super::moments::CellMoments;
 use crate::cloud::PointCloud;
-use crate::grid::GridGeometry;
+use crate::grid::{GridGeometry, MAX_CELLS};
 use crate::params::Params;
-
-/// Largest number of cells a map may have, 2²³ (≈ 8.4 M: 145 m × 145 m at 0.05 m). A cell of the
-/// traversability map costs ≈ 250 bytes (moments 104, disc sums 96, layers), so this bounds a
-/// map at ≈ 2 GB; an absurd extent or resolution (two far-apart points of a cloud, a
-/// mistyped resolution) is refused instead of exhausting memory. Larger areas need coarser cells.
-pub const MAX_CELLS: usize = 1 << 23;
 
 /// What happened to the points given to [`TraversabilityMap::insert_points`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -42,8 +42,10 @@ mod sampling;
 #[cfg(test)]
 mod tests;
 
-pub use estimate::{TraversabilityLayers, disc_offsets, to_occupancy};
-pub use map::{InsertStats, MAX_CELLS, TraversabilityMap};
+pub use crate::grid::MAX_CELLS;
+pub use disc_sums::disc_offsets;
+pub use estimate::{TraversabilityLayers, to_occupancy};
+pub use map::{InsertStats, TraversabilityMap};
 pub use moments::CellMoments;
 pub use plane::{PlaneFit, fit_plane};
 pub use render::{UNKNOWN_RGB, score_rgb, score_to_rgb};

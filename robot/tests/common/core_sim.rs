@@ -1,46 +1,39 @@
-//! The core's simulator as the robot for the node's tests: a `fitslam_core::sim::World` (3D
-//! heightfield terrain with obstacles and visual landmarks), ground-truth motion along A* paths on
-//! the world's ground-truth traversability, the VLP-16-like LiDAR ray-cast against the terrain
-//! and the depth camera's ground rays, whose points build the thresholded traversability map the node receives (as the SLAM stack
-//! would publish it), and the D435-like camera whose observations build the landmark map.
-//! Localisation is ground truth: these tests exercise the node, not the SLAM.
+//! The core's world simulator ([`fitslam_core::sim::WorldSim`]) as the robot for the node's
+//! tests: a 3D heightfield world with obstacles and visual landmarks, the true motion with the
+//! bumper, the LiDAR, depth-camera and footprint points that build the thresholded
+//! traversability map the node receives (as the SLAM stack would publish it), and the camera's
+//! landmark observations that build the landmark map. The robot follows A* paths on the world's
+//! ground-truth traversability, turning on the spot at each corner. Localisation is ground
+//! truth: these tests exercise the node, not the SLAM.
 
 #![allow(dead_code)]
 
-use super::sim::{SimRobot, drive_along, plan_on_truth};
+use super::sim::{SimRobot, plan_on_truth};
 use fitslam_core::grid::{UNKNOWN, inflate_lethal};
-use fitslam_core::sim::camera::{CameraNoise, CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
-use fitslam_core::sim::lidar::{LidarParams, RayCaster, scan};
-use fitslam_core::sim::robot::{DriveParams, body_on_terrain, footprint_points};
-use fitslam_core::sim::{World, WorldSpec};
+use fitslam_core::pose::wrap_pi;
+use fitslam_core::sim::robot::Twist;
+use fitslam_core::sim::{MissionParams, World, WorldSim, WorldSpec};
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::{OccupancyGrid, Params, Pose2};
-use nalgebra::{Point3, Vector3};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use nalgebra::Point3;
 use std::collections::BTreeMap;
 
+/// Distance between scans, metres (the simulator's default scan spacing).
+const SCAN_EVERY_M: f64 = 0.25;
+
 pub struct CoreSim {
-    pub world: World,
+    sim: WorldSim,
     params: Params,
-    lidar: LidarParams,
-    body_half_m: f64,
-    caster: RayCaster,
     tmap: TraversabilityMap,
     layers: TraversabilityLayers,
     map: OccupancyGrid,
-    index: LandmarkIndex,
     /// Landmark id → mapped position (its first observation).
     mapped: BTreeMap<u64, Point3<f64>>,
     truth_inflated: OccupancyGrid,
-    pose: Pose2,
     path: Vec<[f64; 2]>,
     goal_yaw: f64,
     pub speed_mps: f64,
     travelled_since_scan_m: f64,
-    rng: ChaCha8Rng,
-    points: Vec<Point3<f64>>,
-    observations: Vec<CameraObservation>,
 }
 
 impl CoreSim {
@@ -50,19 +43,13 @@ impl CoreSim {
         let spec = WorldSpec::from_toml(world_toml, name).map_err(|e| e.to_string())?;
         let world = World::build(&spec, &params.traversability, params.traversability.tau, |f| Err(format!("{f}: no files here")))
             .map_err(|e| e.to_string())?;
-        let g = world.field.geometry;
-        let tmap = TraversabilityMap::new(g).map_err(|e| e.to_string())?;
+        let tmap = TraversabilityMap::new(world.field.geometry).map_err(|e| e.to_string())?;
         let layers = tmap.compute(&params.traversability);
         let map = layers.to_occupancy(params.traversability.tau);
         let truth_inflated = inflate_lethal(&world.gt_occupancy, params.robot.radius_m);
         let mut sim = Self {
-            caster: RayCaster::new(&world.field),
-            index: LandmarkIndex::new(&world.landmarks, g.bounds_m(), 1.0),
-            pose: world.start,
-            world,
+            sim: WorldSim::new(world, &MissionParams::default(), &params, seed),
             params,
-            lidar: LidarParams::default(),
-            body_half_m: DriveParams::default().body_half_m,
             tmap,
             layers,
             map,
@@ -72,49 +59,31 @@ impl CoreSim {
             goal_yaw: 0.0,
             speed_mps: 1.0,
             travelled_since_scan_m: 0.0,
-            rng: ChaCha8Rng::seed_from_u64(seed),
-            points: Vec::new(),
-            observations: Vec::new(),
         };
-        let yaw0 = sim.pose.yaw_rad;
-        for k in 0..8 {
-            sim.pose.yaw_rad = yaw0 + f64::from(k) * std::f64::consts::FRAC_PI_4;
+        for _ in 0..8 {
             sim.sense();
+            sim.turn_by(std::f64::consts::FRAC_PI_4);
         }
-        sim.pose.yaw_rad = yaw0;
         Ok(sim)
     }
 
-    /// One LiDAR sweep into the traversability map, one camera frame into the landmark map.
+    pub fn world(&self) -> &World {
+        self.sim.world()
+    }
+
+    /// Turns on the spot by `dyaw_rad` in one step.
+    fn turn_by(&mut self, dyaw_rad: f64) {
+        self.sim.drive(Twist { v_mps: 0.0, omega_radps: dyaw_rad }, 1.0);
+    }
+
+    /// One scan into the traversability map, one camera frame into the landmark map.
     fn sense(&mut self) {
-        let (body, world_from_body) = body_on_terrain(&self.world.field, self.pose, self.body_half_m);
-        let sensor = body + world_from_body * Vector3::new(0.0, 0.0, self.lidar.mount_height_m);
-        self.points.clear();
-        scan(&self.world.field, &self.caster, sensor, &world_from_body, &self.lidar, &mut self.rng, &mut self.points);
-        // The depth camera's ground points (24 × 12 rays), and the ground under the wheels every
-        // 5 cm (the LiDAR is blind within ~1 m; a real stack marks the footprint as traversed).
-        let camera = body + world_from_body * Vector3::new(0.0, 0.0, self.params.robot.camera_height_m);
-        let points = &mut self.points;
-        depth_ground_hits(&self.world.field, &self.caster, camera, &world_from_body, &self.params.camera, [24, 12], |dir, d| {
-            points.push(camera + dir * d)
-        });
-        footprint_points(&self.world.field, body, &world_from_body, self.body_half_m, 0.05, &mut self.points);
-        self.tmap.insert_points(self.points.drain(..));
+        self.sim.scan();
+        self.tmap.insert_points(self.sim.scan_points().iter().copied());
         self.tmap.update(&self.params.traversability, &mut self.layers);
         self.map = self.layers.to_occupancy(self.params.traversability.tau);
-        observe_landmarks(
-            &self.world.field,
-            &self.world.landmarks,
-            &self.index,
-            camera,
-            body,
-            &world_from_body,
-            &self.params.camera,
-            &CameraNoise::default(),
-            &mut self.rng,
-            &mut self.observations,
-        );
-        for o in &self.observations {
+        let (body, world_from_body) = self.sim.body_pose();
+        for o in self.sim.observe_landmarks() {
             self.mapped.entry(o.landmark_id).or_insert(body + world_from_body * o.point_in_robot);
         }
     }
@@ -130,11 +99,11 @@ impl SimRobot for CoreSim {
     }
 
     fn pose(&self) -> Pose2 {
-        self.pose
+        self.sim.pose()
     }
 
     fn go_to(&mut self, goal: Pose2) -> Result<(), String> {
-        self.path = plan_on_truth(&self.truth_inflated, self.pose, goal)?;
+        self.path = plan_on_truth(&self.truth_inflated, self.sim.pose(), goal)?;
         self.goal_yaw = goal.yaw_rad;
         Ok(())
     }
@@ -143,17 +112,37 @@ impl SimRobot for CoreSim {
         self.path.clear();
     }
 
+    /// Drives `speed_mps · dt_s` along the path: per waypoint a turn towards it, then straight.
+    /// The bumper stops the robot (and its path) before untraversable ground.
     fn advance(&mut self, dt_s: f64) -> bool {
         if self.path.is_empty() {
             return false;
         }
-        self.travelled_since_scan_m += drive_along(&mut self.pose, &mut self.path, self.speed_mps * dt_s);
-        if self.travelled_since_scan_m >= 0.25 {
+        let mut budget_m = self.speed_mps * dt_s;
+        while budget_m > 0.0 && !self.path.is_empty() {
+            let p = self.sim.pose();
+            let [tx, ty] = self.path[0];
+            let d = (tx - p.x_m).hypot(ty - p.y_m);
+            if d > 1e-9 {
+                self.turn_by(wrap_pi((ty - p.y_m).atan2(tx - p.x_m) - p.yaw_rad));
+            }
+            let step_m = d.min(budget_m);
+            if self.sim.drive(Twist { v_mps: step_m, omega_radps: 0.0 }, 1.0).bumped {
+                self.path.clear();
+                return false;
+            }
+            budget_m -= step_m;
+            self.travelled_since_scan_m += step_m;
+            if step_m >= d {
+                self.path.remove(0);
+            }
+        }
+        if self.travelled_since_scan_m >= SCAN_EVERY_M {
             self.travelled_since_scan_m = 0.0;
             self.sense();
         }
         if self.path.is_empty() {
-            self.pose.yaw_rad = self.goal_yaw;
+            self.turn_by(wrap_pi(self.goal_yaw - self.sim.pose().yaw_rad));
             self.sense();
             return true;
         }
@@ -161,11 +150,12 @@ impl SimRobot for CoreSim {
     }
 
     fn truth_lethal(&self, x_m: f64, y_m: f64) -> bool {
-        self.world.gt_lethal_at(x_m, y_m)
+        self.sim.world().gt_lethal_at(x_m, y_m)
     }
 
     fn explored_fraction(&self) -> f64 {
-        let known = self.world.explorable.iter().zip(&self.map.data).filter(|(e, v)| **e && **v != UNKNOWN).count();
-        known as f64 / self.world.explorable_count.max(1) as f64
+        let w = self.sim.world();
+        let known = w.explorable.iter().zip(&self.map.data).filter(|(e, v)| **e && **v != UNKNOWN).count();
+        known as f64 / w.explorable_count.max(1) as f64
     }
 }

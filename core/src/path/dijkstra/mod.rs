@@ -45,6 +45,7 @@
 
 use super::{MOVES, Path, PathError, check_start};
 use crate::grid::{self, Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
+use queue::{BlockOrder, BucketQueue};
 
 /// Code of a lethal or off-grid cell: below every real cost.
 const BLOCKED: u64 = 0;
@@ -287,61 +288,6 @@ pub fn dijkstra_with_frontiers(
     Ok((field, flat))
 }
 
-/// Puts a bucket into memory order block by block (a counting sort on `index >> BLOCK_SHIFT`), so
-/// that the wavefront is processed a few rows at a time and a block's costs stay in cache: most of
-/// a full sort's locality at a fraction of its cost.
-struct BlockOrder {
-    counts: Vec<u32>,
-    scratch: Vec<u32>,
-}
-
-impl BlockOrder {
-    /// 1024 cells (8 KiB of costs, about a row of a typical window): measured against 4096 and
-    /// 16384 on the decision bench, 1–2 ms faster (BENCHMARKS.md).
-    const BLOCK_SHIFT: u32 = 10;
-
-    fn new(cells: usize) -> Self {
-        Self { counts: vec![0; (cells >> Self::BLOCK_SHIFT) + 2], scratch: Vec::new() }
-    }
-
-    /// A stable counting sort. Consecutive entries mostly share a block (a bucket is filled in
-    /// the previous one's block order), so each pass keeps the current block's counter in a
-    /// register and writes it back only when the block changes: a counter in memory, incremented
-    /// entry after entry, would make every entry wait for the previous one's store.
-    fn order(&mut self, bucket: &mut Vec<u32>) {
-        if bucket.len() < 64 {
-            return;
-        }
-        let block = |p: u32| (p >> Self::BLOCK_SHIFT) as usize;
-        self.counts.fill(0);
-        let (mut current, mut run) = (block(bucket[0]), 0u32);
-        for &p in bucket.iter() {
-            if block(p) != current {
-                self.counts[current + 1] += run;
-                (current, run) = (block(p), 0);
-            }
-            run += 1;
-        }
-        self.counts[current + 1] += run;
-        for b in 1..self.counts.len() {
-            self.counts[b] += self.counts[b - 1];
-        }
-        self.scratch.clear();
-        self.scratch.resize(bucket.len(), 0);
-        let (mut current, mut slot) = (block(bucket[0]), self.counts[block(bucket[0])]);
-        for &p in bucket.iter() {
-            if block(p) != current {
-                self.counts[current] = slot;
-                current = block(p);
-                slot = self.counts[current];
-            }
-            self.scratch[slot as usize] = p;
-            slot += 1;
-        }
-        std::mem::swap(bucket, &mut self.scratch);
-    }
-}
-
 /// Bounding box of the passable cells (non-empty: the start is passable). Rows are scanned in
 /// chunks with a branch-free minimum, which the compiler vectorises.
 fn passable_window(grid: &OccupancyGrid, allow_unknown: bool, start: Cell) -> Window {
@@ -522,55 +468,6 @@ const SUCCESSORS: [[u8; 16]; 256] = {
     }
     t
 };
-
-/// Buckets of queued cells, one per cost unit (a scan queues cells far ahead of the current
-/// bucket), their storage recycled.
-#[derive(Clone, Debug, Default)]
-struct BucketQueue {
-    buckets: Vec<Vec<u32>>,
-    spare: Vec<Vec<u32>>,
-    pending: usize,
-}
-
-impl BucketQueue {
-    #[inline]
-    fn push(&mut self, bucket: u64, p: usize) {
-        let b = bucket as usize;
-        if b >= self.buckets.len() {
-            self.buckets.resize_with(b + 1, Vec::new);
-        }
-        let v = &mut self.buckets[b];
-        if v.capacity() == 0
-            && let Some(s) = self.spare.pop()
-        {
-            *v = s;
-        }
-        v.push(p as u32);
-        self.pending += 1;
-    }
-
-    fn take(&mut self, bucket: u64) -> Vec<u32> {
-        let v = self.buckets.get_mut(bucket as usize).map(std::mem::take).unwrap_or_default();
-        self.pending -= v.len();
-        v
-    }
-
-    /// Empties every bucket, keeping the storage.
-    fn clear(&mut self) {
-        for mut v in self.buckets.drain(..) {
-            if v.capacity() > 0 {
-                v.clear();
-                self.spare.push(v);
-            }
-        }
-        self.pending = 0;
-    }
-
-    fn recycle(&mut self, mut v: Vec<u32>) {
-        v.clear();
-        self.spare.push(v);
-    }
-}
 
 /// The search's state over the padded window.
 struct Flood<'a> {
@@ -766,62 +663,7 @@ fn search(
     Ok(flood.into_field(g, start, win, settled_below))
 }
 
+mod queue;
+
 #[cfg(test)]
-mod unit_tests {
-    use super::{BlockOrder, LETHAL_THRESHOLD, Scale, code, extend_codes, passability_key};
-    use crate::grid::{FREE, LETHAL, UNKNOWN};
-    use proptest::prelude::*;
-
-    #[test]
-    fn the_passability_key_orders_like_passable() {
-        for allow_unknown in [false, true] {
-            let threshold = passability_key(LETHAL_THRESHOLD, allow_unknown);
-            for v in i8::MIN..=i8::MAX {
-                assert_eq!(passability_key(v, allow_unknown) < threshold, crate::path::passable(v, allow_unknown), "{v} {allow_unknown}");
-            }
-        }
-    }
-
-    proptest! {
-        /// Whole-word runs or cell by cell, the codes are each cell's: runs of the three thresholded
-        /// values (and of others) of every length, at every alignment.
-        #[test]
-        fn extend_codes_codes_every_cell(runs in prop::collection::vec((prop_oneof![Just(FREE), Just(LETHAL), Just(UNKNOWN), any::<i8>()], 1usize..20), 0..30), allow_unknown: bool) {
-            let cells: Vec<i8> = runs.iter().flat_map(|&(v, len)| std::iter::repeat_n(v, len)).collect();
-            let mut cost = vec![7];
-            extend_codes(&mut cost, &cells, allow_unknown);
-            let expected: Vec<u64> = std::iter::once(7).chain(cells.iter().map(|&v| code(v, allow_unknown))).collect();
-            prop_assert_eq!(cost, expected);
-        }
-
-        /// Block order is a stable sort on the block index, whatever the runs of equal blocks.
-        #[test]
-        fn block_order_is_a_stable_sort_by_block(runs in prop::collection::vec((0u32..8, 1usize..40), 1..60), jitter in 0u32..1024) {
-            let bucket: Vec<u32> = runs.iter().enumerate()
-                .flat_map(|(i, &(b, len))| (0..len).map(move |k| (b << BlockOrder::BLOCK_SHIFT) + (jitter + (i * 40 + k) as u32) % 1024))
-                .collect();
-            let mut expected = bucket.clone();
-            expected.sort_by_key(|&p| p >> BlockOrder::BLOCK_SHIFT);
-            let mut blocks = BlockOrder::new(8 << BlockOrder::BLOCK_SHIFT);
-            let mut sorted = bucket.clone();
-            blocks.order(&mut sorted);
-            if bucket.len() >= 64 {
-                prop_assert_eq!(sorted, expected);
-            } else {
-                prop_assert_eq!(sorted, bucket);
-            }
-        }
-    }
-
-    #[test]
-    fn the_scale_is_the_finest_that_cannot_overflow() {
-        let n = 2002 * 2002;
-        let s = Scale::for_cells(n);
-        assert_eq!(s.shift, 41);
-        assert!((2 * n as u128 + 2) << s.shift <= u64::MAX as u128);
-        assert!((2 * n as u128 + 2) << (s.shift + 1) > u64::MAX as u128);
-        assert!((s.diag as f64 - std::f64::consts::SQRT_2 * 2f64.powi(41)).abs() <= 0.5);
-        assert_eq!(Scale::for_cells(100).shift, 52);
-        assert_eq!(s.cells(super::START + 3 * s.orth), 3.0);
-    }
-}
+mod unit_tests;

@@ -1,0 +1,430 @@
+//! A world's description ([`WorldSpec`], a TOML file) and its validation: every key is checked
+//! with the reason it is wrong before anything is built ([`super::World::build`] builds it).
+
+#![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
+
+use super::{HeightfieldError, LandmarkDensity};
+use crate::grid::GridGeometry;
+use crate::io::MapError;
+use crate::params::{InvalidParam, Num};
+use crate::traversability::{MAX_CELLS, TraversabilityError};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+/// Why a world could not be built.
+#[derive(Debug, Error)]
+pub enum WorldError {
+    #[error("{name}: invalid TOML: {message}")]
+    Toml { name: String, message: String },
+    /// A value out of range, or a world the machine cannot hold (named by the file when parsed
+    /// from one).
+    #[error("{0}")]
+    Invalid(InvalidParam),
+    #[error("{name}: {error}")]
+    InvalidFile { name: String, error: InvalidParam },
+    #[error("{name}: {message}")]
+    Load { name: String, message: String },
+    #[error(transparent)]
+    Heightfield(#[from] HeightfieldError),
+    #[error(transparent)]
+    Map(#[from] MapError),
+    #[error(transparent)]
+    Traversability(#[from] TraversabilityError),
+}
+
+/// Most rock or landmark sites a world may scatter (spacing against the terrain's area), so that
+/// a tiny spacing is an error rather than an allocation the machine cannot make.
+pub const MAX_SCATTER_SITES: f64 = (1u64 << 22) as f64;
+
+/// A world file: everything the simulator needs to build the ground truth.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldSpec {
+    /// A short name (plots, summary). Default "".
+    #[serde(default)]
+    pub name: String,
+    /// Seed of rocks and landmarks (the procedural terrain has its own). Default 1.
+    #[serde(default = "one")]
+    pub seed: u64,
+    /// Heightfield cell, metres. Default 0.05 (map_server terrains use the map's resolution).
+    #[serde(default = "default_cell")]
+    pub cell_m: f64,
+    pub terrain: TerrainSpec,
+    /// Rocks scattered by the seed; none if absent.
+    #[serde(default)]
+    pub rocks: Option<RockSpec>,
+    /// Boxes (and straight walls) standing on the terrain.
+    #[serde(default)]
+    pub boxes: Vec<BoxSpec>,
+    /// Ramps: wedges rising from 0 at one end to `height_m` at the other.
+    #[serde(default)]
+    pub ramps: Vec<RampSpec>,
+    /// Visual landmark density. Default [`LandmarkDensity::default`].
+    #[serde(default)]
+    pub landmarks: LandmarkSpec,
+    /// Start pose [x_m, y_m, yaw_rad].
+    pub start: [f64; 3],
+    /// Exploration boundary [min_x_m, min_y_m, max_x_m, max_y_m], min < max, holding the start;
+    /// default: the world inset by 0.5 m.
+    #[serde(default)]
+    pub boundary: Option<[f64; 4]>,
+    /// Mission time limit, seconds, finite and > 0. Default 5000.
+    #[serde(default = "default_time_limit")]
+    pub time_limit_s: f64,
+}
+
+fn one() -> u64 {
+    1
+}
+fn default_cell() -> f64 {
+    0.05
+}
+fn default_time_limit() -> f64 {
+    5000.0
+}
+
+/// Where the terrain comes from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TerrainSpec {
+    /// Seeded value-noise hills and ridges on a tilted plane, `size_m` square.
+    Procedural {
+        seed: u64,
+        size_m: f64,
+        /// Peak-to-trough height of the hills, metres.
+        #[serde(default)]
+        hill_height_m: f64,
+        #[serde(default = "default_hill_wavelength")]
+        hill_wavelength_m: f64,
+        /// Height of the ridges (sharp crests of ridged noise), metres.
+        #[serde(default)]
+        ridge_height_m: f64,
+        #[serde(default = "default_ridge_wavelength")]
+        ridge_wavelength_m: f64,
+        /// Global tilt along +x and +y, degrees.
+        #[serde(default)]
+        tilt_x_deg: f64,
+        #[serde(default)]
+        tilt_y_deg: f64,
+    },
+    /// A grey DEM image, PNG or PGM (pixel value = metres; grey saved as RGB(A) is accepted),
+    /// central crop scaled to `size_m`.
+    Dem {
+        file: String,
+        pixel_x_m: f64,
+        pixel_y_m: f64,
+        size_m: f64,
+        #[serde(default = "default_crop")]
+        crop_fraction: f64,
+        /// Vertical scale relative to the horizontal one. Default 1.
+        #[serde(default = "one_f")]
+        relief_scale: f64,
+    },
+    /// A map_server map (YAML naming a PGM/PNG): occupied and unknown pixels become walls.
+    MapServer {
+        file: String,
+        #[serde(default = "default_wall_height")]
+        wall_height_m: f64,
+    },
+}
+
+fn default_hill_wavelength() -> f64 {
+    8.0
+}
+fn default_ridge_wavelength() -> f64 {
+    6.0
+}
+fn default_crop() -> f64 {
+    0.1
+}
+fn one_f() -> f64 {
+    1.0
+}
+fn default_wall_height() -> f64 {
+    1.0
+}
+
+/// Rocks scattered on a lattice (see [`scatter_rocks`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RockSpec {
+    /// Lattice spacing, metres, > 0.
+    pub spacing_m: f64,
+    /// Probability of a rock per lattice cell, in [0, 1].
+    pub density: f64,
+    /// Radius range [min, max], metres: 0 < min ≤ max ≤ half the terrain's shorter side.
+    pub radius_m: [f64; 2],
+    /// Height range [min, max], metres: 0 ≤ min ≤ max, finite.
+    pub height_m: [f64; 2],
+    /// No rock within this distance of the start, metres. Default 1.2.
+    #[serde(default = "default_keep_clear")]
+    pub keep_clear_m: f64,
+}
+
+fn default_keep_clear() -> f64 {
+    1.2
+}
+
+/// An axis-aligned box (or wall) on the terrain: its top is `height_m` above the ground at its
+/// centre.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    /// Lower-left corner [x, y], metres (finite, < `max_m` on each axis).
+    pub min_m: [f64; 2],
+    /// Upper-right corner [x, y], metres. The box must hold at least one cell centre of the
+    /// terrain.
+    pub max_m: [f64; 2],
+    /// Height of the top above the ground at the box's centre, metres, > 0: a box only raises
+    /// the terrain (each cell to at least that top), so it cannot dig a pit.
+    pub height_m: f64,
+}
+
+/// An axis-aligned wedge: rises from 0 at `from` side to `height_m` along `axis` ("x" or "-x",
+/// "y", "-y").
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RampSpec {
+    /// Lower-left corner [x, y], metres (finite, < `max_m` on each axis).
+    pub min_m: [f64; 2],
+    /// Upper-right corner [x, y], metres. The ramp must hold at least one cell centre of the
+    /// terrain.
+    pub max_m: [f64; 2],
+    /// Height of the high end above the ground at `min_m`, metres, > 0 (a ramp only raises the
+    /// terrain).
+    pub height_m: f64,
+    pub rises_along: String,
+}
+
+/// Serde mirror of [`LandmarkDensity`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LandmarkSpec {
+    pub spacing_m: f64,
+    pub max_probability: f64,
+    pub contrast: f64,
+    pub texture_wavelength_m: f64,
+    pub rock_density_per_m2: f64,
+    pub max_height_m: f64,
+}
+
+impl Default for LandmarkSpec {
+    fn default() -> Self {
+        let d = LandmarkDensity::default();
+        Self {
+            spacing_m: d.spacing_m,
+            max_probability: d.max_probability,
+            contrast: d.contrast,
+            texture_wavelength_m: d.texture_wavelength_m,
+            rock_density_per_m2: d.rock_density_per_m2,
+            max_height_m: d.max_height_m,
+        }
+    }
+}
+
+impl LandmarkSpec {
+    pub fn density(&self) -> LandmarkDensity {
+        LandmarkDensity {
+            spacing_m: self.spacing_m,
+            max_probability: self.max_probability,
+            contrast: self.contrast,
+            texture_wavelength_m: self.texture_wavelength_m,
+            rock_density_per_m2: self.rock_density_per_m2,
+            max_height_m: self.max_height_m,
+        }
+    }
+}
+
+impl WorldSpec {
+    /// Parses a world file; `name` is quoted in errors.
+    pub fn from_toml(text: &str, name: &str) -> Result<Self, WorldError> {
+        let text = crate::io::without_bom_str(text);
+        let spec: WorldSpec =
+            toml::from_str(text).map_err(|e| WorldError::Toml { name: name.into(), message: crate::params::toml_error_line(text, &e) })?;
+        spec.validate().map_err(|e| match e {
+            WorldError::Invalid(error) => WorldError::InvalidFile { name: name.into(), error },
+            other => other,
+        })?;
+        Ok(spec)
+    }
+
+    /// Rock and landmark sites on a terrain of this geometry: at most [`MAX_SCATTER_SITES`] each.
+    pub(super) fn check_scatter_sites(&self, geometry: &GridGeometry) -> Result<(), WorldError> {
+        let (min_x, min_y, max_x, max_y) = geometry.bounds_m();
+        let sites = |spacing_m: f64| ((max_x - min_x) / spacing_m).floor() * ((max_y - min_y) / spacing_m).floor();
+        let spacings = self.rocks.iter().map(|r| ("rocks", r.spacing_m)).chain([("landmarks", self.landmarks.spacing_m)]);
+        for (what, spacing_m) in spacings {
+            let n = sites(spacing_m);
+            if n.is_nan() || n > MAX_SCATTER_SITES {
+                let reason = format!("({}) gives {n:.3e} sites on this terrain, over the limit of {MAX_SCATTER_SITES}", Num(spacing_m));
+                return Err(WorldError::Invalid(InvalidParam::new(format!("{what}.spacing_m"), reason)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Rocks no wider than the terrain: a rock's radius is at most half the terrain's shorter
+    /// side. A larger one is surely a mistake (metres for centimetres), and it would not even
+    /// show: every lattice site lies within `keep_clear_m` + radius of the start, so all are
+    /// skipped without a word.
+    pub(super) fn check_rock_radius(&self, geometry: &GridGeometry) -> Result<(), WorldError> {
+        let Some(r) = &self.rocks else { return Ok(()) };
+        let (min_x, min_y, max_x, max_y) = geometry.bounds_m();
+        let (w, h) = (max_x - min_x, max_y - min_y);
+        if r.radius_m[1] > 0.5 * w.min(h) {
+            let reason = format!(
+                "the largest radius {} m is wider than the terrain ({w} m × {h} m): at most half its shorter side, {} m",
+                r.radius_m[1],
+                0.5 * w.min(h)
+            );
+            return Err(WorldError::Invalid(InvalidParam::new("rocks.radius_m", reason)));
+        }
+        Ok(())
+    }
+
+    /// Checks ranges.
+    pub fn validate(&self) -> Result<(), WorldError> {
+        let bad = |key: &str, reason: String| Err(WorldError::Invalid(InvalidParam::new(key, reason)));
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        if !pos(self.cell_m) || self.cell_m > 1.0 {
+            return bad("cell_m", format!("must be in (0, 1] (got {})", Num(self.cell_m)));
+        }
+        crate::params::check_positive("time_limit_s", self.time_limit_s).map_err(WorldError::Invalid)?;
+        if !self.start.iter().all(|v| v.is_finite()) {
+            return bad("start", format!("must be finite (got {:?})", self.start));
+        }
+        // The heightfield's cells, checked before they are allocated (the ground-truth map has as
+        // many, and its limit is the traversability map's).
+        let cells = |size_m: f64| {
+            let side = (size_m / self.cell_m).round().max(2.0);
+            if side * side > MAX_CELLS as f64 {
+                return bad(
+                    "terrain.size_m",
+                    format!(
+                        "({size_m}) at cell_m {} is {side} × {side} cells, over the limit of {MAX_CELLS} (coarser cell_m?)",
+                        self.cell_m
+                    ),
+                );
+            }
+            Ok(())
+        };
+        match &self.terrain {
+            TerrainSpec::Procedural {
+                size_m,
+                hill_height_m,
+                hill_wavelength_m,
+                ridge_height_m,
+                ridge_wavelength_m,
+                tilt_x_deg,
+                tilt_y_deg,
+                ..
+            } => {
+                if !pos(*size_m) || *size_m > 500.0 {
+                    return bad("terrain.size_m", format!("must be in (0, 500] (got {})", Num(*size_m)));
+                }
+                for (key, v) in [("hill_wavelength_m", *hill_wavelength_m), ("ridge_wavelength_m", *ridge_wavelength_m)] {
+                    if !pos(v) {
+                        return bad(&format!("terrain.{key}"), format!("must be a finite number > 0 (got {})", Num(v)));
+                    }
+                }
+                for (key, v) in [("hill_height_m", *hill_height_m), ("ridge_height_m", *ridge_height_m)] {
+                    if !v.is_finite() {
+                        return bad(&format!("terrain.{key}"), format!("must be finite (got {})", Num(v)));
+                    }
+                }
+                for (key, v) in [("tilt_x_deg", *tilt_x_deg), ("tilt_y_deg", *tilt_y_deg)] {
+                    if v.is_nan() || v.abs() >= 90.0 {
+                        return bad(&format!("terrain.{key}"), format!("must be in (-90, 90) degrees (got {})", Num(v)));
+                    }
+                }
+                cells(*size_m)?;
+            }
+            TerrainSpec::Dem { size_m, relief_scale, .. } => {
+                if !pos(*size_m) || *size_m > 500.0 {
+                    return bad("terrain.size_m", format!("must be in (0, 500] (got {})", Num(*size_m)));
+                }
+                if !(relief_scale.is_finite() && *relief_scale >= 0.0) {
+                    return bad("terrain.relief_scale", format!("must be a finite number ≥ 0 (got {})", Num(*relief_scale)));
+                }
+                cells(*size_m)?;
+            }
+            TerrainSpec::MapServer { wall_height_m, .. } => {
+                if !pos(*wall_height_m) {
+                    return bad("terrain.wall_height_m", format!("must be a finite number > 0 (got {})", Num(*wall_height_m)));
+                }
+            }
+        }
+        if let Some(r) = &self.rocks {
+            if !pos(r.spacing_m)
+                || !(0.0..=1.0).contains(&r.density)
+                || !(r.radius_m[0] > 0.0 && r.radius_m[0] <= r.radius_m[1] && r.radius_m[1].is_finite())
+                || !(r.height_m[0] >= 0.0 && r.height_m[0] <= r.height_m[1] && r.height_m[1].is_finite())
+            {
+                return bad(
+                    "rocks",
+                    format!(
+                        "need spacing_m > 0, density in [0, 1], finite 0 < min ≤ max for radius_m and 0 ≤ min ≤ max for height_m \
+                         (got spacing_m {}, density {}, radius_m {:?}, height_m {:?})",
+                        r.spacing_m, r.density, r.radius_m, r.height_m
+                    ),
+                );
+            }
+            crate::params::check_non_negative("rocks.keep_clear_m", r.keep_clear_m).map_err(WorldError::Invalid)?;
+        }
+        for (i, b) in self.boxes.iter().enumerate() {
+            check_box(&format!("boxes[{i}]"), b.min_m, b.max_m, b.height_m)?;
+        }
+        for (i, r) in self.ramps.iter().enumerate() {
+            check_box(&format!("ramps[{i}]"), r.min_m, r.max_m, r.height_m)?;
+            if !["x", "-x", "y", "-y"].contains(&r.rises_along.as_str()) {
+                return bad(&format!("ramps[{i}].rises_along"), format!("must be x, -x, y or -y (got {:?})", r.rises_along));
+            }
+        }
+        for (key, v) in [("spacing_m", self.landmarks.spacing_m), ("texture_wavelength_m", self.landmarks.texture_wavelength_m)] {
+            if !pos(v) {
+                return bad(&format!("landmarks.{key}"), format!("must be a finite number > 0 (got {})", Num(v)));
+            }
+        }
+        let l = &self.landmarks;
+        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
+        if !(nonneg(l.rock_density_per_m2) && nonneg(l.max_height_m) && (0.0..=1.0).contains(&l.max_probability) && l.contrast.is_finite())
+        {
+            return bad(
+                "landmarks",
+                format!(
+                    "need rock_density_per_m2 and max_height_m ≥ 0, max_probability in [0, 1], contrast finite (got {}, {}, {}, {})",
+                    Num(l.rock_density_per_m2),
+                    Num(l.max_height_m),
+                    Num(l.max_probability),
+                    Num(l.contrast)
+                ),
+            );
+        }
+        if let Some(b) = self.boundary {
+            if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
+                return bad("boundary", format!("must be [min_x, min_y, max_x, max_y] with min < max (got {b:?})"));
+            }
+            // No cell is explorable from a start outside the boundary (the start cell is the
+            // seed of the explorable region): say so here rather than "not traversable" later.
+            let [x, y, _] = self.start;
+            if !(b[0] <= x && x <= b[2] && b[1] <= y && y <= b[3]) {
+                return bad("start", format!("({x}, {y}) is outside the boundary {b:?}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `Ok` when a box or ramp named `key` has finite corners with min < max on each axis and a
+/// finite height > 0 (both only raise the terrain, to at most `height_m` above the ground at a
+/// reference point: a height ≤ 0 would raise nothing, and a pit cannot be dug with one).
+fn check_box(key: &str, min_m: [f64; 2], max_m: [f64; 2], height_m: f64) -> Result<(), WorldError> {
+    let bad = |reason: String| Err(WorldError::Invalid(InvalidParam::new(key, reason)));
+    if !min_m.iter().chain(&max_m).all(|v| v.is_finite()) {
+        return bad(format!("min_m and max_m must be finite (got min_m {min_m:?}, max_m {max_m:?})"));
+    }
+    if !(min_m[0] < max_m[0] && min_m[1] < max_m[1]) {
+        return bad(format!("min_m must be < max_m on each axis (got min_m {min_m:?}, max_m {max_m:?})"));
+    }
+    crate::params::check_positive(&format!("{key}.height_m"), height_m).map_err(WorldError::Invalid)
+}
