@@ -1,15 +1,21 @@
 //! The studio application: panels around the canvas, the loading of files, and the glue
-//! between the widgets and the [`Pipeline`]. Same code natively, in the browser and in the
+//! between the views and the state they show. Same code natively, in the browser and in the
 //! headless UI tests ([`StudioApp::show`] draws everything into a `Ui`).
+//!
+//! Each view is handed the part of the state it reads and edits ([`PlannerState`],
+//! [`MissionView`], the canvas' and the table's own state) and returns what reaches further
+//! as [`Action`]s, which [`StudioApp`] applies once the view is drawn. This file is the only
+//! one that knows the whole state and wires the views together.
 
+use crate::action::{Action, WidgetRects};
 use crate::assets;
-use crate::canvas::{CanvasState, Layer, Overlays};
+use crate::canvas::CanvasState;
 use crate::export;
 use crate::files::{self, FileBrowser, Inbox, IncomingFile, Intent};
 use crate::loader::{self, Loaded};
 use crate::mission_view::MissionView;
 use crate::panels::{self, TableState};
-use crate::pipeline::{Pipeline, Revisions};
+use crate::planner::{Layer, PlannerState};
 use crate::scene::{Landmarks, Scene};
 use crate::tour::Tour;
 use fitslam_core::Params;
@@ -33,17 +39,9 @@ pub struct Message {
 
 /// The whole studio state.
 pub struct StudioApp {
-    pub scene: Scene,
-    pub revs: Revisions,
-    pub params: Params,
-    pub pipeline: Pipeline,
+    /// The Planner mode's state: scene, parameters, decision, layer, overlays, selection.
+    pub planner: PlannerState,
     pub canvas: CanvasState,
-    pub layer: Layer,
-    pub overlays: Overlays,
-    /// Candidate selected in the canvas or the table.
-    pub selected: Option<usize>,
-    /// Candidate under the pointer in the canvas this frame.
-    pub hovered: Option<usize>,
     pub table: TableState,
     pub messages: Vec<Message>,
     pub tour: Tour,
@@ -57,7 +55,7 @@ pub struct StudioApp {
     /// A cloud dropped without intent, waiting for the user's choice.
     ask_cloud: Option<IncomingFile>,
     /// Screen rectangles of named widgets this frame (published on the web for tests).
-    pub widget_rects: BTreeMap<&'static str, egui::Rect>,
+    pub widget_rects: WidgetRects,
     last_title: String,
     last_published: String,
     show_about: bool,
@@ -79,16 +77,10 @@ impl StudioApp {
                 empty_scene()
             }
         };
-        let mut app = Self {
-            scene,
-            revs: Revisions::default(),
-            params,
-            pipeline: Pipeline::default(),
+        let _ = ctx;
+        Self {
+            planner: PlannerState::new(scene),
             canvas: CanvasState::default(),
-            layer: Layer::Score,
-            overlays: Overlays::default(),
-            selected: None,
-            hovered: None,
             table: TableState::default(),
             messages,
             tour: Tour::default(),
@@ -102,20 +94,17 @@ impl StudioApp {
             last_title: String::new(),
             last_published: String::new(),
             show_about: false,
-        };
-        app.pipeline.update(&app.scene, app.revs, &app.params);
-        let _ = ctx;
-        app
+        }
     }
 
     /// Replaces the scene by a built-in asset.
     pub fn load_builtin(&mut self, name: &str) {
-        match assets::builtin(name).map(|b| b.build(self.params.frontier.blacklist_radius_m)) {
+        match assets::builtin(name).map(|b| b.build(self.planner.params.frontier.blacklist_radius_m)) {
             Some(Ok(scene)) => {
-                self.scene = scene;
-                self.revs.map += 1;
-                self.revs.landmarks += 1;
-                self.revs.layout += 1;
+                self.planner.scene = scene;
+                self.planner.revs.map += 1;
+                self.planner.revs.landmarks += 1;
+                self.planner.revs.layout += 1;
                 self.after_scene_change();
                 self.info(format!("loaded built-in '{name}'"));
             }
@@ -125,8 +114,8 @@ impl StudioApp {
     }
 
     fn after_scene_change(&mut self) {
-        self.selected = None;
-        self.hovered = None;
+        self.planner.selected = None;
+        self.planner.hovered = None;
         self.canvas.fit_requested = true;
     }
 
@@ -150,21 +139,21 @@ impl StudioApp {
         if files.is_empty() {
             return;
         }
-        let results = loader::load_batch(files, &mut self.pairing, &self.params);
+        let results = loader::load_batch(files, &mut self.pairing, &self.planner.params);
         for r in results {
             match r {
                 Ok(Loaded::Map(map)) => {
                     let (name, cells, known) = (map.source.clone(), map.geometry().len(), map.known_cells());
-                    let robot = self.scene.robot;
-                    let landmarks = std::mem::take(&mut self.scene.landmarks);
-                    let mut scene = Scene::new(map, landmarks, None, self.params.frontier.blacklist_radius_m);
+                    let robot = self.planner.scene.robot;
+                    let landmarks = std::mem::take(&mut self.planner.scene.landmarks);
+                    let mut scene = Scene::new(map, landmarks, None, self.planner.params.frontier.blacklist_radius_m);
                     // Keep the robot where it was if that is on the new map.
                     if scene.map.score.at_world(robot.x_m, robot.y_m).is_some_and(|s| *s >= 0.5) {
                         scene.robot = robot;
                     }
-                    self.scene = scene;
-                    self.revs.map += 1;
-                    self.revs.layout += 1;
+                    self.planner.scene = scene;
+                    self.planner.revs.map += 1;
+                    self.planner.revs.layout += 1;
                     self.after_scene_change();
                     self.messages.retain(|m| !m.text.contains("now drop or open its image"));
                     self.info(format!("map {name}: {cells} cells, {known} known"));
@@ -172,13 +161,13 @@ impl StudioApp {
                 Ok(Loaded::Landmarks(lm)) => {
                     let n = lm.cloud.len();
                     let name = lm.source.clone();
-                    self.scene.landmarks = lm;
-                    self.revs.landmarks += 1;
-                    self.selected = None;
+                    self.planner.scene.landmarks = lm;
+                    self.planner.revs.landmarks += 1;
+                    self.planner.selected = None;
                     self.info(format!("landmarks {name}: {n} points"));
                 }
                 Ok(Loaded::Params(p)) => {
-                    self.params = *p;
+                    self.planner.params = *p;
                     self.info("parameters loaded");
                 }
                 Ok(Loaded::WaitingForImage { yaml_name, image }) => {
@@ -188,11 +177,6 @@ impl StudioApp {
                 Err(e) => self.error(e),
             }
         }
-    }
-
-    /// Resets the parameters to the paper's defaults.
-    pub fn reset_params(&mut self) {
-        self.params = Params::default();
     }
 
     /// Draws the whole studio into `ui` and updates the decision; the body of `eframe::App::ui`.
@@ -209,7 +193,9 @@ impl StudioApp {
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status_bar(ui));
         if self.mode == Mode::Mission {
-            crate::mission_view::show(ui, self);
+            let mut actions = Vec::new();
+            crate::mission_view::show(ui, &mut self.mission, &self.planner.params, &mut self.widget_rects, &mut actions);
+            self.apply(actions);
         } else {
             self.planner_panels(ui);
         }
@@ -225,37 +211,44 @@ impl StudioApp {
     /// is brought up to date.
     fn planner_panels(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
+        let mut actions = Vec::new();
+        let p = &mut self.planner;
         egui::Panel::left("params").resizable(true).default_size(270.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| panels::params_panel(ui, self));
+            egui::ScrollArea::vertical().show(ui, |ui| panels::params_panel(ui, &mut p.params, &mut self.widget_rects, &mut actions));
         });
         egui::Panel::right("details").resizable(true).default_size(270.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| panels::details_panel(ui, self));
+            egui::ScrollArea::vertical().show(ui, |ui| panels::details_panel(ui, p));
         });
-        egui::Panel::bottom("table").resizable(true).default_size(200.0).min_size(120.0).show(ui, |ui| panels::candidate_table(ui, self));
-        egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, self));
+        egui::Panel::bottom("table")
+            .resizable(true)
+            .default_size(200.0)
+            .min_size(120.0)
+            .show(ui, |ui| panels::candidate_table(ui, &p.pipeline, &mut p.selected, &mut self.table, &mut actions));
+        egui::CentralPanel::default().show(ui, |ui| crate::canvas::show(ui, p, &mut self.canvas, &mut self.widget_rects));
+        self.apply(actions);
 
         // The parameters or the scene may have changed above: bring the decision up to date.
         // (The canvas drew last frame's decision for at most one frame.) A terrain map is
         // re-scored first if a hazard parameter moved.
-        let valid = self.params.validate().is_ok();
-        if valid && self.scene.map.refresh_terrain(&self.params.traversability) {
-            self.revs.map += 1;
+        let valid = self.planner.params.validate().is_ok();
+        if valid && self.planner.scene.map.refresh_terrain(&self.planner.params.traversability) {
+            self.planner.revs.map += 1;
         }
-        if valid && self.pipeline.update(&self.scene, self.revs, &self.params) {
+        if valid && self.planner.pipeline.update(&self.planner.scene, self.planner.revs, &self.planner.params) {
             ctx.request_repaint();
             // While the robot is dragged across obstacles the canvas shows the error live; only
             // a failure that stays is worth a message.
-            if let (Some(Err(e)), false) = (self.pipeline.decision(), self.canvas.dragging()) {
+            if let (Some(Err(e)), false) = (self.planner.pipeline.decision(), self.canvas.dragging()) {
                 let e = e.clone();
                 if self.messages.last().is_none_or(|m| m.text != e) {
                     self.error(e);
                 }
             }
         }
-        if let Some(sel) = self.selected
-            && self.pipeline.ok_decision().is_none_or(|d| sel >= d.candidates.len())
+        if let Some(sel) = self.planner.selected
+            && self.planner.pipeline.ok_decision().is_none_or(|d| sel >= d.candidates.len())
         {
-            self.selected = None;
+            self.planner.selected = None;
         }
     }
 
@@ -268,17 +261,17 @@ impl StudioApp {
         let name = format!("{} / {} at t = {:.1} s", m.world().spec.name, lane.strategy.name(), m.time_s());
         let map = crate::scene::MapLayers::from_score(m.layers().score.clone(), name.clone(), crate::scene::MapKind::Traversability);
         let landmarks = Landmarks { cloud: m.landmark_map(), source: format!("{name} landmark map") };
-        let mut scene = Scene::new(map, landmarks, Some(m.estimate()), self.params.frontier.blacklist_radius_m);
+        let mut scene = Scene::new(map, landmarks, Some(m.estimate()), self.planner.params.frontier.blacklist_radius_m);
         scene.robot = m.estimate();
         scene.boundary = m.world().boundary.clone();
         scene.blacklist = m.explorer().blacklist().clone();
         let (strategy, seed) = (lane.strategy, m.seed());
-        self.scene = scene;
-        self.params.selector.strategy = strategy;
-        self.params.selector.seed = seed;
-        self.revs.map += 1;
-        self.revs.landmarks += 1;
-        self.revs.layout += 1;
+        self.planner.scene = scene;
+        self.planner.params.selector.strategy = strategy;
+        self.planner.params.selector.seed = seed;
+        self.planner.revs.map += 1;
+        self.planner.revs.landmarks += 1;
+        self.planner.revs.layout += 1;
         self.after_scene_change();
         self.mode = Mode::Planner;
         if let Some(r) = &mut self.mission.runner {
@@ -307,9 +300,20 @@ impl StudioApp {
         }
     }
 
+    /// Carries out what the views asked for this frame.
+    fn apply(&mut self, actions: Vec<Action>) {
+        for a in actions {
+            match a {
+                Action::ExportParams => self.export_params(),
+                Action::ExportRanking { json } => self.export_ranking(json),
+                Action::OpenLaneInPlanner(i) => self.open_lane_in_planner(i),
+            }
+        }
+    }
+
     /// Writes the parameters as the robot node's YAML file.
     pub fn export_params(&mut self) {
-        match files::save_text("fitslam_params.yaml", "application/yaml", &self.params.to_yaml()) {
+        match files::save_text("fitslam_params.yaml", "application/yaml", &self.planner.params.to_yaml()) {
             Ok(p) => self.info(format!("parameters written to {p}")),
             Err(e) => self.error(format!("export parameters: {e}")),
         }
@@ -317,7 +321,7 @@ impl StudioApp {
 
     /// Writes the ranking as JSON or CSV.
     pub fn export_ranking(&mut self, json: bool) {
-        let Some(d) = self.pipeline.ok_decision() else {
+        let Some(d) = self.planner.pipeline.ok_decision() else {
             self.error("no ranking to export (the decision failed)");
             return;
         };
@@ -325,7 +329,7 @@ impl StudioApp {
             (
                 "fitslam_ranking.json",
                 "application/json",
-                export::ranking_json(d, &self.params, &self.scene.map.source, &self.scene.landmarks.source),
+                export::ranking_json(d, &self.planner.params, &self.planner.scene.map.source, &self.planner.scene.landmarks.source),
             )
         } else {
             ("fitslam_ranking.csv", "text/csv", export::ranking_csv(d))
@@ -387,10 +391,10 @@ impl StudioApp {
         ui.menu_button("View", |ui| {
             ui.label("Map layer");
             for l in Layer::ALL {
-                ui.radio_value(&mut self.layer, l, l.label());
+                ui.radio_value(&mut self.planner.layer, l, l.label());
             }
             ui.separator();
-            self.overlays.checkboxes(ui);
+            self.planner.overlays.checkboxes(ui);
             ui.separator();
             if ui.button("Fit map to view").clicked() {
                 self.canvas.fit_requested = true;
@@ -398,7 +402,7 @@ impl StudioApp {
         });
         if ui.button("Tour").clicked() {
             self.tour.start();
-            Tour::apply_step(self);
+            self.tour.apply_step(&mut self.planner);
         }
         if ui.button("About").clicked() {
             self.show_about = true;
@@ -406,20 +410,20 @@ impl StudioApp {
     }
 
     fn status_bar(&mut self, ui: &mut egui::Ui) {
-        let g = self.scene.map.geometry();
+        let g = self.planner.scene.map.geometry();
         ui.horizontal_wrapped(|ui| {
             ui.label(format!(
                 "map: {} ({}×{} @ {:.2} m) · landmarks: {} ({} pts, {} voxels)",
-                self.scene.map.source,
+                self.planner.scene.map.source,
                 g.width,
                 g.height,
                 g.resolution_m,
-                self.scene.landmarks.source,
-                self.scene.landmarks.cloud.len(),
-                self.pipeline.voxels().map(|v| v.len()).unwrap_or(0),
+                self.planner.scene.landmarks.source,
+                self.planner.scene.landmarks.cloud.len(),
+                self.planner.pipeline.voxels().map(|v| v.len()).unwrap_or(0),
             ));
             ui.separator();
-            let t = self.pipeline.timings;
+            let t = self.planner.pipeline.timings;
             ui.label(format!("decision {:.1} ms (last update {:.1} ms)", t.decision_ms, t.last_update_ms))
                 .on_hover_text("Wall-clock time of the last selector run and of everything re-run by the last change.");
         });
@@ -487,7 +491,7 @@ impl StudioApp {
         }
         if let Some(step) = action {
             self.tour.step = step;
-            Tour::apply_step(self);
+            self.tour.apply_step(&mut self.planner);
         }
     }
 
@@ -503,7 +507,7 @@ impl StudioApp {
 
     /// Window title / document title digest, and (web) the ranking for page scripts.
     fn publish(&mut self, ctx: &egui::Context) {
-        let title = match self.pipeline.decision() {
+        let title = match self.planner.pipeline.decision() {
             Some(Ok(d)) => export::digest(d, 3),
             Some(Err(_)) => "fitslam: error".to_string(),
             None => "fitslam".to_string(),
@@ -513,26 +517,26 @@ impl StudioApp {
             #[cfg(not(target_arch = "wasm32"))]
             ctx.send_viewport_cmd(egui::ViewportCommand::Title(format!("FIT-SLAM studio — {title}")));
         }
-        let ranking = self.pipeline.ok_decision().map(export::ranking_brief_json).unwrap_or_else(|| "null".into());
-        let g = self.scene.map.geometry();
+        let ranking = self.planner.pipeline.ok_decision().map(export::ranking_brief_json).unwrap_or_else(|| "null".into());
+        let g = self.planner.scene.map.geometry();
         let stats = serde_json::json!({
-            "decision_ms": self.pipeline.timings.decision_ms,
-            "last_update_ms": self.pipeline.timings.last_update_ms,
-            "decisions_computed": self.pipeline.decisions_computed,
-            "decision_revision": self.pipeline.decision_revision,
-            "map": self.scene.map.source,
+            "decision_ms": self.planner.pipeline.timings.decision_ms,
+            "last_update_ms": self.planner.pipeline.timings.last_update_ms,
+            "decisions_computed": self.planner.pipeline.decisions_computed,
+            "decision_revision": self.planner.pipeline.decision_revision,
+            "map": self.planner.scene.map.source,
             "map_cells": [g.width, g.height],
-            "landmarks": self.scene.landmarks.source,
-            "landmark_points": self.scene.landmarks.cloud.len(),
-            "error": self.pipeline.decision().and_then(|d| d.as_ref().err()).cloned(),
+            "landmarks": self.planner.scene.landmarks.source,
+            "landmark_points": self.planner.scene.landmarks.cloud.len(),
+            "error": self.planner.pipeline.decision().and_then(|d| d.as_ref().err()).cloned(),
             "messages": self.messages.iter().map(|m| &m.text).collect::<Vec<_>>(),
-            "robot": [self.scene.robot.x_m, self.scene.robot.y_m, self.scene.robot.yaw_rad],
+            "robot": [self.planner.scene.robot.x_m, self.planner.scene.robot.y_m, self.planner.scene.robot.yaw_rad],
             "params": {
-                "alpha": self.params.u1.alpha,
-                "beta": self.params.u2.beta,
-                "tau": self.params.traversability.tau,
-                "top_n": self.params.u2.top_n,
-                "strategy": self.params.selector.strategy,
+                "alpha": self.planner.params.u1.alpha,
+                "beta": self.planner.params.u2.beta,
+                "tau": self.planner.params.traversability.tau,
+                "top_n": self.planner.params.u2.top_n,
+                "strategy": self.planner.params.selector.strategy,
             },
             "slider_width": ctx.global_style().spacing.slider_width,
             "cloud_question": self.ask_cloud.as_ref().map(|f| f.name.clone()),
@@ -550,7 +554,7 @@ impl StudioApp {
         let all = format!("{title}\n{ranking}\n{stats}\n{widgets}");
         if all != self.last_published {
             #[cfg(target_arch = "wasm32")]
-            crate::web::publish(&title, &ranking, &stats, &widgets);
+            crate::browser::publish(&title, &ranking, &stats, &widgets);
             self.last_published = all;
         }
     }
@@ -560,14 +564,9 @@ impl StudioApp {
         &self.last_title
     }
 
-    /// Marks the robot pose, boundary or blacklist as edited.
-    pub fn layout_changed(&mut self) {
-        self.revs.layout += 1;
-    }
-
     /// The landmarks in use.
     pub fn landmarks(&self) -> &Landmarks {
-        &self.scene.landmarks
+        &self.planner.scene.landmarks
     }
 }
 

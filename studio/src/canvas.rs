@@ -7,95 +7,13 @@
 //! Everything drawn comes from the scene or the core's `Decision`; nothing is computed here but
 //! screen coordinates and colours.
 
-use crate::app::StudioApp;
+use crate::action::WidgetRects;
 use crate::export;
+use crate::planner::{Layer, PlannerState, RayMode};
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, Vec2};
 use fitslam_core::grid::{CellClass, Grid, OccupancyGrid};
 use fitslam_core::select::{CandidateReport, Decision, DropReason};
 use fitslam_core::traversability::{UNKNOWN_RGB, score_rgb};
-
-/// Which map layer is drawn under the overlays.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Layer {
-    /// Traversability score (red → green), unknown grey.
-    Score,
-    /// Score thresholded by τ: free, lethal, unknown.
-    Thresholded,
-    /// The thresholded grid inflated by the robot radius (what the planner uses).
-    Inflated,
-    /// Known versus unknown cells.
-    Unknown,
-}
-
-impl Layer {
-    pub const ALL: [Layer; 4] = [Layer::Score, Layer::Thresholded, Layer::Inflated, Layer::Unknown];
-
-    pub fn label(self) -> &'static str {
-        match self {
-            Layer::Score => "score",
-            Layer::Thresholded => "thresholded (τ)",
-            Layer::Inflated => "inflated (planning)",
-            Layer::Unknown => "unknown",
-        }
-    }
-}
-
-/// Which rays are drawn.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RayMode {
-    None,
-    /// The hovered or selected candidate (else the chosen one).
-    Focused,
-    /// Every ranked candidate.
-    Ranked,
-}
-
-/// Overlay switches.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Overlays {
-    pub landmarks: bool,
-    pub boundary: bool,
-    pub frontiers: bool,
-    pub candidates: bool,
-    pub rays: RayMode,
-    /// Θ* cones for every ranked candidate (the focused one always has its cone).
-    pub all_cones: bool,
-    pub paths: bool,
-    pub frustums: bool,
-}
-
-impl Default for Overlays {
-    fn default() -> Self {
-        Self {
-            landmarks: true,
-            boundary: true,
-            frontiers: true,
-            candidates: true,
-            rays: RayMode::Focused,
-            all_cones: false,
-            paths: true,
-            frustums: true,
-        }
-    }
-}
-
-impl Overlays {
-    pub fn checkboxes(&mut self, ui: &mut egui::Ui) {
-        ui.checkbox(&mut self.landmarks, "landmarks (by height)");
-        ui.checkbox(&mut self.boundary, "boundary");
-        ui.checkbox(&mut self.frontiers, "frontier clusters");
-        ui.checkbox(&mut self.candidates, "candidates");
-        ui.horizontal(|ui| {
-            ui.label("rays:");
-            ui.radio_value(&mut self.rays, RayMode::None, "none");
-            ui.radio_value(&mut self.rays, RayMode::Focused, "focused");
-            ui.radio_value(&mut self.rays, RayMode::Ranked, "ranked");
-        });
-        ui.checkbox(&mut self.all_cones, "Θ* cones of all ranked");
-        ui.checkbox(&mut self.paths, "paths + waypoints (top N)");
-        ui.checkbox(&mut self.frustums, "camera frustums (by FIM)");
-    }
-}
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 enum Drag {
@@ -215,39 +133,38 @@ pub(crate) fn layer_image<T>(grid: &Grid<T>, pixel: impl Fn(&T) -> Color32) -> e
     egui::ColorImage::new([g.width, g.height], pixels)
 }
 
-fn map_texture(ui: &egui::Ui, app: &mut StudioApp) -> Option<egui::TextureId> {
-    let layer = app.layer;
-    let radius = app.params.robot.radius_m;
-    let (m, t) = app.pipeline.occupancy_key()?;
+fn map_texture(ui: &egui::Ui, planner: &mut PlannerState, canvas: &mut CanvasState) -> Option<egui::TextureId> {
+    let layer = planner.layer;
+    let radius = planner.params.robot.radius_m;
+    let (m, t) = planner.pipeline.occupancy_key()?;
     let key: TexKey = match layer {
-        Layer::Score | Layer::Unknown => (layer, app.revs.map, 0, 0, 0),
+        Layer::Score | Layer::Unknown => (layer, planner.revs.map, 0, 0, 0),
         Layer::Thresholded => (layer, m, t, 0, 0),
         Layer::Inflated => (layer, m, t, radius.to_bits(), 0),
     };
-    if app.canvas.texture.as_ref().is_none_or(|(k, _)| *k != key) {
-        let image =
-            match layer {
-                Layer::Score => layer_image(&app.scene.map.score, |s| {
-                    let [r, g, b] = score_rgb(*s);
-                    Color32::from_rgb(r, g, b)
-                }),
-                Layer::Unknown => layer_image(&app.scene.map.score, |s| {
-                    if s.is_nan() { Color32::from_rgb(150, 60, 170) } else { Color32::from_rgb(60, 60, 60) }
-                }),
-                Layer::Thresholded => layer_image(app.pipeline.occupancy()?, |v| occupancy_pixel(*v)),
-                Layer::Inflated => {
-                    let (g, _) = app.pipeline.inflated(radius)?;
-                    layer_image::<i8>(g as &OccupancyGrid, |v| occupancy_pixel(*v))
-                }
-            };
+    if canvas.texture.as_ref().is_none_or(|(k, _)| *k != key) {
+        let image = match layer {
+            Layer::Score => layer_image(&planner.scene.map.score, |s| {
+                let [r, g, b] = score_rgb(*s);
+                Color32::from_rgb(r, g, b)
+            }),
+            Layer::Unknown => layer_image(&planner.scene.map.score, |s| {
+                if s.is_nan() { Color32::from_rgb(150, 60, 170) } else { Color32::from_rgb(60, 60, 60) }
+            }),
+            Layer::Thresholded => layer_image(planner.pipeline.occupancy()?, |v| occupancy_pixel(*v)),
+            Layer::Inflated => {
+                let (g, _) = planner.pipeline.inflated(radius)?;
+                layer_image::<i8>(g as &OccupancyGrid, |v| occupancy_pixel(*v))
+            }
+        };
         let max = ui.ctx().input(|i| i.max_texture_side);
         if image.size[0] > max || image.size[1] > max {
             return None;
         }
         let tex = ui.ctx().load_texture("fitslam-map", image, egui::TextureOptions::NEAREST);
-        app.canvas.texture = Some((key, tex));
+        canvas.texture = Some((key, tex));
     }
-    app.canvas.texture.as_ref().map(|(_, t)| t.id())
+    canvas.texture.as_ref().map(|(_, t)| t.id())
 }
 
 /// Pixel distance within which a candidate is under the pointer.
@@ -264,54 +181,55 @@ fn pick_candidate(view: &View, d: &Decision, p: Pos2) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
-/// Draws the canvas and handles its interaction.
-pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
+/// Draws the canvas and handles its interaction: the robot is moved and turned in `planner`'s
+/// scene, the hovered and selected candidates are set there; `canvas` keeps the view.
+pub fn show(ui: &mut egui::Ui, planner: &mut PlannerState, canvas: &mut CanvasState, widget_rects: &mut WidgetRects) {
     let (response, painter) = ui.allocate_painter(ui.available_size(), Sense::click_and_drag());
     let rect = response.rect;
-    app.widget_rects.insert("canvas", rect);
+    widget_rects.insert("canvas", rect);
     painter.rect_filled(rect, 0.0, Color32::from_rgb(24, 24, 28));
-    let g = app.scene.map.geometry();
+    let g = planner.scene.map.geometry();
     let (x0, y0, x1, y1) = g.bounds_m();
     // Refit when asked, on the first frame, and when the canvas is resized (panels or messages
     // changed) as long as the user has not panned or zoomed since the last fit.
-    let resized = app.canvas.rect.is_some_and(|r| r.size() != rect.size());
-    if app.canvas.fit_requested || app.canvas.px_per_m <= 0.0 || app.canvas.rect.is_none() || (resized && !app.canvas.user_view) {
-        app.canvas.user_view = false;
+    let resized = canvas.rect.is_some_and(|r| r.size() != rect.size());
+    if canvas.fit_requested || canvas.px_per_m <= 0.0 || canvas.rect.is_none() || (resized && !canvas.user_view) {
+        canvas.user_view = false;
         let fitted = View::fit(rect, (x0, y0, x1, y1));
-        app.canvas.px_per_m = fitted.px_per_m;
-        app.canvas.center_m = fitted.center_m;
-        app.canvas.fit_requested = false;
+        canvas.px_per_m = fitted.px_per_m;
+        canvas.center_m = fitted.center_m;
+        canvas.fit_requested = false;
     }
-    app.canvas.rect = Some(rect);
+    canvas.rect = Some(rect);
 
     // Zoom about the pointer.
     if let (true, Some(p)) = (response.hovered(), response.hover_pos()) {
         let scroll = ui.input(|i| i.smooth_scroll_delta.y);
         if scroll != 0.0 {
-            let before = View { rect, center_m: app.canvas.center_m, px_per_m: app.canvas.px_per_m }.to_world(p);
-            app.canvas.px_per_m = (app.canvas.px_per_m * f64::from((scroll * 0.002).exp())).clamp(1.0, 5000.0);
-            let after = View { rect, center_m: app.canvas.center_m, px_per_m: app.canvas.px_per_m }.to_world(p);
-            app.canvas.center_m[0] += before[0] - after[0];
-            app.canvas.center_m[1] += before[1] - after[1];
-            app.canvas.user_view = true;
+            let before = View { rect, center_m: canvas.center_m, px_per_m: canvas.px_per_m }.to_world(p);
+            canvas.px_per_m = (canvas.px_per_m * f64::from((scroll * 0.002).exp())).clamp(1.0, 5000.0);
+            let after = View { rect, center_m: canvas.center_m, px_per_m: canvas.px_per_m }.to_world(p);
+            canvas.center_m[0] += before[0] - after[0];
+            canvas.center_m[1] += before[1] - after[1];
+            canvas.user_view = true;
         }
     }
-    let view = View { rect, center_m: app.canvas.center_m, px_per_m: app.canvas.px_per_m };
+    let view = View { rect, center_m: canvas.center_m, px_per_m: canvas.px_per_m };
 
     // Robot handles (screen).
-    let robot = app.scene.robot;
+    let robot = planner.scene.robot;
     let robot_px = view.to_screen(robot.x_m, robot.y_m);
-    let body_r = view.len(app.params.robot.radius_m).max(7.0);
+    let body_r = view.len(planner.params.robot.radius_m).max(7.0);
     let handle_len = body_r + 22.0;
     let handle_px = robot_px + Vec2::new(robot.yaw_rad.cos() as f32, -(robot.yaw_rad.sin() as f32)) * handle_len;
-    app.widget_rects.insert("robot", Rect::from_center_size(robot_px, Vec2::splat(2.0 * body_r)));
-    app.widget_rects.insert("robot_handle", Rect::from_center_size(handle_px, Vec2::splat(12.0)));
+    widget_rects.insert("robot", Rect::from_center_size(robot_px, Vec2::splat(2.0 * body_r)));
+    widget_rects.insert("robot_handle", Rect::from_center_size(handle_px, Vec2::splat(12.0)));
 
     // Interaction.
     if response.drag_started() {
         // Hit-test where the button went down, not where the drag was recognised.
         if let Some(p) = ui.input(|i| i.pointer.press_origin()).or(response.interact_pointer_pos()) {
-            app.canvas.drag = if p.distance(handle_px) <= 9.0 {
+            canvas.drag = if p.distance(handle_px) <= 9.0 {
                 Drag::RotateRobot
             } else if p.distance(robot_px) <= body_r + 3.0 {
                 Drag::MoveRobot
@@ -322,19 +240,19 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     }
     if response.dragged() {
         let delta = response.drag_delta();
-        match app.canvas.drag {
+        match canvas.drag {
             Drag::Pan => {
-                app.canvas.center_m[0] -= f64::from(delta.x) / app.canvas.px_per_m;
-                app.canvas.center_m[1] += f64::from(delta.y) / app.canvas.px_per_m;
-                app.canvas.user_view = true;
+                canvas.center_m[0] -= f64::from(delta.x) / canvas.px_per_m;
+                canvas.center_m[1] += f64::from(delta.y) / canvas.px_per_m;
+                canvas.user_view = true;
             }
             Drag::MoveRobot => {
                 if let Some(p) = response.interact_pointer_pos() {
                     let [x, y] = view.to_world(p);
-                    if app.scene.map.score.at_world(x, y).is_some() {
-                        app.scene.robot.x_m = x;
-                        app.scene.robot.y_m = y;
-                        app.layout_changed();
+                    if planner.scene.map.score.at_world(x, y).is_some() {
+                        planner.scene.robot.x_m = x;
+                        planner.scene.robot.y_m = y;
+                        planner.layout_changed();
                     }
                 }
             }
@@ -342,8 +260,8 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
                 if let Some(p) = response.interact_pointer_pos() {
                     let d = p - robot_px;
                     if d.length() > 2.0 {
-                        app.scene.robot.yaw_rad = fitslam_core::pose::wrap_tau(f64::from(-d.y).atan2(f64::from(d.x)));
-                        app.layout_changed();
+                        planner.scene.robot.yaw_rad = fitslam_core::pose::wrap_tau(f64::from(-d.y).atan2(f64::from(d.x)));
+                        planner.layout_changed();
                     }
                 }
             }
@@ -351,47 +269,47 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
         }
     }
     if response.drag_stopped() {
-        if app.canvas.drag == Drag::MoveRobot {
+        if canvas.drag == Drag::MoveRobot {
             // Dropped on an obstacle or in the unknown: put the robot on the nearest cell the
             // planner can start from (free on the inflated grid).
-            let radius = app.params.robot.radius_m;
-            let robot = app.scene.robot;
-            let snapped = app
+            let radius = planner.params.robot.radius_m;
+            let robot = planner.scene.robot;
+            let snapped = planner
                 .pipeline
                 .inflated(radius)
                 .and_then(|(grid, _)| crate::scene::nearest_pose(grid, robot, |v| CellClass::of(*v) == CellClass::Free));
             if let Some(p) = snapped.filter(|p| *p != robot) {
-                app.scene.robot = p;
-                app.layout_changed();
+                planner.scene.robot = p;
+                planner.layout_changed();
             }
         }
-        app.canvas.drag = Drag::None;
+        canvas.drag = Drag::None;
     }
 
     // Map.
-    if let Some(tex) = map_texture(ui, app) {
+    if let Some(tex) = map_texture(ui, planner, canvas) {
         let r = Rect::from_two_pos(view.to_screen(x0, y1), view.to_screen(x1, y0));
         painter.image(tex, r, Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)), Color32::WHITE);
     } else {
         painter.text(rect.center(), Align2::CENTER_CENTER, "map too large for a texture", FontId::proportional(16.0), Color32::LIGHT_RED);
     }
 
-    if app.overlays.boundary {
-        let pts: Vec<Pos2> = app.scene.boundary.vertices_m.iter().map(|v| view.to_screen(v[0], v[1])).collect();
+    if planner.overlays.boundary {
+        let pts: Vec<Pos2> = planner.scene.boundary.vertices_m.iter().map(|v| view.to_screen(v[0], v[1])).collect();
         if pts.len() >= 2 {
             painter.add(Shape::closed_line(pts, Stroke::new(1.5, Color32::from_rgb(255, 220, 0))));
         }
     }
-    if app.overlays.landmarks {
-        draw_landmarks(&painter, &view, app);
+    if planner.overlays.landmarks {
+        draw_landmarks(&painter, &view, planner);
     }
 
-    app.hovered = None;
-    // Picking first (it writes the app), then drawing with shared borrows only.
-    let (mut hovered, mut selected) = (None, app.selected);
-    if let Some(d) = app.pipeline.ok_decision() {
+    planner.hovered = None;
+    // Picking first (it writes the state), then drawing with shared borrows only.
+    let (mut hovered, mut selected) = (None, planner.selected);
+    if let Some(d) = planner.pipeline.ok_decision() {
         if response.hovered()
-            && app.canvas.drag == Drag::None
+            && canvas.drag == Drag::None
             && let Some(p) = response.hover_pos()
         {
             hovered = pick_candidate(&view, d, p);
@@ -402,11 +320,11 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
             selected = pick_candidate(&view, d, p);
         }
     }
-    app.hovered = hovered;
-    app.selected = selected;
+    planner.hovered = hovered;
+    planner.selected = selected;
     let mut rank_rects = Vec::new();
-    if let Some(d) = app.pipeline.ok_decision() {
-        draw_decision(&painter, &view, app, d);
+    if let Some(d) = planner.pipeline.ok_decision() {
+        draw_decision(&painter, &view, planner, d);
         // Candidate positions for page scripts and tests (first 10 by rank).
         const NAMES: [&str; 10] = ["rank1", "rank2", "rank3", "rank4", "rank5", "rank6", "rank7", "rank8", "rank9", "rank10"];
         for (k, i) in d.ranking().into_iter().take(10).enumerate() {
@@ -414,28 +332,28 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
             rank_rects.push((NAMES[k], Rect::from_center_size(view.to_screen(c.x_m, c.y_m), Vec2::splat(2.0 * PICK_PX))));
         }
     }
-    app.widget_rects.extend(rank_rects);
+    widget_rects.extend(rank_rects);
 
-    draw_robot(&painter, robot_px, body_r, handle_px, app.canvas.drag == Drag::RotateRobot);
+    draw_robot(&painter, robot_px, body_r, handle_px, canvas.drag == Drag::RotateRobot);
 
-    if let (Some(d), Some(i)) = (app.pipeline.ok_decision(), app.hovered)
+    if let (Some(d), Some(i)) = (planner.pipeline.ok_decision(), planner.hovered)
         && let Some(c) = d.candidates.get(i)
     {
-        response.clone().on_hover_ui_at_pointer(|ui| crate::panels::candidate_summary(ui, d, i, c));
+        response.clone().on_hover_ui_at_pointer(|ui| crate::summary::candidate_summary(ui, d, i, c));
     }
-    if app.hovered.is_some() {
+    if planner.hovered.is_some() {
         ui.ctx().set_cursor_icon(egui::CursorIcon::PointingHand);
-    } else if matches!(app.canvas.drag, Drag::MoveRobot | Drag::RotateRobot) {
+    } else if matches!(canvas.drag, Drag::MoveRobot | Drag::RotateRobot) {
         ui.ctx().set_cursor_icon(egui::CursorIcon::Grabbing);
     }
-    legend(&painter, rect, app);
+    legend(&painter, rect, planner);
 }
 
-fn draw_landmarks(painter: &egui::Painter, view: &View, app: &StudioApp) {
-    let Some((z0, z1)) = app.scene.landmark_z_range() else { return };
+fn draw_landmarks(painter: &egui::Painter, view: &View, planner: &PlannerState) {
+    let Some((z0, z1)) = planner.scene.landmark_z_range() else { return };
     let span = (z1 - z0).max(1e-9);
     let clip = view.rect.expand(4.0);
-    for p in &app.scene.landmarks.cloud.points {
+    for p in &planner.scene.landmarks.cloud.points {
         let s = view.to_screen(p.x, p.y);
         if clip.contains(s) {
             painter.circle_filled(s, 2.2, ramp((p.z - z0) / span));
@@ -455,14 +373,14 @@ fn sector(view: &View, x: f64, y: f64, heading: f64, fov: f64, radius_m: f64) ->
     pts
 }
 
-fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Decision) {
-    let res = app.scene.map.geometry().resolution_m;
+fn draw_decision(painter: &egui::Painter, view: &View, planner: &PlannerState, d: &Decision) {
+    let res = planner.scene.map.geometry().resolution_m;
     let cell_px = view.len(res).max(2.0);
-    let hfov = app.params.camera.hfov_rad;
-    let dmax = app.params.camera.max_depth_m;
-    let focus = app.hovered.or(app.selected).or(d.chosen);
+    let hfov = planner.params.camera.hfov_rad;
+    let dmax = planner.params.camera.max_depth_m;
+    let focus = planner.hovered.or(planner.selected).or(d.chosen);
 
-    if app.overlays.frontiers {
+    if planner.overlays.frontiers {
         for (i, c) in d.candidates.iter().enumerate() {
             let color = if c.dropped == Some(DropReason::NoPath) || matches!(c.dropped, Some(DropReason::Blacklisted(_))) {
                 Color32::from_rgba_unmultiplied(200, 60, 60, 200)
@@ -471,7 +389,7 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
             } else {
                 Color32::from_rgba_unmultiplied(255, 90, 230, 200)
             };
-            let g = app.scene.map.geometry();
+            let g = planner.scene.map.geometry();
             for cell in &c.cluster_cells {
                 let (x, y) = g.center_of(*cell);
                 painter.rect_filled(Rect::from_center_size(view.to_screen(x, y), Vec2::splat(cell_px)), 0.0, color);
@@ -480,7 +398,7 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
     }
 
     // Paths, waypoints and frustums of the ranked candidates.
-    if app.overlays.paths || app.overlays.frustums {
+    if planner.overlays.paths || planner.overlays.frustums {
         let max_info = d.candidates.iter().flat_map(|c| c.waypoints.iter().map(|w| w.info)).fold(0.0f64, f64::max);
         let order = d.ranking();
         for &i in order.iter().rev() {
@@ -491,13 +409,13 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
             let rank = c.rank.unwrap_or(99);
             let focused = focus == Some(i);
             let width = if d.chosen == Some(i) || focused { 3.0 } else { 1.6 };
-            if app.overlays.paths && c.path_m.len() >= 2 {
+            if planner.overlays.paths && c.path_m.len() >= 2 {
                 let pts: Vec<Pos2> = c.path_m.iter().map(|p| view.to_screen(p[0], p[1])).collect();
                 painter.add(Shape::line(pts, Stroke::new(width, rank_color(rank))));
             }
             for w in &c.waypoints {
                 let t = if max_info > 0.0 { w.info / max_info } else { 0.0 };
-                if app.overlays.frustums {
+                if planner.overlays.frustums {
                     let len = (0.35 * dmax).min(1.5);
                     let mut poly = sector(view, w.x_m, w.y_m, w.yaw_rad, hfov.min(std::f64::consts::PI * 1.9), len);
                     let c = ramp(t);
@@ -506,7 +424,7 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
                     painter.add(Shape::convex_polygon(poly.clone(), fill, Stroke::NONE));
                     painter.add(Shape::line(poly, Stroke::new(1.0, c)));
                 }
-                if app.overlays.paths {
+                if planner.overlays.paths {
                     painter.circle(view.to_screen(w.x_m, w.y_m), 3.5, ramp(t), Stroke::new(1.0, Color32::BLACK));
                 }
             }
@@ -517,7 +435,7 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
     let ray_max = d.candidates.iter().flat_map(|c| c.ray_gains_bits.iter().copied()).fold(0.0f64, f64::max);
     for (i, c) in d.candidates.iter().enumerate() {
         let ranked = c.rank.is_some();
-        let show_rays = match app.overlays.rays {
+        let show_rays = match planner.overlays.rays {
             RayMode::None => false,
             RayMode::Focused => focus == Some(i),
             RayMode::Ranked => ranked || focus == Some(i),
@@ -525,7 +443,7 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
         if show_rays {
             draw_rays(painter, view, d, c, dmax, ray_max);
         }
-        if (focus == Some(i) || (app.overlays.all_cones && ranked))
+        if (focus == Some(i) || (planner.overlays.all_cones && ranked))
             && let Some(th) = c.theta_star_rad
         {
             let poly = sector(view, c.x_m, c.y_m, th, hfov.min(std::f64::consts::TAU), dmax);
@@ -541,9 +459,9 @@ fn draw_decision(painter: &egui::Painter, view: &View, app: &StudioApp, d: &Deci
         }
     }
 
-    if app.overlays.candidates {
+    if planner.overlays.candidates {
         for (i, c) in d.candidates.iter().enumerate() {
-            draw_candidate(painter, view, d, i, c, focus == Some(i), app.selected == Some(i));
+            draw_candidate(painter, view, d, i, c, focus == Some(i), planner.selected == Some(i));
         }
     }
 
@@ -613,15 +531,15 @@ pub(crate) fn draw_robot(painter: &egui::Painter, p: Pos2, body_r: f32, handle: 
     painter.circle(handle, 6.0, hc, Stroke::new(1.5, Color32::from_rgb(40, 140, 255)));
 }
 
-fn legend(painter: &egui::Painter, rect: Rect, app: &StudioApp) {
+fn legend(painter: &egui::Painter, rect: Rect, planner: &PlannerState) {
     let mut y = rect.top() + 8.0;
     let x = rect.left() + 8.0;
     let line = |text: String, y: &mut f32| {
         painter.text(Pos2::new(x, *y), Align2::LEFT_TOP, text, FontId::proportional(12.0), Color32::from_gray(220));
         *y += 15.0;
     };
-    line(format!("layer: {} · strategy: {:?}", app.layer.label(), app.params.selector.strategy), &mut y);
-    match app.pipeline.decision() {
+    line(format!("layer: {} · strategy: {:?}", planner.layer.label(), planner.params.selector.strategy), &mut y);
+    match planner.pipeline.decision() {
         Some(Ok(d)) => line(
             match d.chosen_candidate() {
                 Some(c) => format!(

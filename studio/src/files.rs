@@ -105,7 +105,7 @@ pub fn extensions(intent: Intent) -> &'static [&'static str] {
 pub fn save_text(file_name: &str, mime: &str, text: &str) -> Result<String, String> {
     #[cfg(target_arch = "wasm32")]
     {
-        crate::web::download(file_name, mime, text)?;
+        crate::browser::download(file_name, mime, text)?;
         Ok(file_name.to_string())
     }
     #[cfg(not(target_arch = "wasm32"))]
@@ -123,7 +123,11 @@ pub fn open_picker(intent: Intent, inbox: &Inbox, ctx: &egui::Context, browser: 
     #[cfg(target_arch = "wasm32")]
     {
         let _ = browser;
-        crate::web::pick_files(intent, inbox.clone(), ctx.clone());
+        let (inbox, ctx) = (inbox.clone(), ctx.clone());
+        crate::browser::pick_files(extensions(intent), move |batch| {
+            inbox.push_all(batch.into_iter().map(|(name, bytes)| IncomingFile { name, bytes, intent }).collect());
+            ctx.request_repaint();
+        });
     }
     #[cfg(not(target_arch = "wasm32"))]
     {

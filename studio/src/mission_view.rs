@@ -9,7 +9,7 @@
 //! robot, goal and candidate markers). Map textures are refreshed at most every 0.5 simulated
 //! seconds per lane (an image is O(cells)).
 
-use crate::app::StudioApp;
+use crate::action::{Action, WidgetRects};
 use crate::canvas::{self, View};
 use crate::sim_runner::{self, MissionConfig, RunState, SimRunner};
 use egui::{Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stroke, Vec2};
@@ -188,14 +188,15 @@ impl MissionView {
     }
 }
 
-/// Draws the Mission mode (controls, lane maps, plots) and advances the missions.
-pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
+/// Draws the Mission mode (controls, lane maps, plots) and advances the missions. `params` are
+/// the Planner mode's, which the missions take at (re)start; "open in planner" is returned as
+/// [`Action::OpenLaneInPlanner`].
+pub fn show(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_core::Params, rects: &mut WidgetRects, actions: &mut Vec<Action>) {
     let ctx = ui.ctx().clone();
-    if app.mission.runner.is_none() && app.mission.error.is_none() {
-        let params = app.params.clone();
-        app.mission.restart(&params);
+    if m.runner.is_none() && m.error.is_none() {
+        m.restart(params);
     }
-    app.mission.advance(&ctx);
+    m.advance(&ctx);
     // A click may change the layout (e.g. the "press Reset" line): draw once more so that the
     // published widget rectangles settle.
     if ctx.input(|i| i.pointer.any_click()) {
@@ -203,17 +204,16 @@ pub fn show(ui: &mut egui::Ui, app: &mut StudioApp) {
     }
 
     egui::Panel::left("mission_controls").resizable(true).default_size(270.0).show(ui, |ui| {
-        egui::ScrollArea::vertical().show(ui, |ui| controls(ui, app));
+        egui::ScrollArea::vertical().show(ui, |ui| controls(ui, m, params, rects));
     });
     egui::Panel::bottom("mission_plots").resizable(true).default_size(230.0).min_size(120.0).show(ui, |ui| {
-        plots(ui, &mut app.mission);
+        plots(ui, m);
     });
-    egui::CentralPanel::default().show(ui, |ui| lanes(ui, app));
+    egui::CentralPanel::default().show(ui, |ui| lanes(ui, m, rects, actions));
 }
 
-fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
+fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_core::Params, widget_rects: &mut WidgetRects) {
     let mut rects: Vec<(&'static str, Rect)> = Vec::new();
-    let m = &mut app.mission;
     ui.heading("Simulated mission");
     ui.label("One mission per strategy, same world and seed, side by side.");
     ui.add_space(4.0);
@@ -316,8 +316,7 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
         let r = ui.button("Reset").on_hover_text("Restart from t = 0 with the settings above.");
         rects.push(("mission_reset", r.rect));
         if r.clicked() {
-            let params = app.params.clone();
-            m.restart(&params);
+            m.restart(params);
         }
     });
     ui.add_space(4.0);
@@ -348,7 +347,7 @@ fn controls(ui: &mut egui::Ui, app: &mut StudioApp) {
     if let Some(e) = &m.error {
         ui.colored_label(Color32::from_rgb(255, 120, 110), e);
     }
-    app.widget_rects.extend(rects);
+    widget_rects.extend(rects);
 }
 
 fn plots(ui: &mut egui::Ui, m: &mut MissionView) {
@@ -459,10 +458,10 @@ fn lane_texture(ui: &egui::Ui, m: &mut MissionView, i: usize) -> Option<egui::Te
     m.textures[i].as_ref().map(|(_, t, _)| t.id())
 }
 
-fn lanes(ui: &mut egui::Ui, app: &mut StudioApp) {
-    let n = app.mission.runner.as_ref().map(|r| r.lanes.len()).unwrap_or(0);
+fn lanes(ui: &mut egui::Ui, m: &mut MissionView, widget_rects: &mut WidgetRects, actions: &mut Vec<Action>) {
+    let n = m.runner.as_ref().map(|r| r.lanes.len()).unwrap_or(0);
     if n == 0 {
-        ui.label(match &app.mission.error {
+        ui.label(match &m.error {
             Some(e) => format!("no mission: {e}"),
             None => "no strategy selected: tick at least one and press Reset".into(),
         });
@@ -472,14 +471,14 @@ fn lanes(ui: &mut egui::Ui, app: &mut StudioApp) {
     let mut rects = Vec::new();
     ui.columns(n, |cols| {
         for (i, col) in cols.iter_mut().enumerate() {
-            if lane(col, &mut app.mission, i, &mut rects) {
+            if lane(col, m, i, &mut rects) {
                 open = Some(i);
             }
         }
     });
-    app.widget_rects.extend(rects);
+    widget_rects.extend(rects);
     if let Some(i) = open {
-        app.open_lane_in_planner(i);
+        actions.push(Action::OpenLaneInPlanner(i));
     }
 }
 

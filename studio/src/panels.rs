@@ -1,8 +1,13 @@
 //! Side panels: the parameter sliders, the focused candidate's details and the sortable
-//! candidate table. They edit `app.params` / `app.selected` and read the core's `Decision`.
+//! candidate table. They edit the parameters, the selection and the table's order, read the
+//! core's `Decision`, and hand exports back to the app as [`Action`]s.
 
-use crate::app::StudioApp;
+use crate::action::{Action, WidgetRects};
 use crate::export::drop_text;
+use crate::pipeline::Pipeline;
+use crate::planner::PlannerState;
+use crate::summary::{candidate_summary, fmt};
+use fitslam_core::Params;
 use fitslam_core::params::{InfoNormalisation, Strategy};
 use fitslam_core::select::{CandidateReport, Decision};
 
@@ -25,12 +30,11 @@ fn scaled_slider(
 }
 
 /// The parameter panel: every tunable the issue lists, live.
-pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
+pub fn params_panel(ui: &mut egui::Ui, p: &mut Params, widget_rects: &mut WidgetRects, actions: &mut Vec<Action>) {
     ui.heading("Parameters");
     ui.label("Changes re-rank at once.");
     ui.add_space(4.0);
     let deg = 180.0 / std::f64::consts::PI;
-    let p = &mut app.params;
     let mut rects: Vec<(&'static str, egui::Rect)> = Vec::new();
 
     ui.label(egui::RichText::new("Strategy").strong());
@@ -133,18 +137,16 @@ pub fn params_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
     ui.add_space(8.0);
     ui.horizontal(|ui| {
         if ui.button("Paper defaults").clicked() {
-            app.reset_params();
+            *p = Params::default();
         }
         if ui.button("Export YAML").on_hover_text("The robot node's parameter file (fitslam_core::Params)").clicked() {
-            app.export_params();
+            actions.push(Action::ExportParams);
         }
     });
-    if let Err(e) = app.params.validate() {
+    if let Err(e) = p.validate() {
         ui.colored_label(egui::Color32::from_rgb(255, 120, 110), e.to_string());
     }
-    for (k, r) in rects {
-        app.widget_rects.insert(k, r);
-    }
+    widget_rects.extend(rects);
 }
 
 pub fn strategy_name(s: Strategy) -> &'static str {
@@ -156,39 +158,10 @@ pub fn strategy_name(s: Strategy) -> &'static str {
     }
 }
 
-fn fmt(v: Option<f64>, decimals: usize) -> String {
-    v.map(|x| format!("{x:.decimals$}")).unwrap_or_else(|| "—".into())
-}
-
-/// ρ, ΔE, Θ*, u1, I_p, u2 of one candidate (tooltip and details panel).
-pub fn candidate_summary(ui: &mut egui::Ui, d: &Decision, i: usize, c: &CandidateReport) {
-    let title = match c.rank {
-        Some(r) if d.chosen == Some(i) => format!("Candidate {i} — rank {r} (chosen)"),
-        Some(r) => format!("Candidate {i} — rank {r}"),
-        None => format!("Candidate {i} — not ranked ({})", drop_text(c.dropped)),
-    };
-    ui.label(egui::RichText::new(title).strong());
-    egui::Grid::new(("summary", i)).num_columns(2).show(ui, |ui| {
-        let mut row = |k: &str, v: String| {
-            ui.label(k);
-            ui.label(v);
-            ui.end_row();
-        };
-        row("position", format!("({:.2}, {:.2}) m", c.x_m, c.y_m));
-        row("ρ (path)", format!("{} m", fmt(c.rho_m, 2)));
-        row("ΔE", format!("{} bits", fmt(c.delta_e_bits, 2)));
-        row("Θ*", format!("{}°", fmt(c.theta_star_rad.map(f64::to_degrees), 1)));
-        row("u1", format!("{} (rank {})", fmt(c.u1, 3), c.u1_rank.map(|r| r.to_string()).unwrap_or_else(|| "—".into())));
-        row("I_p", format!("{} (raw {})", fmt(c.path_info, 3), fmt(c.path_info_raw, 1)));
-        row("u2", fmt(c.u2, 3));
-        row("cluster", format!("{} cells", c.cluster_size));
-    });
-}
-
 /// Right panel: the focused candidate in full, with its waypoints.
-pub fn details_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
+pub fn details_panel(ui: &mut egui::Ui, planner: &PlannerState) {
     ui.heading("Candidate");
-    let Some(result) = app.pipeline.decision() else { return };
+    let Some(result) = planner.pipeline.decision() else { return };
     let d = match result {
         Ok(d) => d,
         Err(e) => {
@@ -196,7 +169,7 @@ pub fn details_panel(ui: &mut egui::Ui, app: &mut StudioApp) {
             return;
         }
     };
-    let focus = app.hovered.or(app.selected).or(d.chosen);
+    let focus = planner.hovered.or(planner.selected).or(d.chosen);
     let Some(i) = focus.filter(|&i| i < d.candidates.len()) else {
         ui.label(format!("{} candidates; none ranked. Move the robot or lower τ.", d.candidates.len()));
         return;
@@ -310,8 +283,14 @@ pub fn sorted_rows(d: &Decision, state: TableState) -> Vec<usize> {
 }
 
 /// The candidate table: click a header to sort (again to reverse), a row to select.
-pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
-    let Some(Ok(d)) = app.pipeline.decision() else {
+pub fn candidate_table(
+    ui: &mut egui::Ui,
+    pipeline: &Pipeline,
+    selected: &mut Option<usize>,
+    table: &mut TableState,
+    actions: &mut Vec<Action>,
+) {
+    let Some(Ok(d)) = pipeline.decision() else {
         ui.label("No ranking.");
         return;
     };
@@ -329,20 +308,19 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
         ui.label(egui::RichText::new("Candidates").strong());
         ui.label(header);
         if ui.small_button("CSV").on_hover_text("Export the ranking as CSV").clicked() {
-            app.export_ranking(false);
+            actions.push(Action::ExportRanking { json: false });
         }
         if ui.small_button("JSON").on_hover_text("Export the ranking as JSON").clicked() {
-            app.export_ranking(true);
+            actions.push(Action::ExportRanking { json: true });
         }
     });
-    let Some(Ok(d)) = app.pipeline.decision() else { return };
-    let rows = sorted_rows(d, app.table);
+    let rows = sorted_rows(d, *table);
     let mut new_sort = None;
     let mut new_sel = None;
     egui::ScrollArea::both().auto_shrink([false, false]).show(ui, |ui| {
         egui::Grid::new("candidates").striped(true).min_col_width(48.0).show(ui, |ui| {
             for col in Column::ALL {
-                let arrow = if app.table.column == col { if app.table.descending { " v" } else { " ^" } } else { "" };
+                let arrow = if table.column == col { if table.descending { " v" } else { " ^" } } else { "" };
                 if ui.button(format!("{}{arrow}", col.title())).clicked() {
                     new_sort = Some(col);
                 }
@@ -351,10 +329,10 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
             ui.end_row();
             for &i in &rows {
                 let c = &d.candidates[i];
-                let selected = app.selected == Some(i);
+                let is_selected = *selected == Some(i);
                 let chosen = if d.chosen == Some(i) { " (chosen)" } else { "" };
-                if ui.selectable_label(selected, format!("#{i}")).clicked() {
-                    new_sel = Some(if selected { None } else { Some(i) });
+                if ui.selectable_label(is_selected, format!("#{i}")).clicked() {
+                    new_sel = Some(if is_selected { None } else { Some(i) });
                 }
                 ui.label(c.rank.map(|r| format!("{r}{chosen}")).unwrap_or_else(|| "—".into()));
                 ui.label(fmt(c.rho_m, 2));
@@ -369,14 +347,14 @@ pub fn candidate_table(ui: &mut egui::Ui, app: &mut StudioApp) {
         });
     });
     if let Some(col) = new_sort {
-        if app.table.column == col {
-            app.table.descending = !app.table.descending;
+        if table.column == col {
+            table.descending = !table.descending;
         } else {
-            app.table = TableState { column: col, descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE) };
+            *table = TableState { column: col, descending: matches!(col, Column::U1 | Column::U2 | Column::Ip | Column::DeltaE) };
         }
     }
     if let Some(sel) = new_sel {
-        app.selected = sel;
+        *selected = sel;
     }
 }
 

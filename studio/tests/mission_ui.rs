@@ -130,10 +130,10 @@ fn strategy_checkboxes_apply_on_reset_and_a_lane_opens_in_the_planner() {
     h.run_ok();
     let app = h.state();
     assert_eq!(app.mode, Mode::Planner);
-    assert!(app.scene.map.source.starts_with("tiny_test / fit at t = "), "{}", app.scene.map.source);
-    assert_eq!(app.scene.robot, est);
-    assert_eq!(app.params.selector.strategy, Strategy::Fit);
-    let d = app.pipeline.ok_decision().expect("the planner decides on the mission's map");
+    assert!(app.planner.scene.map.source.starts_with("tiny_test / fit at t = "), "{}", app.planner.scene.map.source);
+    assert_eq!(app.planner.scene.robot, est);
+    assert_eq!(app.planner.params.selector.strategy, Strategy::Fit);
+    let d = app.planner.pipeline.ok_decision().expect("the planner decides on the mission's map");
     assert!(!d.candidates.is_empty());
 }
 

@@ -24,7 +24,7 @@ fn slider<'h>(h: &'h Harness<'_, StudioApp>, label: &'h str) -> egui_kittest::No
 }
 
 fn decision(h: &Harness<'_, StudioApp>) -> Decision {
-    h.state().pipeline.ok_decision().cloned().expect("a decision")
+    h.state().planner.pipeline.ok_decision().cloned().expect("a decision")
 }
 
 /// Index of the scored candidate with the smallest ρ (ties by index).
@@ -39,7 +39,7 @@ fn nearest(d: &Decision) -> usize {
 fn starts_with_a_decision_on_the_default_asset() {
     let h = harness_with(None);
     let app = h.state();
-    assert_eq!(app.scene.map.source, "jacksboro");
+    assert_eq!(app.planner.scene.map.source, "jacksboro");
     let d = decision(&h);
     assert_eq!(d.strategy, Strategy::Fit);
     let chosen = d.chosen.expect("a goal is chosen");
@@ -70,16 +70,16 @@ fn every_builtin_asset_builds_and_decides() {
 fn alpha_slider_reranks_towards_the_nearest_candidate() {
     let mut h = harness_with(None);
     let before = decision(&h);
-    let computed = h.state().pipeline.decisions_computed;
+    let computed = h.state().planner.pipeline.decisions_computed;
     // Switch u2 off so the u1 order is the final one, then α = 1: path length alone.
     slider(&h, "β").set_value_accesskit(1.0);
     h.run_ok();
     slider(&h, "α").set_value_accesskit(1.0);
     h.run_ok();
-    assert_eq!(h.state().params.u1.alpha, 1.0);
-    assert_eq!(h.state().params.u2.beta, 1.0);
+    assert_eq!(h.state().planner.params.u1.alpha, 1.0);
+    assert_eq!(h.state().planner.params.u2.beta, 1.0);
     let after = decision(&h);
-    assert!(h.state().pipeline.decisions_computed >= computed + 2, "each slider change re-ranks");
+    assert!(h.state().planner.pipeline.decisions_computed >= computed + 2, "each slider change re-ranks");
     assert_eq!(after.chosen, Some(nearest(&after)), "α = 1 must choose the nearest candidate");
     assert_ne!(before.ranking(), after.ranking(), "the ranking changed");
     assert!(h.state().title().starts_with(&format!("fitslam: chosen={}", nearest(&after))));
@@ -98,7 +98,7 @@ fn strategy_combo_switches_to_greedy() {
     h.run_ok();
     h.get_by_label("greedy (nearest)").click();
     h.run_ok();
-    assert_eq!(h.state().params.selector.strategy, Strategy::Greedy);
+    assert_eq!(h.state().planner.params.selector.strategy, Strategy::Greedy);
     let d = decision(&h);
     assert_eq!(d.strategy, Strategy::Greedy);
     assert_eq!(d.chosen, Some(nearest(&d)));
@@ -107,29 +107,29 @@ fn strategy_combo_switches_to_greedy() {
 #[test]
 fn tau_slider_changes_the_thresholded_map_and_the_decision() {
     let mut h = harness_with(Some("courtyard"));
-    let lethal = |h: &Harness<'_, StudioApp>| h.state().pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
+    let lethal = |h: &Harness<'_, StudioApp>| h.state().planner.pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
     let before_lethal = lethal(&h);
     let before = decision(&h);
     // The courtyard's rough patches score 0.3–0.7: τ = 0.75 makes them all lethal.
     slider(&h, "τ").set_value_accesskit(0.75);
     h.run_ok();
-    assert_eq!(h.state().params.traversability.tau, 0.75);
+    assert_eq!(h.state().planner.params.traversability.tau, 0.75);
     assert!(lethal(&h) > before_lethal, "{} !> {before_lethal}", lethal(&h));
-    let after = h.state().pipeline.decision().cloned().unwrap();
+    let after = h.state().planner.pipeline.decision().cloned().unwrap();
     assert_ne!(Ok(before), after);
 }
 
 #[test]
 fn changing_only_the_view_does_not_rerank() {
     let mut h = harness_with(None);
-    let n = h.state().pipeline.decisions_computed;
+    let n = h.state().planner.pipeline.decisions_computed;
     h.get_by_label("View").click();
     h.run_ok();
     h.get_by_label("thresholded (τ)").click();
     h.run_ok();
     h.run_ok();
-    assert_eq!(h.state().layer, fitslam_studio::canvas::Layer::Thresholded);
-    assert_eq!(h.state().pipeline.decisions_computed, n);
+    assert_eq!(h.state().planner.layer, fitslam_studio::planner::Layer::Thresholded);
+    assert_eq!(h.state().planner.pipeline.decisions_computed, n);
 }
 
 #[test]
@@ -147,7 +147,7 @@ fn table_sorts_by_rho_when_its_header_is_clicked() {
     let first = rows[0];
     h.get_by_label(&format!("#{first}")).click();
     h.run_ok();
-    assert_eq!(h.state().selected, Some(first));
+    assert_eq!(h.state().planner.selected, Some(first));
 }
 
 #[test]
@@ -155,8 +155,8 @@ fn dragging_the_robot_moves_it_and_reranks() {
     let mut h = harness_with(None);
     let robot_rect = h.state().widget_rects["robot"];
     let start = robot_rect.center();
-    let before = h.state().scene.robot;
-    let n = h.state().pipeline.decisions_computed;
+    let before = h.state().planner.scene.robot;
+    let n = h.state().planner.pipeline.decisions_computed;
     h.drag_at(start);
     h.run_ok();
     for k in 1..=5 {
@@ -165,9 +165,9 @@ fn dragging_the_robot_moves_it_and_reranks() {
     }
     h.drop_at(start + egui::vec2(40.0, -20.0));
     h.run_ok();
-    let after = h.state().scene.robot;
+    let after = h.state().planner.scene.robot;
     assert!(after.x_m > before.x_m && after.y_m > before.y_m, "{before:?} -> {after:?}");
-    assert!(h.state().pipeline.decisions_computed > n);
+    assert!(h.state().planner.pipeline.decisions_computed > n);
     assert_eq!(decision(&h).robot, after);
 }
 
@@ -186,14 +186,14 @@ fn rotating_handle_turns_the_robot() {
     h.run_ok();
     h.drop_at(target);
     h.run_ok();
-    let yaw = h.state().scene.robot.yaw_rad;
+    let yaw = h.state().planner.scene.robot.yaw_rad;
     assert!((yaw - std::f64::consts::FRAC_PI_2).abs() < 0.05, "yaw {yaw}");
 }
 
 #[test]
 fn bad_files_give_messages_not_crashes() {
     let mut h = harness_with(None);
-    let map_before = h.state().scene.map.source.clone();
+    let map_before = h.state().planner.scene.map.source.clone();
     let files = vec![
         IncomingFile {
             name: "broken.ply".into(),
@@ -208,12 +208,12 @@ fn bad_files_give_messages_not_crashes() {
     h.state_mut().load_files(files);
     h.run_ok();
     let app = h.state();
-    assert_eq!(app.scene.map.source, map_before, "the scene is untouched");
+    assert_eq!(app.planner.scene.map.source, map_before, "the scene is untouched");
     let errors: Vec<&str> = app.messages.iter().filter(|m| m.error).map(|m| m.text.as_str()).collect();
     for name in ["broken.ply", "nonsense.yaml", "picture.png", "notes.txt", "gone.pcd"] {
         assert!(errors.iter().any(|e| e.contains(name)), "no message naming {name}: {errors:?}");
     }
-    assert!(app.pipeline.ok_decision().is_some());
+    assert!(app.planner.pipeline.ok_decision().is_some());
 }
 
 #[test]
@@ -224,17 +224,17 @@ fn a_map_yaml_waits_for_its_image_then_loads_with_landmarks() {
     // The web gives bare names: the YAML alone cannot find its image yet.
     h.state_mut().load_files(vec![IncomingFile { name: "map.yaml".into(), bytes: Ok(read("map.yaml")), intent: Intent::Any }]);
     h.run_ok();
-    assert_eq!(h.state().scene.map.source, "courtyard");
+    assert_eq!(h.state().planner.scene.map.source, "courtyard");
     h.state_mut().load_files(vec![
         IncomingFile { name: "map.pgm".into(), bytes: Ok(read("map.pgm")), intent: Intent::Any },
         IncomingFile { name: "landmarks.csv".into(), bytes: Ok(read("landmarks.csv")), intent: Intent::Landmarks },
     ]);
     h.run_ok();
     let app = h.state();
-    assert_eq!(app.scene.map.source, "map.yaml");
-    assert_eq!(app.scene.map.geometry().width, 400);
-    assert_eq!(app.scene.landmarks.source, "landmarks.csv");
-    assert!(app.pipeline.ok_decision().is_some_and(|d| d.chosen.is_some()), "{:?}", app.pipeline.decision());
+    assert_eq!(app.planner.scene.map.source, "map.yaml");
+    assert_eq!(app.planner.scene.map.geometry().width, 400);
+    assert_eq!(app.planner.scene.landmarks.source, "landmarks.csv");
+    assert!(app.planner.pipeline.ok_decision().is_some_and(|d| d.chosen.is_some()), "{:?}", app.planner.pipeline.decision());
 }
 
 #[test]
@@ -245,23 +245,23 @@ fn a_dropped_cloud_asks_what_it_is() {
     h.run_ok();
     h.get_by_label("Landmarks (for u2)").click();
     h.run_ok();
-    assert_eq!(h.state().scene.landmarks.source, "lm.ply");
-    assert_eq!(h.state().scene.landmarks.cloud.len(), 1196);
+    assert_eq!(h.state().planner.scene.landmarks.source, "lm.ply");
+    assert_eq!(h.state().planner.scene.landmarks.cloud.len(), 1196);
 }
 
 #[test]
 fn exports_carry_the_params_and_the_ranking() {
     let h = harness_with(None);
     let app = h.state();
-    let yaml = app.params.to_yaml();
-    assert_eq!(Params::from_yaml(&yaml, "p.yaml").unwrap(), app.params);
+    let yaml = app.planner.params.to_yaml();
+    assert_eq!(Params::from_yaml(&yaml, "p.yaml").unwrap(), app.planner.params);
     let d = decision(&h);
     let csv = fitslam_studio::export::ranking_csv(&d);
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), d.candidates.len() + 1);
     let chosen = d.chosen.unwrap();
     assert!(lines[1].starts_with(&format!("{chosen},1,")), "{}", lines[1]);
-    let json: serde_json::Value = serde_json::from_str(&fitslam_studio::export::ranking_json(&d, &app.params, "m", "l")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&fitslam_studio::export::ranking_json(&d, &app.planner.params, "m", "l")).unwrap();
     let ranking: Vec<usize> = json["ranking"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect();
     assert_eq!(ranking, d.ranking());
     assert_eq!(json["decision"]["chosen"].as_u64(), Some(chosen as u64));
@@ -280,12 +280,12 @@ fn tour_steps_set_alpha_and_restore_defaults() {
     }
     // Step 4 shows α = 1 (path length only).
     assert_eq!(h.state().tour.step, 3);
-    assert_eq!(h.state().params.u1.alpha, 1.0);
+    assert_eq!(h.state().planner.params.u1.alpha, 1.0);
     let d = decision(&h);
     assert_eq!(d.chosen, Some(nearest(&d)));
     h.get_by_label("Next >").click();
     h.run_ok();
-    assert_eq!(h.state().params, Params::default());
+    assert_eq!(h.state().planner.params, Params::default());
 }
 
 #[test]
@@ -304,9 +304,9 @@ fn native_file_browser_opens_a_map_and_reads_its_image_next_to_it() {
     h.get_by_label("Open").click();
     h.run_ok();
     let app = h.state();
-    assert_eq!(app.scene.map.source, "map.yaml", "{:?}", app.messages);
-    assert_eq!(app.scene.map.geometry().width, 400);
-    assert!(app.pipeline.ok_decision().is_some());
+    assert_eq!(app.planner.scene.map.source, "map.yaml", "{:?}", app.messages);
+    assert_eq!(app.planner.scene.map.geometry().width, 400);
+    assert!(app.planner.pipeline.ok_decision().is_some());
 }
 
 #[test]
@@ -324,13 +324,13 @@ fn hazard_sliders_rescore_a_terrain_cloud_map() {
     let mut h = harness_with(Some("courtyard"));
     h.state_mut().load_files(vec![IncomingFile { name: "ramp.csv".into(), bytes: Ok(csv.into_bytes()), intent: Intent::TerrainCloud }]);
     h.run_ok();
-    assert_eq!(h.state().scene.map.source, "ramp.csv");
+    assert_eq!(h.state().planner.scene.map.source, "ramp.csv");
     let mean_score = |h: &Harness<'_, StudioApp>| {
-        let known: Vec<f32> = h.state().scene.map.score.data.iter().copied().filter(|s| !s.is_nan()).collect();
+        let known: Vec<f32> = h.state().planner.scene.map.score.data.iter().copied().filter(|s| !s.is_nan()).collect();
         assert!(known.len() > 1000, "{} known cells", known.len());
         known.iter().sum::<f32>() / known.len() as f32
     };
-    let lethal = |h: &Harness<'_, StudioApp>| h.state().pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
+    let lethal = |h: &Harness<'_, StudioApp>| h.state().planner.pipeline.occupancy().unwrap().data.iter().filter(|&&v| v == 100).count();
     let before = mean_score(&h);
     assert!((before - (1.0 - 12.0 / 35.0)).abs() < 0.05, "{before}");
     let lethal_before = lethal(&h);
@@ -339,7 +339,7 @@ fn hazard_sliders_rescore_a_terrain_cloud_map() {
     slider(&h, "max slope [°]").set_value_accesskit(15.0);
     h.run_ok();
     h.run_ok();
-    assert!((h.state().params.traversability.max_slope_rad.to_degrees() - 15.0).abs() < 1e-9);
+    assert!((h.state().planner.params.traversability.max_slope_rad.to_degrees() - 15.0).abs() < 1e-9);
     let after = mean_score(&h);
     assert!((after - (1.0 - 12.0 / 15.0)).abs() < 0.05, "{after}");
     assert!(lethal(&h) > lethal_before, "{} !> {lethal_before}", lethal(&h));
