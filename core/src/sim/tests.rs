@@ -26,7 +26,7 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
         let spec = WorldSpec::from_toml(&text, name).unwrap();
         assert!(spec.time_limit_s > 0.0, "{name}");
     }
-    // The benchmark world of BENCHMARKS.md (Mission) parses too.
+    // The benchmark world of docs/benchmarks.md (Mission) parses too.
     let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
     WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
     // And the worlds of the known limits (README).
