@@ -78,7 +78,7 @@ fn limits_world(params: &Params, name: &str) -> World {
 
 /// On the pit world's ledge (a 0.6 m drop whose foot the LiDAR cannot see from above), the map
 /// holds the ground at the edge free while the truth's disc there reaches the drop: greedy seed 1
-/// drives its centre to within 0.10 m of the truth's untraversable band in its first 70 s (the
+/// drives its centre to within 0.10 m of the truth's untraversable band in its first 70 s (see
 /// docs/experiments.md, Known limits), and its body, not its centre, is what touches it.
 #[test]
 fn a_body_overhanging_a_ledge_is_a_violation_and_the_bumper_stops_it() {
