@@ -68,7 +68,7 @@ pub struct OptimizeArgs {
     /// (GTSAM's convention) instead of fixing it (g2o's).
     #[arg(long)]
     pub prior_sigma: Option<f64>,
-    /// LM damping schedule. GTSAM's by default: on the real graphs of BENCHMARKS.md it reaches
+    /// LM damping schedule. GTSAM's by default: on the real graphs of docs/benchmarks.md it reaches
     /// the same or a lower χ² than Nielsen's, in as many or fewer iterations.
     #[arg(long, value_enum, default_value_t = Schedule::Gtsam)]
     pub lambda_schedule: Schedule,

@@ -309,7 +309,7 @@ fn optimize_reports_the_documented_keys_and_writes_landmark_graphs() {
 }
 
 /// By default `optimize` damps as GTSAM does and so reaches GTSAM's minimum on MIT from the
-/// composed odometry (770.238983900, scripts/compare_gtsam.py, BENCHMARKS.md), where Nielsen's
+/// composed odometry (770.238983900, scripts/compare_gtsam.py, docs/benchmarks.md), where Nielsen's
 /// schedule is still at χ² ≈ 1.2e5 after 100 iterations.
 #[test]
 fn optimize_reaches_gtsams_minimum_on_mit_by_default() {

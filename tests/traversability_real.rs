@@ -1,5 +1,5 @@
 //! Traversability (notes §2) on real third-party LiDAR (assets/data/lidar, provenance in
-//! assets/data/SOURCES.md), through the public API only. Figures are written to BENCHMARKS.md
+//! assets/data/SOURCES.md), through the public API only. Figures are written to docs/benchmarks.md
 //! ("Traversability on real LiDAR"); the floors pinned here sit slightly below what was measured.
 //! Run with `--nocapture` to see the figures.
 
@@ -70,7 +70,7 @@ fn vegetation_is_untraversable() {
     assert!(fraction_free < 0.01, "{fraction_free}");
 }
 
-/// Parameters for airborne LiDAR at ~0.5–0.7 m point spacing (see BENCHMARKS.md for the
+/// Parameters for airborne LiDAR at ~0.5–0.7 m point spacing (see docs/benchmarks.md for the
 /// derivation): 1 m cells, 2 m disc, step and roughness limits above the sensor's noise floor.
 const AUTZEN_PARAMS: &str = r#"
 [grid]
@@ -215,7 +215,7 @@ fn autzen_traversable_cells_are_ground() {
         ground_level.precision(),
         ground_level.recall()
     );
-    // Measured (BENCHMARKS.md): mostly-class-2 precision 0.191, recall 0.738 (3,608 TP, 15,246 FP,
+    // Measured (docs/benchmarks.md): mostly-class-2 precision 0.191, recall 0.738 (3,608 TP, 15,246 FP,
     // 1,279 FN, 12,241 TN); ground-level precision 0.9998 (3 FP), recall 0.752.
     assert!(mostly_class2.precision() > 0.17 && mostly_class2.recall() > 0.70, "{mostly_class2:?}");
     assert!(ground_level.precision() > 0.99 && ground_level.recall() > 0.72, "{ground_level:?}");
@@ -224,7 +224,7 @@ fn autzen_traversable_cells_are_ground() {
 
 /// A paper-scale map (20 m × 20 m at 0.05 m: 160,000 cells) filled by ten synthetic "scans":
 /// incremental updates recompute only the cells whose disc touches a new point and end bitwise
-/// equal to a full compute. Prints the timings written in BENCHMARKS.md.
+/// equal to a full compute. Prints the timings written in docs/benchmarks.md.
 #[test]
 fn paper_scale_incremental_update_matches_full_compute() {
     let params = Params::default();

@@ -18,7 +18,7 @@
 //!    before it, so pieces are contiguous bands of the chain, except across a jump back to a
 //!    parked branch, and where a cut falls inside a two-row wave of a staircase: the piece may
 //!    then start with a cell that touches the rest only through the previous piece (on the
-//!    ragged synthetic map of BENCHMARKS.md, 568 of 599 pieces are 8-connected and 97% of
+//!    ragged synthetic map of docs/benchmarks.md, 568 of 599 pieces are 8-connected and 97% of
 //!    consecutive cells are 8-adjacent).
 //!
 //! **Split rule.** A chain of n cells becomes k = ⌈n / max⌉ consecutive pieces of nearly equal

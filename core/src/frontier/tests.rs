@@ -1,5 +1,5 @@
 //! Tests of the whole detection pipeline (WFD + clustering) on hand-drawn maps, property tests
-//! against the planner's reachability, and an ignored timing run for BENCHMARKS.md.
+//! against the planner's reachability, and an ignored timing run for docs/benchmarks.md.
 
 use super::*;
 use crate::grid::{CellClass, FREE, Grid, LETHAL, OccupancyGrid, UNKNOWN};
@@ -264,7 +264,7 @@ proptest! {
     }
 }
 
-// ---- timing (BENCHMARKS.md) -----------------------------------------------------------------
+// ---- timing (docs/benchmarks.md) -----------------------------------------------------------------
 
 /// splitmix64: a dependency-free, seeded generator for the synthetic map.
 fn splitmix(state: &mut u64) -> u64 {
@@ -313,7 +313,7 @@ fn synthetic_half_explored() -> OccupancyGrid {
 
 /// `cargo test -p fitslam-core --release frontier::tests::bench -- --ignored --nocapture`
 #[test]
-#[ignore = "timing run for BENCHMARKS.md"]
+#[ignore = "timing run for docs/benchmarks.md"]
 fn bench_detect_frontiers_2000x2000() {
     let g = synthetic_half_explored();
     let mut robot = Cell::new(500, 1000);

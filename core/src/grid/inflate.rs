@@ -81,7 +81,7 @@ pub fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut Occupa
 
 /// Bit k set iff `chunk[k]` (at most 64 cells) is lethal. On x86-64 a whole chunk is four SSE2
 /// compares and byte masks (≈ 6× faster than the portable path on the decision bench's grid,
-/// BENCHMARKS.md); elsewhere, and for a row's last partial chunk, most chunks have no lethal
+/// docs/benchmarks.md); elsewhere, and for a row's last partial chunk, most chunks have no lethal
 /// cell and their (vectorised) maximum says so, the others go through [`lethal_bits`].
 #[inline]
 fn lethal_mask(chunk: &[i8]) -> u64 {

@@ -30,7 +30,7 @@ use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_wi
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
-/// one decision neither allocates nor page-faults them afresh (measured in BENCHMARKS.md,
+/// one decision neither allocates nor page-faults them afresh (measured in docs/benchmarks.md,
 /// Decision). Only capacity carries over: every step overwrites what it reads.
 #[derive(Clone, Debug, Default)]
 pub struct PlanBuffers {

@@ -26,10 +26,10 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
         let spec = WorldSpec::from_toml(&text, name).unwrap();
         assert!(spec.time_limit_s > 0.0, "{name}");
     }
-    // The benchmark world of BENCHMARKS.md (Mission) parses too.
+    // The benchmark world of docs/benchmarks.md (Mission) parses too.
     let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
     WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
-    // And the worlds of the known limits (README).
+    // And the worlds of the known limits (docs/experiments.md, Known limits).
     for name in ["doorway_07m.toml", "pit_ledge_16m.toml", "steep_dem.toml", "corridor_doors_16m.toml"] {
         let path = format!("{}/../benches/worlds/limits/{name}", env!("CARGO_MANIFEST_DIR"));
         WorldSpec::from_toml(&std::fs::read_to_string(path).unwrap(), name).unwrap();
@@ -69,7 +69,7 @@ fn the_robot_body_touches_a_wall_before_its_centre_reaches_it() {
     assert!(w.gt_touches_lethal(-1.0, 2.0, 0.1), "outside the map");
 }
 
-/// A world of the known limits (`benches/worlds/limits/`, README), built for `params`.
+/// A world of the known limits (`benches/worlds/limits/`, docs/experiments.md), built for `params`.
 fn limits_world(params: &Params, name: &str) -> World {
     let read = |n: &str| std::fs::read(format!("{}/../benches/worlds/limits/{n}", env!("CARGO_MANIFEST_DIR"))).map_err(|e| e.to_string());
     let spec = WorldSpec::from_toml(&String::from_utf8(read(name).unwrap()).unwrap(), name).unwrap();
@@ -78,8 +78,8 @@ fn limits_world(params: &Params, name: &str) -> World {
 
 /// On the pit world's ledge (a 0.6 m drop whose foot the LiDAR cannot see from above), the map
 /// holds the ground at the edge free while the truth's disc there reaches the drop: greedy seed 1
-/// drives its centre to within 0.10 m of the truth's untraversable band in its first 70 s (the
-/// README's known limits), and its body, not its centre, is what touches it.
+/// drives its centre to within 0.10 m of the truth's untraversable band in its first 70 s (see
+/// docs/experiments.md, Known limits), and its body, not its centre, is what touches it.
 #[test]
 fn a_body_overhanging_a_ledge_is_a_violation_and_the_bumper_stops_it() {
     let params = Params::default();

@@ -45,8 +45,8 @@ pub enum Factorisation {
     Fastest,
     /// Always simplicial: faer's up-looking factorisation and its solves are scalar arithmetic in
     /// a fixed order (Rust never contracts to FMA), so the factor and everything computed from it
-    /// are the same bits on every CPU and in wasm. Slower on large graphs (BENCHMARKS.md, Mission,
-    /// session 16).
+    /// are the same bits on every CPU and in wasm. Slower on large graphs (docs/benchmarks.md, Mission;
+    /// docs/decisions/0006).
     Reproducible,
 }
 

@@ -84,7 +84,7 @@ impl RayFan {
 
     /// Precomputes the offsets as flat-index offsets for grids `width` cells wide, which
     /// [`Self::cast`] then walks from interior origins on such grids (one add per cell instead
-    /// of a 2D index; 0.4 ms of a 404-candidate decision, BENCHMARKS.md).
+    /// of a 2D index; 0.4 ms of a 404-candidate decision, docs/benchmarks.md).
     pub fn for_width(mut self, width: usize) -> Self {
         let w = width as isize;
         self.flat = self.offsets.iter().map(|o| o[1] as isize * w + o[0] as isize).collect();

@@ -36,7 +36,7 @@
 //! with a forced neighbour enter the queue, each with the moves that reached it at its cost
 //! (ties merged). The costs are the same integer sums as a plain Dijkstra's, so they and every
 //! path are identical to it (measured on the decision bench: the same cost window and frontier
-//! list, 0.53–0.59 of its time, BENCHMARKS.md). Since scans queue cells far ahead, the queue
+//! list, 0.53–0.59 of its time, docs/benchmarks.md). Since scans queue cells far ahead, the queue
 //! keeps one bucket per cost unit; every cost below the bucket being settled is final. Frontier
 //! cells are collected when first reached.
 //!
@@ -398,7 +398,7 @@ const PREFETCH_AHEAD: usize = 16;
 
 /// Asks for the three cost rows around `p` ahead of use: a bucket's cells are scattered around
 /// the wavefront, so their rows are often not in L1 (the search is mostly bound by its own work,
-/// but this hides some of the misses: 0.3–1.5 ms on the decision bench, BENCHMARKS.md).
+/// but this hides some of the misses: 0.3–1.5 ms on the decision bench, docs/benchmarks.md).
 #[inline(always)]
 fn prefetch_rows(cost: &[u64], p: usize, pw: usize) {
     #[cfg(target_arch = "x86_64")]

@@ -11,7 +11,7 @@ pub(super) struct BlockOrder {
 
 impl BlockOrder {
     /// 1024 cells (8 KiB of costs, about a row of a typical window): measured against 4096 and
-    /// 16384 on the decision bench, 1–2 ms faster (BENCHMARKS.md).
+    /// 16384 on the decision bench, 1–2 ms faster (docs/benchmarks.md).
     pub(super) const BLOCK_SHIFT: u32 = 10;
 
     pub(super) fn new(cells: usize) -> Self {

@@ -16,7 +16,7 @@
 //! noise of the ticks between them, as a real gyro's relative rotation does. (Integrating an
 //! *absolute* odometry attitude and differencing two of them lets the absolute tilt drift leak
 //! into every relative rotation when the robot turns; unmodelled, that made the gravity factors
-//! and the odometry disagree: BENCHMARKS, SLAM backend.) Its covariance, in `T_rel`'s right
+//! and the odometry disagree: docs/benchmarks.md, SLAM backend.) Its covariance, in `T_rel`'s right
 //! tangent (ξ = (δt, δφ)), is propagated per tick: `Σ ← Ad(ΔT⁻¹) Σ Ad(ΔT⁻¹)ᵀ + J Q Jᵀ` with
 //! `Q = diag(σ_d², σ_z² |d|, σ_roll², σ_pitch², σ_yaw²)` (σ_z = `z_sigma_per_sqrt_m`: the
 //! terrain's curvature under the chord) and `J` the tick's noise Jacobian

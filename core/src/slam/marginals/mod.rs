@@ -34,7 +34,7 @@ pub enum MarginalError {
 }
 
 /// Per multiply-add, the selected inverse (with its gathers of Σ_RR) took 2–4× the time of the
-/// forward solves on the real graphs (BENCHMARKS.md, SLAM backend): it is chosen when it needs
+/// forward solves on the real graphs (docs/benchmarks.md, SLAM backend): it is chosen when it needs
 /// fewer than a third of their multiply-adds.
 const SELECTED_INVERSE_WEIGHT: usize = 3;
 
