@@ -138,6 +138,16 @@ pub struct NodeConfig {
     pub marker_topic: String,
     /// `std_msgs/String` with one JSON object per update. Default `/fitslam/status`.
     pub status_topic: String,
+    /// `std_msgs/String` commands to the node: `pause` (the running goal is cancelled, no goal is
+    /// sent), `resume`, `stop` (the mission ends). Empty: not subscribed. Default
+    /// `/fitslam/control`.
+    pub control_topic: String,
+    /// Rank and publish (markers, status with `suggested_goal`) but send no goal: another
+    /// component drives the robot. Default false.
+    pub publish_only: bool,
+    /// At the end of the mission, send one last goal to where the robot started (its first pose
+    /// in the map frame); the mission ends when that goal does. Default false.
+    pub return_to_start: bool,
 
     /// Period of the decisions, seconds. Default 1.
     pub replan_period_s: f64,
@@ -192,6 +202,9 @@ impl Default for NodeConfig {
             goal_topic: "/goal_pose".into(),
             marker_topic: "/fitslam/markers".into(),
             status_topic: "/fitslam/status".into(),
+            control_topic: "/fitslam/control".into(),
+            publish_only: false,
+            return_to_start: false,
             replan_period_s: 1.0,
             goal_timeout_s: 120.0,
             goal_response_timeout_s: 5.0,

@@ -181,6 +181,7 @@ pub struct RosNode {
     tf_static_sub: Option<Subscription<msgs::TFMessage>>,
     pose_sub: Option<Subscription<msgs::PoseWithCovarianceStamped>>,
     boundary_sub: Option<Subscription<msgs::PolygonStamped>>,
+    control_sub: Option<Subscription<msgs::StringMsg>>,
     goal_pub: Option<Publisher<msgs::PoseStamped>>,
     action: Option<NavClient>,
     marker_pub: Publisher<msgs::MarkerArray>,
@@ -221,6 +222,7 @@ impl RosNode {
             PoseSource::Tf => None,
         };
         let boundary_sub = if c.boundary_topic.is_empty() { None } else { Some(subscribe(&mut node, &c.boundary_topic, reliable(1))?) };
+        let control_sub = if c.control_topic.is_empty() { None } else { Some(subscribe(&mut node, &c.control_topic, reliable(10))?) };
         let (goal_pub, action) = match c.goal_interface {
             GoalInterface::Topic => (Some(advertise(&mut node, &c.goal_topic, reliable(1))?), None),
             GoalInterface::Action => {
@@ -246,6 +248,7 @@ impl RosNode {
             tf_static_sub,
             pose_sub,
             boundary_sub,
+            control_sub,
             goal_pub,
             action,
             marker_pub,
@@ -282,6 +285,15 @@ impl RosNode {
         }
         if let Some(m) = self.boundary_sub.as_ref().and_then(|s| newest(s, errs)) {
             e.handle_boundary(&m, now_s);
+        }
+        if let Some(s) = &self.control_sub {
+            for _ in 0..MAX_TAKES_PER_POLL {
+                match s.take() {
+                    Ok(Some((m, _))) => e.handle_control(&m, now_s),
+                    Ok(None) => break,
+                    Err(_) => *errs += 1,
+                }
+            }
         }
         if let Some(m) = self.map_sub.as_ref().and_then(|s| newest(s, errs)) {
             e.handle_map(&m, now_s);

@@ -4,6 +4,7 @@
 //! failed (blacklisted) or dropped (may be chosen again).
 
 use super::{ActiveGoal, Command, ExplorerNode, GoalEvent};
+use fitslam_core::Pose2;
 use fitslam_core::explore::Plan;
 
 /// How a goal ended, for the explorer.
@@ -17,20 +18,17 @@ enum Ending {
 impl ExplorerNode {
     /// Sends the plan's goal: the set-back end of its path, facing Θ*.
     pub(super) fn send(&mut self, plan: &Plan, now_s: f64) -> Command {
+        let g = plan.goal;
+        self.send_goal(plan.target(), [g.goal.x_m, g.goal.y_m], g.inflation_m, g.on_trail, now_s)
+    }
+
+    /// Sends `goal`, serving the frontier candidate at `frontier_m`, supervised at `inflation_m`
+    /// (and with the trail open when `on_trail`).
+    pub(super) fn send_goal(&mut self, goal: Pose2, frontier_m: [f64; 2], inflation_m: f64, on_trail: bool, now_s: f64) -> Command {
         let id = self.next_goal_id;
         self.next_goal_id += 1;
-        let goal = plan.target();
         let accepted_s = self.topic_goals().then_some(now_s);
-        let g = plan.goal;
-        self.goal = Some(ActiveGoal {
-            id,
-            goal,
-            frontier_m: [g.goal.x_m, g.goal.y_m],
-            sent_s: now_s,
-            accepted_s,
-            inflation_m: g.inflation_m,
-            on_trail: g.on_trail,
-        });
+        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s, inflation_m, on_trail });
         self.stats.goals_sent += 1;
         self.info(now_s, format!("goal {id}: ({:.2}, {:.2}) m, heading {:.0}°", goal.x_m, goal.y_m, goal.yaw_rad.to_degrees()));
         Command::SendGoal { id, goal }
@@ -76,6 +74,17 @@ impl ExplorerNode {
     }
 
     fn end_goal(&mut self, ending: Ending, replan_now: bool) {
+        if self.returning.is_some() {
+            // The goal back to the start: not the explorer's.
+            if self.goal.take().is_some() {
+                self.return_outcome = Some(match ending {
+                    Ending::Reached => "returned to the start",
+                    Ending::Failed => "the return to the start failed",
+                    Ending::Dropped => "the return to the start was dropped",
+                });
+            }
+            return;
+        }
         if self.goal.take().is_some() {
             match ending {
                 Ending::Reached => self.explorer.goal_reached(),

@@ -207,6 +207,30 @@ impl ExplorerNode {
         self.topic_pose = Some(PoseSample { pose, z_m, stamp_s, received_s: now_s, tilt_var_rad2, position_var_m2 });
     }
 
+    /// `std_msgs/String` on `control_topic`: `pause`, `resume` or `stop` (case and surrounding
+    /// blanks ignored); anything else is a warning.
+    pub fn handle_control(&mut self, msg: &msgs::StringMsg, now_s: f64) {
+        match msg.data.trim().to_ascii_lowercase().as_str() {
+            "pause" => {
+                self.paused = true;
+                self.info(now_s, "paused: the running goal is cancelled, no goal is sent until `resume`".into());
+            }
+            "resume" => {
+                if self.paused {
+                    self.paused = false;
+                    self.replan_now = true;
+                    self.info(now_s, "resumed".into());
+                }
+            }
+            "stop" => self.stop_requested = true,
+            other => {
+                self.stats.messages_rejected += 1;
+                let text = format!("control command {other:?} ignored: expected pause, resume or stop");
+                self.warn("control", now_s, text);
+            }
+        }
+    }
+
     /// `geometry_msgs/PolygonStamped`: the exploration boundary; an empty polygon clears it.
     pub fn handle_boundary(&mut self, msg: &msgs::PolygonStamped, now_s: f64) {
         if msg.polygon.points.is_empty() {

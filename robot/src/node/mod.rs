@@ -106,6 +106,10 @@ pub enum Phase {
     PoseStale,
     Planning,
     Navigating,
+    /// Paused by a `pause` command: no goal runs, none is sent.
+    Paused,
+    /// The mission is over and the robot drives back to its start (`return_to_start`).
+    Returning,
     Done,
 }
 
@@ -151,6 +155,8 @@ pub struct Status {
     pub stats: Stats,
     pub done_reason: Option<String>,
     pub last_warning: Option<String>,
+    /// With `publish_only`: the goal the last decision would have sent.
+    pub suggested_goal: Option<Pose2>,
 }
 
 struct MapState {
@@ -199,6 +205,15 @@ pub struct ExplorerNode {
     /// Decisions in a row whose answer was "done".
     empty_decisions: u32,
     started_s: Option<f64>,
+    /// The robot's first pose in the map frame (`return_to_start`).
+    start_pose: Option<Pose2>,
+    /// A `pause` command holds; `stop` asked.
+    paused: bool,
+    stop_requested: bool,
+    /// Driving back to the start after the mission ended for this reason; how that goal ended.
+    returning: Option<String>,
+    return_outcome: Option<&'static str>,
+    suggested_goal: Option<Pose2>,
     done_reason: Option<String>,
     phase: Phase,
     last_warning: Option<String>,
@@ -229,6 +244,12 @@ impl ExplorerNode {
             replan_now: false,
             empty_decisions: 0,
             started_s: None,
+            start_pose: None,
+            paused: false,
+            stop_requested: false,
+            returning: None,
+            return_outcome: None,
+            suggested_goal: None,
             done_reason: None,
             phase: Phase::WaitingForMap,
             last_warning: None,
@@ -353,10 +374,15 @@ impl ExplorerNode {
             return out;
         }
         let started = *self.started_s.get_or_insert(now_s);
+        if self.stop_requested {
+            self.finish("stopped on request", now_s, &mut out);
+            return out;
+        }
         if let Some(max) = self.cfg.max_mission_s
             && now_s - started >= max
+            && self.returning.is_none()
         {
-            self.finish(&format!("time limit of {max} s reached"), now_s, &mut out);
+            self.end_mission(format!("time limit of {max} s reached"), now_s, &mut out);
             return out;
         }
         if self.cfg.map_source == MapSource::Clouds {
@@ -367,8 +393,24 @@ impl ExplorerNode {
         }
         if let Ok(p) = self.robot_pose(now_s) {
             self.explorer.record_position(p.x_m, p.y_m);
+            self.start_pose.get_or_insert(p);
+        }
+        if self.paused && self.returning.is_none() {
+            self.phase = Phase::Paused;
+            if let Some(g) = self.goal.take() {
+                out.push(Command::CancelGoal { id: g.id });
+                self.explorer.goal_dropped();
+            }
+            return out;
         }
         self.supervise_goal(now_s, &mut out);
+        if let Some(reason) = self.returning.clone() {
+            if self.goal.is_none() {
+                let outcome = self.return_outcome.take().unwrap_or("the return to start ended");
+                self.finish(&format!("{reason}; {outcome}"), now_s, &mut out);
+            }
+            return out;
+        }
         let due = self.replan_now || self.last_decision_s.is_none_or(|t| now_s - t >= self.cfg.replan_period_s);
         if due {
             self.last_decision_s = Some(now_s);
@@ -436,6 +478,12 @@ impl ExplorerNode {
                     self.phase = Phase::Planning;
                     return;
                 }
+                if self.cfg.publish_only {
+                    self.suggested_goal = Some(target);
+                    self.explorer.goal_dropped();
+                    self.phase = Phase::Planning;
+                    return;
+                }
                 if plan.tight {
                     self.stats.tight_goals += 1;
                     let text = format!("no goal at the full inflation: decided with lethal cells inflated by {} m", plan.goal.inflation_m);
@@ -487,10 +535,32 @@ impl ExplorerNode {
                 self.phase = if self.goal.is_some() { Phase::Navigating } else { Phase::Planning };
                 if self.empty_decisions >= self.cfg.done_after_empty_decisions {
                     let text = self.done_text(reason);
-                    self.finish(&text, now_s, out);
+                    self.end_mission(text, now_s, out);
                 }
             }
         }
+    }
+
+    /// The mission is over for `reason`: with `return_to_start` (and a start pose farther than
+    /// the goal tolerance) one last goal to the start is sent first, else it ends now.
+    fn end_mission(&mut self, reason: String, now_s: f64, out: &mut Vec<Command>) {
+        let start = self.start_pose.filter(|_| self.cfg.return_to_start && !self.cfg.publish_only);
+        let away = |p: Pose2, s: Pose2| (p.x_m - s.x_m).hypot(p.y_m - s.y_m) > self.cfg.goal_tolerance_m;
+        if let (Some(start), Ok(p)) = (start, self.robot_pose(now_s))
+            && away(p, start)
+        {
+            if let Some(g) = self.goal.take() {
+                out.push(Command::CancelGoal { id: g.id });
+                self.explorer.goal_dropped();
+            }
+            self.info(now_s, format!("{reason}: returning to the start ({:.2}, {:.2})", start.x_m, start.y_m));
+            let radius_m = self.explorer.planner().robot.radius_m;
+            out.push(self.send_goal(start, [start.x_m, start.y_m], radius_m, true, now_s));
+            self.returning = Some(reason);
+            self.phase = Phase::Returning;
+            return;
+        }
+        self.finish(&reason, now_s, out);
     }
 
     /// Cancels the goal sent when the explorer gave it up (no plan from here, trap recovery).
@@ -542,6 +612,7 @@ impl ExplorerNode {
             stats: self.stats(),
             done_reason: self.done_reason.clone(),
             last_warning: self.last_warning.clone(),
+            suggested_goal: self.suggested_goal,
         }
     }
 

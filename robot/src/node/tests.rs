@@ -729,3 +729,82 @@ fn every_goal_is_free_on_random_worlds() {
         assert!(e.stats().goals_sent >= 2);
     }
 }
+
+fn control(e: &mut ExplorerNode, command: &str, now_s: f64) {
+    e.handle_control(&msgs::StringMsg { data: command.into() }, now_s);
+}
+
+#[test]
+fn pause_cancels_the_goal_and_sends_none_until_resume_and_stop_ends_the_mission() {
+    let (mut e, w) = corridor_explorer(NodeConfig::default());
+    let (id1, _) = goals(&e.tick(0.0))[0];
+    control(&mut e, " Pause ", 0.1);
+    assert_eq!(cancels(&e.tick(0.1)), vec![id1]);
+    assert_eq!(e.phase(), Phase::Paused);
+    for t in [1.2, 2.4] {
+        feed_pose(&mut e, w.robot, t);
+        assert!(e.tick(t).is_empty(), "nothing sent while paused");
+    }
+    assert!(e.blacklist().entries().is_empty(), "a paused goal is not blacklisted");
+    control(&mut e, "resume", 2.5);
+    feed_pose(&mut e, w.robot, 2.5);
+    let g = goals(&e.tick(2.5));
+    assert!(g.len() == 1 && g[0].0 > id1, "{g:?}");
+    control(&mut e, "jump", 2.6);
+    assert!(log_has(&mut e, "control command \"jump\" ignored"));
+    control(&mut e, "stop", 2.7);
+    assert_eq!(e.tick(2.7), vec![Command::CancelGoal { id: g[0].0 }, Command::MissionComplete]);
+    assert!(e.status(2.7).done_reason.unwrap().contains("stopped on request"));
+}
+
+#[test]
+fn publish_only_ranks_and_suggests_but_sends_no_goal() {
+    let (mut e, w) = corridor_explorer(NodeConfig { publish_only: true, ..NodeConfig::default() });
+    let mut cmds = Vec::new();
+    for t in [0.0, 1.0, 2.0] {
+        feed_pose(&mut e, w.robot, t);
+        cmds.extend(e.tick(t));
+    }
+    assert!(cmds.is_empty(), "{cmds:?}");
+    assert!(e.decisions() >= 3 && e.current_goal().is_none());
+    let g = e.status(2.0).suggested_goal.expect("a suggested goal");
+    // The goal the default node sends first: east, where the landmarks are.
+    assert!(g.x_m > w.robot.x_m + 5.0, "{g:?}");
+}
+
+#[test]
+fn return_to_start_sends_a_last_goal_home_and_ends_when_it_does() {
+    let (mut e, w) = corridor_explorer(NodeConfig { return_to_start: true, ..NodeConfig::default() });
+    let (id1, _) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
+    // The robot is 3 m down the corridor when the goal ends.
+    let away = Pose2::new(w.robot.x_m + 3.0, w.robot.y_m, 0.0);
+    feed_pose(&mut e, away, 0.2);
+    e.on_goal_event(id1, GoalEvent::Succeeded, 0.2);
+    // Everything known: no frontier left.
+    let mut grid = w.grid.clone();
+    for v in &mut grid.data {
+        if *v == UNKNOWN {
+            *v = LETHAL;
+        }
+    }
+    e.handle_map(&map_msg(&grid, 2.0), 0.3);
+    let mut cmds = Vec::new();
+    for t in [0.3, 1.4] {
+        feed_pose(&mut e, away, t);
+        cmds.extend(e.tick(t));
+    }
+    let home = goals(&cmds);
+    assert_eq!(home.len(), 1, "{cmds:?}");
+    let (id_home, goal_home) = home[0];
+    assert!((goal_home.x_m - w.robot.x_m).hypot(goal_home.y_m - w.robot.y_m) < 1e-9, "{goal_home:?}");
+    assert_eq!(e.phase(), Phase::Returning);
+    assert!(!cmds.contains(&Command::MissionComplete));
+    e.on_goal_event(id_home, GoalEvent::Accepted, 1.5);
+    feed_pose(&mut e, w.robot, 1.6);
+    e.on_goal_event(id_home, GoalEvent::Succeeded, 1.6);
+    assert_eq!(e.tick(1.6), vec![Command::MissionComplete]);
+    let reason = e.status(1.6).done_reason.unwrap();
+    assert!(reason.contains("no reachable") && reason.ends_with("returned to the start"), "{reason}");
+    assert_eq!(e.stats().succeeded, 2);
+}
