@@ -124,17 +124,24 @@ pub fn now_stamp() -> Time {
     Time::from_secs_f64(t)
 }
 
-/// Newest message of a subscription; older ones of the same burst are dropped. Read errors are
-/// counted in `errors`.
-fn newest<M: 'static + serde::de::DeserializeOwned>(sub: &Subscription<M>, errors: &mut u64) -> Option<M> {
-    let mut last = None;
+/// Hands every pending message of `sub` (at most [`MAX_TAKES_PER_POLL`]) to `f`, in order. Read
+/// errors are counted in `errors`.
+fn each<M: 'static + serde::de::DeserializeOwned>(sub: Option<&Subscription<M>>, errors: &mut u64, mut f: impl FnMut(M)) {
+    let Some(sub) = sub else { return };
     for _ in 0..MAX_TAKES_PER_POLL {
         match sub.take() {
-            Ok(Some((m, _))) => last = Some(m),
+            Ok(Some((m, _))) => f(m),
             Ok(None) => break,
             Err(_) => *errors += 1,
         }
     }
+}
+
+/// Newest message of a subscription; older ones of the same burst are dropped. Read errors are
+/// counted in `errors`.
+fn newest<M: 'static + serde::de::DeserializeOwned>(sub: Option<&Subscription<M>>, errors: &mut u64) -> Option<M> {
+    let mut last = None;
+    each(sub, errors, |m| last = Some(m));
     last
 }
 
@@ -262,52 +269,20 @@ impl RosNode {
     /// Moves every pending message into the explorer.
     pub fn poll_inputs(&mut self, e: &mut ExplorerNode, now_s: f64) {
         let errs = &mut self.read_errors;
-        if let Some(s) = &self.tf_static_sub {
-            for _ in 0..MAX_TAKES_PER_POLL {
-                match s.take() {
-                    Ok(Some((m, _))) => e.handle_tf(&m, true, now_s),
-                    Ok(None) => break,
-                    Err(_) => *errs += 1,
-                }
-            }
-        }
-        if let Some(s) = &self.tf_sub {
-            for _ in 0..MAX_TAKES_PER_POLL {
-                match s.take() {
-                    Ok(Some((m, _))) => e.handle_tf(&m, false, now_s),
-                    Ok(None) => break,
-                    Err(_) => *errs += 1,
-                }
-            }
-        }
-        if let Some(m) = self.pose_sub.as_ref().and_then(|s| newest(s, errs)) {
+        each(self.tf_static_sub.as_ref(), errs, |m| e.handle_tf(&m, true, now_s));
+        each(self.tf_sub.as_ref(), errs, |m| e.handle_tf(&m, false, now_s));
+        if let Some(m) = newest(self.pose_sub.as_ref(), errs) {
             e.handle_pose(&m, now_s);
         }
-        if let Some(m) = self.boundary_sub.as_ref().and_then(|s| newest(s, errs)) {
+        if let Some(m) = newest(self.boundary_sub.as_ref(), errs) {
             e.handle_boundary(&m, now_s);
         }
-        if let Some(s) = &self.control_sub {
-            for _ in 0..MAX_TAKES_PER_POLL {
-                match s.take() {
-                    Ok(Some((m, _))) => e.handle_control(&m, now_s),
-                    Ok(None) => break,
-                    Err(_) => *errs += 1,
-                }
-            }
-        }
-        if let Some(m) = self.map_sub.as_ref().and_then(|s| newest(s, errs)) {
+        each(self.control_sub.as_ref(), errs, |m| e.handle_control(&m, now_s));
+        if let Some(m) = newest(self.map_sub.as_ref(), errs) {
             e.handle_map(&m, now_s);
         }
-        if let Some(s) = &self.cloud_sub {
-            for _ in 0..MAX_TAKES_PER_POLL {
-                match s.take() {
-                    Ok(Some((m, _))) => e.handle_cloud(&m, now_s),
-                    Ok(None) => break,
-                    Err(_) => *errs += 1,
-                }
-            }
-        }
-        if let Some(m) = self.landmarks_sub.as_ref().and_then(|s| newest(s, errs)) {
+        each(self.cloud_sub.as_ref(), errs, |m| e.handle_cloud(&m, now_s));
+        if let Some(m) = newest(self.landmarks_sub.as_ref(), errs) {
             e.handle_landmarks(&m, now_s);
         }
         self.poll_action(e, now_s);

@@ -6,23 +6,13 @@
 
 mod common;
 
-use common::{NodeProcess, RobotSide, private_domain, scratch_dir};
-use fitslam_core::Pose2;
+use common::{NodeProcess, RobotSide, private_domain, scratch_dir, tf_msg};
 use fitslam_core::fixtures::corridor_two_frontiers;
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-use fitslam_robot::msgs::{Header, Quaternion, StringMsg, TFMessage, Transform, TransformStamped, Vector3};
+use fitslam_robot::msgs::{Header, StringMsg};
 use fitslam_robot::ros::{advertise, make_context, now_stamp, reliable};
 use ros2_client::{NodeName, NodeOptions};
 use std::time::{Duration, Instant};
-
-fn tf_msg(p: Pose2) -> TFMessage {
-    let t = |parent: &str, child: &str, x, y, yaw| TransformStamped {
-        header: Header::new(now_stamp(), parent),
-        child_frame_id: child.into(),
-        transform: Transform { translation: Vector3 { x, y, z: 0.0 }, rotation: Quaternion::from_yaw(yaw) },
-    };
-    TFMessage { transforms: vec![t("map", "odom", 0.0, 0.0, 0.0), t("odom", "base_link", p.x_m, p.y_m, p.yaw_rad)] }
-}
 
 #[test]
 fn node_pauses_resumes_and_stops_on_its_control_topic_over_dds() {

@@ -11,11 +11,11 @@ mod common;
 
 use common::core_sim::CoreSim;
 use common::sim::{GridSim, SimRobot, two_rooms};
-use common::{NodeProcess, RobotSide, private_domain, scratch_dir};
+use common::{NodeProcess, RobotSide, private_domain, scratch_dir, tf_msg};
 use fitslam_core::grid::{CellClass, Grid, UNKNOWN, inflate_lethal};
 use fitslam_core::{GridGeometry, OccupancyGrid, Pose2};
 use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy, pose2_of_pose};
-use fitslam_robot::msgs::{Header, NavigateToPoseResult, Quaternion, TFMessage, Transform, TransformStamped, Vector3};
+use fitslam_robot::msgs::{Header, NavigateToPoseResult};
 use fitslam_robot::ros::{make_context, now_stamp};
 use ros2_client::action::{GetResultResponse, GoalId, GoalStatusEnum, SendGoalResponse};
 use ros2_client::action_msgs::{CancelGoalResponse, CancelGoalResponseEnum};
@@ -48,15 +48,6 @@ fn cropped(map: &OccupancyGrid) -> OccupancyGrid {
         }
     }
     out
-}
-
-fn tf_msg(p: Pose2) -> TFMessage {
-    let t = |parent: &str, child: &str, x, y, yaw| TransformStamped {
-        header: Header::new(now_stamp(), parent),
-        child_frame_id: child.into(),
-        transform: Transform { translation: Vector3 { x, y, z: 0.0 }, rotation: Quaternion::from_yaw(yaw) },
-    };
-    TFMessage { transforms: vec![t("map", "odom", 0.0, 0.0, 0.0), t("odom", "base_link", p.x_m, p.y_m, p.yaw_rad)] }
 }
 
 struct Running {

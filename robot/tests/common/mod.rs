@@ -5,10 +5,12 @@
 pub mod core_sim;
 pub mod sim;
 
+use fitslam_core::Pose2;
 use fitslam_robot::msgs::{
-    NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, StringMsg, TFMessage, nav2,
+    Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, Quaternion, StringMsg,
+    TFMessage, Transform, TransformStamped, Vector3, nav2,
 };
-use fitslam_robot::ros::{advertise, latched, reliable, subscribe, topic_name};
+use fitslam_robot::ros::{advertise, latched, now_stamp, reliable, subscribe, topic_name};
 use ros2_client::action::{ActionServer, ActionServerQosPolicies};
 use ros2_client::{ActionTypeName, Publisher, ServiceMapping, Subscription};
 use std::path::{Path, PathBuf};
@@ -17,6 +19,17 @@ use std::process::{Child, Command, Stdio};
 /// A DDS domain private to this test process: `base + pid % span` (domains ≤ 232).
 pub fn private_domain(base: u16, span: u16) -> u16 {
     base + (std::process::id() % span as u32) as u16
+}
+
+/// map → odom (identity) and odom → base_link at `p`, stamped now: what a SLAM and the wheel
+/// odometry publish on /tf.
+pub fn tf_msg(p: Pose2) -> TFMessage {
+    let t = |parent: &str, child: &str, x, y, yaw| TransformStamped {
+        header: Header::new(now_stamp(), parent),
+        child_frame_id: child.into(),
+        transform: Transform { translation: Vector3 { x, y, z: 0.0 }, rotation: Quaternion::from_yaw(yaw) },
+    };
+    TFMessage { transforms: vec![t("map", "odom", 0.0, 0.0, 0.0), t("odom", "base_link", p.x_m, p.y_m, p.yaw_rad)] }
 }
 
 /// A fresh scratch directory under the system temp dir.
