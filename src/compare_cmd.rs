@@ -84,10 +84,6 @@ const METRICS: [Metric; 9] = [
     Metric { csv: "loop_closures", header: "loop closures", get: |r| r.summary.loop_closures as f64 },
 ];
 
-fn name(s: Strategy) -> &'static str {
-    s.name()
-}
-
 /// Parses `fit,greedy,…` (no duplicates, at least one).
 fn parse_strategies(text: &str) -> Result<Vec<Strategy>> {
     let mut out = Vec::new();
@@ -129,11 +125,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let results: Vec<Result<(RunFigures, f64)>> = pool.install(|| {
         runs.par_iter()
             .map(|&(strategy, seed)| {
-                let dir = args.out.join(name(strategy)).join(format!("seed_{seed}"));
+                let dir = args.out.join(strategy.name()).join(format!("seed_{seed}"));
                 let RunOutput { summary, rows, wall_s } =
                     run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden())?;
                 bar.inc(1);
-                bar.set_message(format!("(last: {} seed {seed})", name(strategy)));
+                bar.set_message(format!("(last: {} seed {seed})", strategy.name()));
                 let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
                 Ok((RunFigures { strategy, seed, summary, mean_cov_trace, rows }, wall_s))
             })
@@ -184,7 +180,7 @@ fn summary_csv(figures: &[RunFigures]) -> String {
     }
     s.push_str(",goals_reached,goals_failed,decisions,trap_recoveries\n");
     for f in figures {
-        let _ = write!(s, "{},{},{}", name(f.strategy), f.seed, end_reason(f.summary.end_reason));
+        let _ = write!(s, "{},{},{}", f.strategy.name(), f.seed, end_reason(f.summary.end_reason));
         for m in &METRICS {
             let _ = write!(s, ",{:.6e}", (m.get)(f));
         }
@@ -223,7 +219,7 @@ fn curves(strategies: &[Strategy], figures: &[RunFigures], get: fn(&MetricsRow) 
                 lo.push(percentile(&c, 0.25).unwrap_or(f64::NAN));
                 hi.push(percentile(&c, 0.75).unwrap_or(f64::NAN));
             }
-            Curve { label: format!("{} (n = {})", name(s), runs.len()), t_s: grid.clone(), y: mean, band: Some((lo, hi)) }
+            Curve { label: format!("{} (n = {})", s.name(), runs.len()), t_s: grid.clone(), y: mean, band: Some((lo, hi)) }
         })
         .collect()
 }
@@ -279,7 +275,7 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
     for &s in strategies {
         let runs: Vec<&RunFigures> = figures.iter().filter(|f| f.strategy == s).collect();
         let finished = runs.iter().filter(|f| f.summary.end_reason == Some(EndReason::NoFrontier)).count();
-        let _ = write!(md, "| {} | {} | {finished} |", name(s), runs.len());
+        let _ = write!(md, "| {} | {} | {finished} |", s.name(), runs.len());
         for m in &METRICS {
             match Spread::of(&values(s, m)) {
                 Some(sp) => {
@@ -298,7 +294,7 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
             "\n## Each baseline against `{r}`\n\nTwo-sided Mann–Whitney U test, normal approximation with tie and continuity \
              corrections: p-value, and whether `{r}`'s median is lower, higher or equal. With {n} seeds per strategy, p < 0.05 \
              is the usual threshold; a metric where every run is equal gives p = 1.\n",
-            r = name(reference),
+            r = reference.name(),
             n = seeds.len()
         );
         md.push_str("| baseline |");
@@ -309,7 +305,7 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
         md.push_str(&"---|".repeat(METRICS.len()));
         md.push('\n');
         for &b in &baselines {
-            let _ = write!(md, "| {} |", name(b));
+            let _ = write!(md, "| {} |", b.name());
             for m in &METRICS {
                 let (x, y) = (values(reference, m), values(b, m));
                 match (mann_whitney_u(&x, &y), percentile(&x, 0.5), percentile(&y, 0.5)) {
@@ -321,7 +317,7 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
                         } else {
                             "equal"
                         };
-                        let _ = write!(md, " p = {:.3} ({} {dir}) |", t.p, name(reference));
+                        let _ = write!(md, " p = {:.3} ({} {dir}) |", t.p, reference.name());
                     }
                     _ => md.push_str(" – |"),
                 }
