@@ -156,6 +156,11 @@ pub struct NodeConfig {
     /// No accept/reject from the action server within this: the goal is dropped (not
     /// blacklisted: the server may just not be up yet) and sent again, seconds. Default 5.
     pub goal_response_timeout_s: f64,
+    /// An accepted action goal with no feedback for this long is dropped (not blacklisted) and
+    /// planned again: the server was restarted or is gone, and its result will never come.
+    /// Nav2's bt_navigator sends feedback on every behaviour-tree tick (10 ms by default); 0
+    /// turns the check off, for servers that send none. Seconds. Default 10.
+    pub goal_feedback_timeout_s: f64,
     /// Topic goals: reached within this distance, metres. Default 0.3.
     pub goal_tolerance_m: f64,
     /// Decisions in a row whose answer is "done" (no frontier left; trapped with the recoveries
@@ -208,6 +213,7 @@ impl Default for NodeConfig {
             replan_period_s: 1.0,
             goal_timeout_s: 120.0,
             goal_response_timeout_s: 5.0,
+            goal_feedback_timeout_s: 10.0,
             goal_tolerance_m: 0.3,
             done_after_empty_decisions: 2,
             explore: ExploreParams::default(),
@@ -281,6 +287,9 @@ impl NodeConfig {
         pos("goal_timeout_s", self.goal_timeout_s)?;
         pos("goal_response_timeout_s", self.goal_response_timeout_s)?;
         pos("goal_tolerance_m", self.goal_tolerance_m)?;
+        if !(self.goal_feedback_timeout_s >= 0.0 && self.goal_feedback_timeout_s.is_finite()) {
+            return bad("goal_feedback_timeout_s", format!("must be ≥ 0 (0: off), got {}", self.goal_feedback_timeout_s));
+        }
         self.explore.validate("node.explore.")?;
         pos("pose_timeout_s", self.pose_timeout_s)?;
         pos("poll_period_s", self.poll_period_s)?;

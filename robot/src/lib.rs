@@ -49,6 +49,7 @@ pub mod convert;
 pub mod markers;
 pub mod msgs;
 pub mod node;
+pub mod qos_check;
 #[cfg(feature = "rerun")]
 pub mod rerun_log;
 pub mod ros;

@@ -11,8 +11,9 @@ use crate::config::{ConfigFile, GoalInterface, MapSource, PoseSource, ServiceMap
 use crate::markers::decision_markers;
 use crate::msgs::{self, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, RosMessage, Time, nav2};
 use crate::node::{Command, ExplorerNode, GoalEvent, Level, LogLine};
+use crate::qos_check::QosWatch;
 use ros2_client::action::{ActionClient, ActionClientQosPolicies, GoalId, GoalStatusEnum};
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipant, DomainParticipantBuilder};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 use ros2_client::{
     ActionTypeName, Context, Name, NodeName, NodeOptions, Publisher, QosProfile, RmwRequestId, ServiceMapping, Subscription,
@@ -26,6 +27,9 @@ use thiserror::Error;
 /// Most messages taken from one subscription per poll (bounds a poll even if a reader keeps
 /// returning errors).
 const MAX_TAKES_PER_POLL: usize = 1000;
+
+/// How often the discovered publishers' QoS is compared with the subscriptions', seconds.
+const QOS_CHECK_PERIOD_S: f64 = 2.0;
 
 /// Why the ROS side could not start.
 #[derive(Debug, Error)]
@@ -195,6 +199,10 @@ pub struct RosNode {
     status_pub: Publisher<msgs::StringMsg>,
     tracked: Option<Tracked>,
     read_errors: u64,
+    participant: DomainParticipant,
+    /// The subscriptions' requested QoS, against the discovered publishers'.
+    qos_watch: QosWatch,
+    qos_checked_s: Option<f64>,
     _spinner: Option<std::thread::JoinHandle<()>>,
 }
 
@@ -204,7 +212,7 @@ impl RosNode {
         let c = &cfg.node;
         let node_name =
             NodeName::new(&c.namespace, &c.name).map_err(|e| RosError::Name { name: c.name.clone(), message: format!("{e}") })?;
-        let mut node = context.new_node(node_name, NodeOptions::new().enable_rosout(true)).map_err(dds("node"))?;
+        let mut node = context.new_node(node_name.clone(), NodeOptions::new().enable_rosout(true)).map_err(dds("node"))?;
         let spinner = node.spinner().map_err(dds("spinner"))?;
         let spin_thread = std::thread::Builder::new()
             .name("ros2-spinner".into())
@@ -212,24 +220,31 @@ impl RosNode {
                 let _ = futures::executor::block_on(spinner.spin());
             })
             .map_err(dds("spinner thread"))?;
+        let mut qos_watch = QosWatch::default();
+        let mut sub = |name: &str, qos: QosProfile, hint: &'static str| {
+            let dds_topic = topic_name(name)?.to_dds_name("rt", &node_name, "");
+            qos_watch.add(name, dds_topic, &qos, hint);
+            Ok::<_, RosError>((name.to_owned(), qos))
+        };
+        const RELIABLE_HINT: &str = "Publish it RELIABLE.";
         let map_qos = if c.map_transient_local { latched(1) } else { reliable(1) };
-        let map_sub = match c.map_source {
-            MapSource::Occupancy => Some(subscribe(&mut node, &c.map_topic, map_qos)?),
-            MapSource::Clouds => None,
-        };
-        let cloud_sub = match c.map_source {
-            MapSource::Clouds => Some(subscribe(&mut node, &c.cloud_topic, best_effort(10))?),
-            MapSource::Occupancy => None,
-        };
-        let landmarks_sub = if c.landmarks_topic.is_empty() { None } else { Some(subscribe(&mut node, &c.landmarks_topic, reliable(1))?) };
-        let tf_sub = Some(subscribe(&mut node, "/tf", reliable(100))?);
-        let tf_static_sub = Some(subscribe(&mut node, "/tf_static", latched(100))?);
-        let pose_sub = match c.pose_source {
-            PoseSource::Topic => Some(subscribe(&mut node, &c.pose_topic, reliable(5))?),
-            PoseSource::Tf => None,
-        };
-        let boundary_sub = if c.boundary_topic.is_empty() { None } else { Some(subscribe(&mut node, &c.boundary_topic, reliable(1))?) };
-        let control_sub = if c.control_topic.is_empty() { None } else { Some(subscribe(&mut node, &c.control_topic, reliable(10))?) };
+        let map_hint = "Publish it TRANSIENT_LOCAL (as map_server does), or set node.map_transient_local: false.";
+        let map = (c.map_source == MapSource::Occupancy).then(|| sub(&c.map_topic, map_qos, map_hint)).transpose()?;
+        let cloud = (c.map_source == MapSource::Clouds).then(|| sub(&c.cloud_topic, best_effort(10), "")).transpose()?;
+        let landmarks = (!c.landmarks_topic.is_empty()).then(|| sub(&c.landmarks_topic, reliable(1), RELIABLE_HINT)).transpose()?;
+        let tf = sub("/tf", reliable(100), RELIABLE_HINT)?;
+        let tf_static = sub("/tf_static", latched(100), "Publish it TRANSIENT_LOCAL, as tf2's static broadcaster does.")?;
+        let pose = (c.pose_source == PoseSource::Topic).then(|| sub(&c.pose_topic, reliable(5), RELIABLE_HINT)).transpose()?;
+        let boundary = (!c.boundary_topic.is_empty()).then(|| sub(&c.boundary_topic, reliable(1), RELIABLE_HINT)).transpose()?;
+        let control = (!c.control_topic.is_empty()).then(|| sub(&c.control_topic, reliable(10), RELIABLE_HINT)).transpose()?;
+        let map_sub = map.map(|(n, q)| subscribe(&mut node, &n, q)).transpose()?;
+        let cloud_sub = cloud.map(|(n, q)| subscribe(&mut node, &n, q)).transpose()?;
+        let landmarks_sub = landmarks.map(|(n, q)| subscribe(&mut node, &n, q)).transpose()?;
+        let tf_sub = Some(subscribe(&mut node, &tf.0, tf.1)?);
+        let tf_static_sub = Some(subscribe(&mut node, &tf_static.0, tf_static.1)?);
+        let pose_sub = pose.map(|(n, q)| subscribe(&mut node, &n, q)).transpose()?;
+        let boundary_sub = boundary.map(|(n, q)| subscribe(&mut node, &n, q)).transpose()?;
+        let control_sub = control.map(|(n, q)| subscribe(&mut node, &n, q)).transpose()?;
         let (goal_pub, action) = match c.goal_interface {
             GoalInterface::Topic => (Some(advertise(&mut node, &c.goal_topic, reliable(1))?), None),
             GoalInterface::Action => {
@@ -262,6 +277,9 @@ impl RosNode {
             status_pub,
             tracked: None,
             read_errors: 0,
+            participant: context.domain_participant(),
+            qos_watch,
+            qos_checked_s: None,
             _spinner: Some(spin_thread),
         })
     }
@@ -286,14 +304,23 @@ impl RosNode {
             e.handle_landmarks(&m, now_s);
         }
         self.poll_action(e, now_s);
+        if self.qos_checked_s.is_none_or(|t| now_s - t >= QOS_CHECK_PERIOD_S) {
+            self.qos_checked_s = Some(now_s);
+            for text in self.qos_watch.incompatible(&self.participant) {
+                e.transport_warning(now_s, text);
+            }
+        }
     }
 
     fn poll_action(&mut self, e: &mut ExplorerNode, now_s: f64) {
         let Some(a) = &self.action else { return };
-        // Drain what we do not use, so that nothing piles up.
+        // Feedback tells that the tracked goal is alive; drain what we do not use, so that
+        // nothing piles up.
+        let mut heard = false;
         for _ in 0..MAX_TAKES_PER_POLL {
-            if !matches!(a.feedback_subscription().take(), Ok(Some(_))) {
-                break;
+            match a.feedback_subscription().take() {
+                Ok(Some((m, _))) => heard |= self.tracked.as_ref().is_some_and(|t| t.goal_id == m.goal_id),
+                _ => break,
             }
         }
         for _ in 0..MAX_TAKES_PER_POLL {
@@ -307,6 +334,9 @@ impl RosNode {
             }
         }
         let Some(t) = &mut self.tracked else { return };
+        if heard {
+            e.on_goal_event(t.id, GoalEvent::Feedback, now_s);
+        }
         match t.stage {
             Stage::AwaitingResponse { req } => match a.receive_goal_response(req) {
                 Ok(Some(resp)) if resp.accepted => {

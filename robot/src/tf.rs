@@ -114,6 +114,36 @@ impl TfBuffer {
         None
     }
 
+    /// The frames from `frame` up to its tree's root, `frame` first.
+    fn chain<'a>(&'a self, frame: &'a str) -> Vec<&'a str> {
+        let mut out = vec![frame];
+        let mut cur = frame;
+        for _ in 0..MAX_DEPTH {
+            let Some(e) = self.edges.get(cur) else { break };
+            cur = &e.parent;
+            out.push(cur);
+        }
+        out
+    }
+
+    /// The root of `frame`'s tree (`frame` itself when it has no parent).
+    pub fn root(&self, frame: &str) -> String {
+        self.chain(normalise_frame(frame)).last().map_or_else(String::new, |f| (*f).to_owned())
+    }
+
+    /// The least recently received non-static edge between `target` and `source`, as
+    /// (parent, child, received at): the link that makes a lookup stale.
+    pub fn stalest_link(&self, target: &str, source: &str) -> Option<(String, String, f64)> {
+        let (up_s, up_t) = (self.chain(normalise_frame(source)), self.chain(normalise_frame(target)));
+        let common = up_s.iter().find(|f| up_t.contains(f))?;
+        let below = |up: &[&str]| up.iter().take_while(|f| *f != common).map(|f| (*f).to_owned()).collect::<Vec<_>>();
+        let children = [below(&up_s), below(&up_t)].concat();
+        children
+            .iter()
+            .filter_map(|c| self.edges.get(c).and_then(|e| e.received_s.map(|r| (e.parent.clone(), c.clone(), r))))
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+    }
+
     /// Number of edges held.
     pub fn len(&self) -> usize {
         self.edges.len()
@@ -159,6 +189,11 @@ mod tests {
         assert_eq!(b.lookup("laser", "laser").unwrap().oldest_received_s, None);
         assert_eq!(b.lookup("base_link", "laser").unwrap().oldest_received_s, None);
         assert!(b.lookup("map", "camera").is_none());
+        // map → odom was received at 10 s, odom → base_link at 12 s: map → odom is the stale one.
+        assert_eq!(b.stalest_link("map", "laser"), Some(("map".into(), "odom".into(), 10.0)));
+        assert_eq!(b.stalest_link("base_link", "laser"), None);
+        assert_eq!(b.root("laser"), "map");
+        assert_eq!(b.root("camera"), "camera");
     }
 
     #[test]

@@ -95,10 +95,13 @@ fn mission(faults: bool, limit_s: f64) -> Outcome {
                 Command::MissionComplete => {}
             }
         }
-        if sim.advance(dt)
-            && let Some(id) = goal.take()
-        {
-            e.on_goal_event(id, GoalEvent::Succeeded, t);
+        if let Some(id) = goal {
+            if sim.advance(dt) {
+                e.on_goal_event(id, GoalEvent::Succeeded, t);
+                goal = None;
+            } else {
+                e.on_goal_event(id, GoalEvent::Feedback, t);
+            }
         }
         for l in e.drain_log() {
             log.push_str(&format!("[{:7.2}] {:?} {}\n", l.t_s, l.level, l.text));

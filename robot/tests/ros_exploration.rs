@@ -14,8 +14,8 @@ use common::sim::{GridSim, SimRobot, two_rooms};
 use common::{NodeProcess, RobotSide, private_domain, scratch_dir, tf_msg};
 use fitslam_core::grid::{CellClass, Grid, UNKNOWN, inflate_lethal};
 use fitslam_core::{GridGeometry, OccupancyGrid, Pose2};
-use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy, pose2_of_pose};
-use fitslam_robot::msgs::{Header, NavigateToPoseResult};
+use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2, pose2_of_pose};
+use fitslam_robot::msgs::{Header, NavigateToPoseFeedback, NavigateToPoseResult, PoseStamped};
 use fitslam_robot::ros::{make_context, now_stamp};
 use ros2_client::action::{GetResultResponse, GoalId, GoalStatusEnum, SendGoalResponse};
 use ros2_client::action_msgs::{CancelGoalResponse, CancelGoalResponseEnum};
@@ -185,11 +185,17 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
             let _ =
                 server.send_cancel_response(rid, CancelGoalResponse { return_code: CancelGoalResponseEnum::None, goals_canceling: vec![] });
         }
-        if running.as_ref().is_some_and(|r| r.outcome.is_none())
-            && sim.advance(dt)
-            && let Some(r) = &mut running
+        if let Some(r) = &mut running
+            && r.outcome.is_none()
         {
-            r.outcome = Some((GoalStatusEnum::Succeeded, NavigateToPoseResult::default()));
+            if sim.advance(dt) {
+                r.outcome = Some((GoalStatusEnum::Succeeded, NavigateToPoseResult::default()));
+            } else {
+                // Nav2 sends feedback while it drives (the node drops a goal whose server falls silent).
+                let pose = PoseStamped { header: Header::new(now_stamp(), "map"), pose: pose_of_pose2(sim.pose()) };
+                let feedback = NavigateToPoseFeedback { current_pose: pose, ..Default::default() };
+                let _ = server.send_feedback(r.goal_id, feedback);
+            }
         }
         if let Some(r) = running.take() {
             match (r.result_req, r.outcome.clone()) {

@@ -28,7 +28,7 @@ impl ExplorerNode {
         let id = self.next_goal_id;
         self.next_goal_id += 1;
         let accepted_s = self.topic_goals().then_some(now_s);
-        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s, inflation_m, on_trail });
+        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s, heard_s: None, inflation_m, on_trail });
         self.stats.goals_sent += 1;
         self.info(now_s, format!("goal {id}: ({:.2}, {:.2}) m, heading {:.0}°", goal.x_m, goal.y_m, goal.yaw_rad.to_degrees()));
         Command::SendGoal { id, goal }
@@ -43,6 +43,12 @@ impl ExplorerNode {
             GoalEvent::Accepted => {
                 if let Some(g) = &mut self.goal {
                     g.accepted_s.get_or_insert(now_s);
+                    g.heard_s = Some(now_s);
+                }
+            }
+            GoalEvent::Feedback => {
+                if let Some(g) = &mut self.goal {
+                    g.heard_s = Some(now_s);
                 }
             }
             GoalEvent::Succeeded => {
@@ -121,6 +127,21 @@ impl ExplorerNode {
                 return;
             }
             _ => {}
+        }
+        let silence = self.cfg.goal_feedback_timeout_s;
+        if let Some(heard) = g.heard_s
+            && silence > 0.0
+            && now_s - heard > silence
+        {
+            self.stats.lost += 1;
+            let text = format!(
+                "no feedback from the navigation server for {silence} s on goal {} at ({x:.2}, {y:.2}) (server restarted or gone?): dropped, will plan again",
+                g.id
+            );
+            self.warn("goal_lost", now_s, text);
+            out.push(Command::CancelGoal { id: g.id });
+            self.end_goal(Ending::Dropped, true);
+            return;
         }
         if !self.goal_is_free(x, y, g.inflation_m, g.on_trail) {
             let text = format!("goal {} at ({x:.2}, {y:.2}) is no longer free on the latest map: cancelled", g.id);

@@ -31,7 +31,7 @@ use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, Params, Pose2};
 use serde::Serialize;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 /// Same warning text under the same key is repeated at most this often, seconds.
 pub const WARN_REPEAT_S: f64 = 10.0;
@@ -51,6 +51,8 @@ pub enum Command {
 #[derive(Clone, Debug, PartialEq)]
 pub enum GoalEvent {
     Accepted,
+    /// Feedback from the action server: the goal is still being driven to.
+    Feedback,
     Rejected,
     Succeeded,
     /// Aborted by the navigation stack, with its message.
@@ -90,6 +92,8 @@ pub struct ActiveGoal {
     pub sent_s: f64,
     /// When the server accepted it (topic goals: when sent).
     pub accepted_s: Option<f64>,
+    /// When the action server last sent feedback on it (or accepted it); `None` for topic goals.
+    pub heard_s: Option<f64>,
     /// The inflation radius it was planned with, metres: the robot radius or one of
     /// `explore.tight_inflations_m`; it must stay free at that inflation.
     pub inflation_m: f64,
@@ -155,6 +159,9 @@ pub struct Status {
     pub stats: Stats,
     pub done_reason: Option<String>,
     pub last_warning: Option<String>,
+    /// Warnings logged so far, by kind (`goal`, `goal_lost`, `wait`, `qos`, …): none is lost
+    /// when several come between two statuses.
+    pub warnings: BTreeMap<&'static str, u64>,
     /// With `publish_only`: the goal the last decision would have sent.
     pub suggested_goal: Option<Pose2>,
 }
@@ -219,6 +226,8 @@ pub struct ExplorerNode {
     last_warning: Option<String>,
     log: Vec<LogLine>,
     warned: HashMap<&'static str, (String, f64)>,
+    /// Warnings logged, by kind.
+    warning_counts: BTreeMap<&'static str, u64>,
     stats: Stats,
 }
 
@@ -255,6 +264,7 @@ impl ExplorerNode {
             last_warning: None,
             log: Vec::new(),
             warned: HashMap::new(),
+            warning_counts: BTreeMap::new(),
             stats: Stats::default(),
         }
     }
@@ -274,8 +284,15 @@ impl ExplorerNode {
             return;
         }
         self.warned.insert(key, (text.clone(), now_s));
+        *self.warning_counts.entry(key).or_default() += 1;
         self.last_warning = Some(text.clone());
         self.log.push(LogLine { t_s: now_s, level: Level::Warn, text });
+    }
+
+    /// A fault of the transport seen by the ROS adapter (a publisher whose QoS the node cannot
+    /// match): a warning like the node's own.
+    pub fn transport_warning(&mut self, now_s: f64, text: String) {
+        self.warn("qos", now_s, text);
     }
 
     /// Takes the log lines produced since the last call.
@@ -435,13 +452,26 @@ impl ExplorerNode {
             Ok(p) => p,
             Err(phase) => {
                 self.phase = phase;
+                let (map, base) = (&self.cfg.map_frame, &self.cfg.base_frame);
                 let text = match (phase, self.cfg.pose_source) {
+                    (Phase::PoseStale, PoseSource::Tf) if let Some((parent, child, t)) = self.tf.stalest_link(map, base) => format!(
+                        "pose stale: tf {parent} → {child} last received {:.1} s ago (limit {} s); not planning",
+                        now_s - t,
+                        self.cfg.pose_timeout_s
+                    ),
                     (Phase::PoseStale, _) => format!(
                         "pose stale: last update {:.1} s ago (limit {} s); not planning",
                         self.pose_age_s(now_s).unwrap_or(f64::NAN),
                         self.cfg.pose_timeout_s
                     ),
-                    (_, PoseSource::Tf) => format!("waiting for tf {} ← {}", self.cfg.map_frame, self.cfg.base_frame),
+                    (_, PoseSource::Tf) => {
+                        let (root_base, root_map) = (self.tf.root(base), self.tf.root(map));
+                        if root_base == *base && root_map == *map {
+                            format!("waiting for tf {map} ← {base}: no transform of either yet")
+                        } else {
+                            format!("waiting for tf {map} ← {base}: {base}'s tree ends at {root_base}, {map}'s at {root_map}")
+                        }
+                    }
                     (_, PoseSource::Topic) => format!("waiting for the pose on {}", self.cfg.pose_topic),
                 };
                 return self.warn("wait", now_s, text);
@@ -612,6 +642,7 @@ impl ExplorerNode {
             stats: self.stats(),
             done_reason: self.done_reason.clone(),
             last_warning: self.last_warning.clone(),
+            warnings: self.warning_counts.clone(),
             suggested_goal: self.suggested_goal,
         }
     }

@@ -127,6 +127,7 @@ fn a_goal_not_reached_in_time_is_cancelled_and_blacklisted() {
     let (id1, g1) = goals(&e.tick(0.0))[0];
     e.on_goal_event(id1, GoalEvent::Accepted, 0.5);
     for t in 1..=30 {
+        e.on_goal_event(id1, GoalEvent::Feedback, t as f64);
         feed_pose(&mut e, w.robot, t as f64);
         assert!(cancels(&e.tick(t as f64)).is_empty());
     }
@@ -160,12 +161,40 @@ fn no_answer_from_the_server_drops_the_goal_without_blacklisting_it() {
 }
 
 #[test]
+fn an_action_server_gone_silent_drops_the_goal_without_blacklisting_it() {
+    let cfg = NodeConfig { goal_feedback_timeout_s: 3.0, ..NodeConfig::default() };
+    let (mut e, w) = corridor_explorer(cfg);
+    let (id1, g1) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.5);
+    // Feedback at 2 s keeps it alive until 5 s.
+    e.on_goal_event(id1, GoalEvent::Feedback, 2.0);
+    feed_pose(&mut e, w.robot, 4.9);
+    assert!(cancels(&e.tick(4.9)).is_empty());
+    feed_pose(&mut e, w.robot, 5.1);
+    let cmds = e.tick(5.1);
+    assert_eq!(cancels(&cmds), vec![id1]);
+    assert!(e.blacklist().is_empty());
+    assert!(log_has(&mut e, "no feedback from the navigation server for 3 s on goal 1"));
+    // Decided again at once and sent again, for the server that comes back.
+    let g = goals(&cmds);
+    assert_eq!(g.len(), 1);
+    assert!((g[0].1.x_m - g1.x_m).abs() < 1e-9);
+    // 0 turns the check off.
+    let cfg = NodeConfig { goal_feedback_timeout_s: 0.0, ..NodeConfig::default() };
+    let (mut e, w) = corridor_explorer(cfg);
+    let (id1, _) = goals(&e.tick(0.0))[0];
+    e.on_goal_event(id1, GoalEvent::Accepted, 0.5);
+    feed_pose(&mut e, w.robot, 60.0);
+    assert!(cancels(&e.tick(60.0)).is_empty());
+}
+
+#[test]
 fn a_stale_pose_stops_decisions_and_says_why() {
     let (mut e, w) = corridor_explorer(NodeConfig::default());
     let _ = e.drain_log();
     assert!(goals(&e.tick(3.0)).is_empty());
     assert_eq!(e.phase(), Phase::PoseStale);
-    assert!(log_has(&mut e, "pose stale: last update 3.0 s ago"));
+    assert!(log_has(&mut e, "pose stale: tf odom → base_link last received 3.0 s ago"));
     // The odometry comes back.
     feed_pose(&mut e, w.robot, 4.0);
     assert_eq!(goals(&e.tick(4.0)).len(), 1);

@@ -3,6 +3,7 @@
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 pub mod core_sim;
+pub mod rclpy;
 pub mod sim;
 
 use fitslam_core::Pose2;
