@@ -6,7 +6,7 @@
 //! | `candidates` | SPHERE_LIST | candidate C_i: green chosen, yellow→orange by rank, grey not ranked, red no path / blacklisted |
 //! | `theta_star` | TRIANGLE_LIST | the camera's field of view at Θ* from each scored candidate, `max_depth_m` long |
 //! | `path` | LINE_STRIP | the chosen candidate's path |
-//! | `goal` | ARROW | the goal pose sent |
+//! | `goal` | ARROW | the goal pose sent (`publish_only`: the one it would send) |
 //! | `blacklist` | SPHERE_LIST | blacklisted goals |
 //!
 //! The array starts with a DELETEALL so that markers of a previous decision disappear.

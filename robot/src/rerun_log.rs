@@ -124,7 +124,7 @@ impl Observer for RerunLogger {
         let path_xyz: Vec<[f32; 3]> = path.iter().map(|p| [p[0] as f32, p[1] as f32, 0.05]).collect();
         let _ = self.rec.log("map/path", &rerun::LineStrips2D::new([path_px]).with_colors([[30, 230, 60]]));
         let _ = self.rec.log("world/path", &rerun::LineStrips3D::new([path_xyz]).with_colors([[30, 230, 60]]).with_radii([0.03]));
-        if let Some(goal) = e.current_goal().map(|g| g.goal) {
+        if let Some(goal) = e.shown_goal() {
             let (c, s) = (goal.yaw_rad.cos() as f32, goal.yaw_rad.sin() as f32);
             let _ = self.rec.log(
                 "world/goal",

@@ -412,7 +412,7 @@ impl RosNode {
     pub fn publish_markers(&self, e: &ExplorerNode, map_frame: &str) {
         let (Some(d), Some(map)) = (e.last_decision(), e.map()) else { return };
         let header = Header::new(now_stamp(), map_frame);
-        let m = decision_markers(d, &map.geometry, e.blacklist(), e.current_goal().map(|g| g.goal), e.params(), &header);
+        let m = decision_markers(d, &map.geometry, e.blacklist(), e.shown_goal(), e.params(), &header);
         let _ = self.marker_pub.publish(m);
     }
 

@@ -37,6 +37,19 @@ fn rclpy_on_fast_dds_feeds_the_map_reads_the_status_and_stops_the_node() {
     assert!(summary.contains("\"phase\": \"done\"") && summary.contains("stopped on request"), "rclpy read the status: {context}");
 }
 
+/// The ground truth of the stack's simulated robot: the two-room world, the robot at (1.5, 1.5)
+/// with a 4 m range sensor, driving at 2 m/s.
+fn world_json() -> String {
+    let truth = two_rooms();
+    let g = truth.geometry;
+    serde_json::json!({
+        "resolution_m": g.resolution_m, "origin_m": [g.origin_x_m, g.origin_y_m],
+        "width": g.width, "height": g.height, "data": truth.data,
+        "start": [1.5, 1.5, 0.0], "robot_radius_m": 0.25, "range_m": 4.0, "speed_mps": 2.0,
+    })
+    .to_string()
+}
+
 /// The node's configuration in the closed loop: faster decisions and a tighter pose timeout than
 /// the defaults, so that a run takes seconds.
 const NODE_YAML: &str = "node:\n  replan_period_s: 0.5\n  pose_timeout_s: 1.0\n  goal_timeout_s: 60\n  max_mission_s: 400\n";
@@ -49,14 +62,7 @@ const NODE_YAML: &str = "node:\n  replan_period_s: 0.5\n  pose_timeout_s: 1.0\n 
 /// Returns the summary, everything for assertion messages, and the node's log.
 fn explore_against_rclpy_stack(name: &str, faults: &str, node_yaml: &str, domain: u16) -> (Value, String, String) {
     let dir = scratch_dir(name);
-    let truth = two_rooms();
-    let g = truth.geometry;
-    let world = serde_json::json!({
-        "resolution_m": g.resolution_m, "origin_m": [g.origin_x_m, g.origin_y_m],
-        "width": g.width, "height": g.height, "data": truth.data,
-        "start": [1.5, 1.5, 0.0], "robot_radius_m": 0.25, "range_m": 4.0, "speed_mps": 2.0,
-    });
-    std::fs::write(dir.join("world.json"), world.to_string()).unwrap();
+    std::fs::write(dir.join("world.json"), world_json()).unwrap();
     let config = dir.join("node.yaml");
     std::fs::write(&config, node_yaml).unwrap();
     let out = dir.join("summary.json");
@@ -83,12 +89,38 @@ fn explore_against_rclpy_stack(name: &str, faults: &str, node_yaml: &str, domain
 
 #[test]
 fn rclpy_nav2_stand_in_explores_the_world_to_the_end() {
-    let (summary, context, _) = explore_against_rclpy_stack("rclpy-nav2", "none", NODE_YAML, private_domain(60, 10));
+    // With the return to the start: one last goal through the action server.
+    let yaml = format!("{NODE_YAML}  return_to_start: true\n");
+    let (summary, context, _) = explore_against_rclpy_stack("rclpy-nav2", "none", &yaml, private_domain(60, 10));
+    assert!(summary["last"]["done_reason"].as_str().unwrap().ends_with("; returned to the start"), "{context}");
+    let home = summary["goals"].as_array().unwrap().last().cloned().unwrap();
+    assert!((home[0].as_f64().unwrap() - 1.5).hypot(home[1].as_f64().unwrap() - 1.5) < 0.3 && home[2] == "succeeded", "{context}");
     // Without faults nothing is lost, rejected or timed out (a frontier goal next to a wall the
     // map has not seen yet may still have no path: Nav2 aborts those too).
     let stats = &summary["last"]["stats"];
     for counter in ["lost", "rejected", "timed_out"] {
         assert_eq!(stats[counter], 0, "{counter}: {context}");
+    }
+}
+
+#[test]
+fn rclpy_sees_a_publish_only_node_rank_and_suggest_without_sending_a_goal() {
+    let dir = scratch_dir("rclpy-publish-only");
+    std::fs::write(dir.join("world.json"), world_json()).unwrap();
+    let config = dir.join("node.yaml");
+    std::fs::write(&config, format!("{NODE_YAML}  publish_only: true\n")).unwrap();
+    let (w, o) = (dir.join("world.json"), dir.join("summary.json"));
+    let args = ["--world", w.to_str().unwrap(), "--out", o.to_str().unwrap(), "--limit", "8", "--faults", "none"];
+    let run = run_beside_node(&dir, &config, &peer_script("nav2_stack.py"), &args, private_domain(80, 10));
+    let context = run.context();
+    assert!(run.peer_ok, "{context}");
+    let summary: Value = serde_json::from_str(&std::fs::read_to_string(&o).expect(&context)).unwrap();
+    let context = format!("summary: {summary:#}\n{context}");
+    assert_eq!(summary["goals"], serde_json::json!([]), "no goal reached rclpy's action server: {context}");
+    let suggested = &summary["last"]["suggested_goal"];
+    assert!(suggested["x_m"].is_f64() && summary["last"]["goal"].is_null(), "{context}");
+    for ns in ["frontiers", "candidates", "goal"] {
+        assert!(summary["marker_namespaces"][ns].as_u64().is_some_and(|n| n > 0), "markers in `{ns}`: {context}");
     }
 }
 

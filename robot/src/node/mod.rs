@@ -681,6 +681,12 @@ impl ExplorerNode {
         self.goal
     }
 
+    /// The goal to draw: the one sent, or with `publish_only` the one the last decision would
+    /// have sent.
+    pub fn shown_goal(&self) -> Option<Pose2> {
+        self.goal.map(|g| g.goal).or(self.suggested_goal)
+    }
+
     pub fn blacklist(&self) -> &Blacklist {
         self.explorer.blacklist()
     }
