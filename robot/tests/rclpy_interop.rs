@@ -104,11 +104,12 @@ fn rclpy_nav2_stand_in_explores_the_world_to_the_end() {
 }
 
 #[test]
-fn rclpy_sees_a_publish_only_node_rank_and_suggest_without_sending_a_goal() {
+fn rclpy_sees_a_publish_only_node_rank_and_suggest_without_sending_a_goal_on_the_pose_topic() {
     let dir = scratch_dir("rclpy-publish-only");
     std::fs::write(dir.join("world.json"), world_json()).unwrap();
     let config = dir.join("node.yaml");
-    std::fs::write(&config, format!("{NODE_YAML}  publish_only: true\n")).unwrap();
+    // The pose from the SLAM's PoseWithCovarianceStamped this time, not tf.
+    std::fs::write(&config, format!("{NODE_YAML}  publish_only: true\n  pose_source: topic\n")).unwrap();
     let (w, o) = (dir.join("world.json"), dir.join("summary.json"));
     let args = ["--world", w.to_str().unwrap(), "--out", o.to_str().unwrap(), "--limit", "8", "--faults", "none"];
     let run = run_beside_node(&dir, &config, &peer_script("nav2_stack.py"), &args, private_domain(80, 10));
@@ -119,6 +120,8 @@ fn rclpy_sees_a_publish_only_node_rank_and_suggest_without_sending_a_goal() {
     assert_eq!(summary["goals"], serde_json::json!([]), "no goal reached rclpy's action server: {context}");
     let suggested = &summary["last"]["suggested_goal"];
     assert!(suggested["x_m"].is_f64() && summary["last"]["goal"].is_null(), "{context}");
+    let robot = &summary["last"]["robot"];
+    assert!((robot["x_m"].as_f64().unwrap() - 1.5).hypot(robot["y_m"].as_f64().unwrap() - 1.5) < 1e-3, "the pose topic's pose: {context}");
     for ns in ["frontiers", "candidates", "goal"] {
         assert!(summary["marker_namespaces"][ns].as_u64().is_some_and(|n| n > 0), "markers in `{ns}`: {context}");
     }

@@ -7,7 +7,8 @@ client (rclpy on rmw_fastrtps_cpp, Fast DDS):
 - the SLAM / map side: nav_msgs/OccupancyGrid on /map (TRANSIENT_LOCAL, RELIABLE, depth 1, as
   map_server and the SLAMs publish it; cropped to the known cells plus 1 m, so that it grows),
   tf2_msgs/TFMessage on /tf (map -> odom -> base_link) and /tf_static (base_link -> camera_link),
-  the landmark map as sensor_msgs/PointCloud2 on /cloud_map;
+  the landmark map as sensor_msgs/PointCloud2 on /cloud_map, the pose with its covariance as
+  geometry_msgs/PoseWithCovarianceStamped on /localization_pose;
 - Nav2's stand-in: an rclpy ActionServer for nav2_msgs/action/NavigateToPose on
   /navigate_to_pose that drives the robot to the goal with feedback, and succeeds, aborts,
   rejects or is cancelled;
@@ -33,7 +34,7 @@ import time
 import numpy as np
 import rclpy
 from builtin_interfaces.msg import Duration
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped
 from nav2_msgs.action import NavigateToPose
 from nav_msgs.msg import OccupancyGrid
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -234,6 +235,7 @@ class Stack:
         self.volatile_map_pub = self.slam.create_publisher(OccupancyGrid, "/map", VOLATILE_MAP) if self.faults == "all" else None
         self.tf_pub = self.slam.create_publisher(TFMessage, "/tf", TF_QOS)
         self.tf_static_pub = self.slam.create_publisher(TFMessage, "/tf_static", TF_STATIC_QOS)
+        self.pose_pub = self.slam.create_publisher(PoseWithCovarianceStamped, "/localization_pose", QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
         self.landmark_pub = self.slam.create_publisher(PointCloud2, "/cloud_map", QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         self.slam.create_timer(0.05, self.step, callback_group=sim_group)
         self.slam.create_timer(1.0, self.publish_map, callback_group=sim_group)
@@ -340,6 +342,15 @@ class Stack:
         if t >= self.map_odom_off_until and not link_missing:
             tfs.append(transform(stamp, "map", "odom", MAP_TO_ODOM))
         self.tf_pub.publish(TFMessage(transforms=tfs))
+        # The SLAM's pose with its covariance, in map (RTAB-Map's /localization_pose).
+        msg = PoseWithCovarianceStamped()
+        msg.header.stamp = stamp
+        msg.header.frame_id = "map"
+        msg.pose.pose.position.x, msg.pose.pose.position.y = pose[0], pose[1]
+        yaw_quaternion(msg.pose.pose.orientation, pose[2])
+        msg.pose.covariance[0] = msg.pose.covariance[7] = 0.01
+        msg.pose.covariance[35] = 0.001
+        self.pose_pub.publish(msg)
 
     # ---------------------------------------------------------------- Nav2's stand-in
     def on_goal(self, request):
