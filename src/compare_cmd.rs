@@ -8,19 +8,24 @@
 //! - `DIR/summary.csv`: one row per run (strategy order as given, then seed order); byte-identical
 //!   whatever `--jobs` (no wall times in it).
 //! - `DIR/summary.md`: per strategy and metric the median, the interquartile range and min–max
-//!   over seeds, and per baseline and metric the two-sided Mann–Whitney U test against `fit`
-//!   (against the first strategy listed when `fit` is not).
+//!   over seeds; the coverage milestones (time and distance to 50/75/90/99 %); and per baseline
+//!   and metric, paired by seed (same world, same noise), the mean difference to `fit` (to the
+//!   first strategy listed when `fit` is not) with a 95 % bootstrap interval, the Wilcoxon
+//!   signed-rank p-value and Holm's adjustment over the metrics. The primary metric, named in
+//!   advance (docs/experiments.md), is the mean tr(cov) at matched coverage 25–90 %.
 
 use crate::load;
 use crate::mission_run::{MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
 use crate::plot::{self, Curve};
-use crate::stats::{Spread, mann_whitney_u, percentile};
+use crate::stats::{Spread, bootstrap_mean_ci, holm, percentile, wilcoxon_signed_rank};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use fitslam_core::explore::EndReason;
 use fitslam_core::params::Strategy;
+use fitslam_core::sim::coverage::{MATCHED_COVERAGE_PCT, MILESTONES_PCT, Milestone, mean_at_matched_coverage, milestone};
 use fitslam_core::sim::{Localisation, MetricsRow, Summary};
 use indicatif::ProgressBar;
+use rand::SeedableRng;
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -60,7 +65,27 @@ struct RunFigures {
     seed: u64,
     summary: Summary,
     mean_cov_trace: f64,
+    /// Mean tr(cov) and ATE at matched coverage 25–90 %; NaN if the run never reached 90 %.
+    matched_cov_trace: f64,
+    matched_ate_m: f64,
+    /// Where each of [`MILESTONES_PCT`] was reached.
+    milestones: [Option<Milestone>; MILESTONES_PCT.len()],
     rows: Vec<MetricsRow>,
+}
+
+impl RunFigures {
+    fn new(strategy: Strategy, seed: u64, summary: Summary, rows: Vec<MetricsRow>) -> Self {
+        let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
+        let matched = |get: fn(&MetricsRow) -> f64| mean_at_matched_coverage(&rows, MATCHED_COVERAGE_PCT, get).unwrap_or(f64::NAN);
+        let (matched_cov_trace, matched_ate_m) = (matched(|r| r.cov_trace), matched(|r| r.ate_m));
+        let milestones = MILESTONES_PCT.map(|level| milestone(&rows, level));
+        Self { strategy, seed, summary, mean_cov_trace, matched_cov_trace, matched_ate_m, milestones, rows }
+    }
+
+    /// Time to 90 % coverage, NaN if never reached.
+    fn t90_s(&self) -> f64 {
+        self.milestones[2].map_or(f64::NAN, |m| m.time_s)
+    }
 }
 
 /// A metric of the summary: its name, column header, and how to read it from a run.
@@ -70,11 +95,16 @@ struct Metric {
     get: fn(&RunFigures) -> f64,
 }
 
-const METRICS: [Metric; 9] = [
+const METRICS: [Metric; 12] = [
+    // The primary metric (docs/experiments.md): u2's purpose is a better-localised robot at the
+    // same stage of exploration.
+    Metric { csv: "matched_cov_trace", header: "tr(cov) at 25–90 % coverage", get: |r| r.matched_cov_trace },
     Metric { csv: "time_s", header: "end time (s)", get: |r| r.summary.time_s },
+    Metric { csv: "t90_s", header: "T_90 (s)", get: RunFigures::t90_s },
     Metric { csv: "unexplored_pct", header: "final unexplored (%)", get: |r| r.summary.unexplored_pct },
     Metric { csv: "mean_cov_trace", header: "mean tr(cov)", get: |r| r.mean_cov_trace },
     Metric { csv: "final_cov_trace", header: "final tr(cov)", get: |r| r.summary.final_cov_trace },
+    Metric { csv: "matched_ate_m", header: "ATE at 25–90 % (m)", get: |r| r.matched_ate_m },
     Metric { csv: "ate_rmse_m", header: "ATE RMSE (m)", get: |r| r.summary.ate_rmse_m },
     Metric { csv: "distance_m", header: "distance (m)", get: |r| r.summary.distance_m },
     Metric { csv: "gt_violations", header: "GT violations", get: |r| r.summary.gt_violations as f64 },
@@ -130,8 +160,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
                     run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden())?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", strategy.name()));
-                let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
-                Ok((RunFigures { strategy, seed, summary, mean_cov_trace, rows }, wall_s))
+                Ok((RunFigures::new(strategy, seed, summary, rows), wall_s))
             })
             .collect()
     });
@@ -178,11 +207,18 @@ fn summary_csv(figures: &[RunFigures]) -> String {
         s.push(',');
         s.push_str(m.csv);
     }
+    for level in MILESTONES_PCT {
+        let _ = write!(s, ",t{level:.0}_s,d{level:.0}_m");
+    }
     s.push_str(",goals_reached,goals_failed,decisions,trap_recoveries\n");
     for f in figures {
         let _ = write!(s, "{},{},{}", f.strategy.name(), f.seed, end_reason(f.summary.end_reason));
         for m in &METRICS {
             let _ = write!(s, ",{:.6e}", (m.get)(f));
+        }
+        for m in &f.milestones {
+            let (t, d) = m.map_or((f64::NAN, f64::NAN), |m| (m.time_s, m.distance_m));
+            let _ = write!(s, ",{t:.6e},{d:.6e}");
         }
         let _ =
             writeln!(s, ",{},{},{},{}", f.summary.goals_reached, f.summary.goals_failed, f.summary.decisions, f.summary.trap_recoveries);
@@ -250,15 +286,36 @@ fn num(v: f64) -> String {
     }
 }
 
+/// Resamples of the bootstrap intervals.
+const BOOTSTRAP_RESAMPLES: usize = 10_000;
+
+/// `md` gets a table row per strategy: for each metric, the spread over the runs where it is
+/// defined (NaN: a coverage level never reached), with their count when some are missing.
+fn spread_cell(md: &mut String, values: &[f64]) {
+    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    match Spread::of(&finite) {
+        Some(sp) => {
+            let _ = write!(md, " **{}** [{}–{}] ({}–{})", num(sp.median), num(sp.q25), num(sp.q75), num(sp.min), num(sp.max));
+            if finite.len() < values.len() {
+                let _ = write!(md, " n = {}", finite.len());
+            }
+            md.push_str(" |");
+        }
+        None => md.push_str(" – |"),
+    }
+}
+
 fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], command: &str, localisation: Localisation) -> String {
     let values = |s: Strategy, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
     let mut md = format!("# fitslam compare — {world}\n\n`{command}`\n\n");
     let seeds: Vec<u64> = figures.iter().filter(|f| f.strategy == strategies[0]).map(|f| f.seed).collect();
     let _ = writeln!(
         md,
-        "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds. \
-         *finished* = runs that ended with no frontier left (the others hit the time limit, got stuck, or stayed walled in by their map after their recoveries: `trapped`; see summary.csv, which also counts each run's `trap_recoveries`). \
-         tr(cov) is the trace of the current pose's covariance (m² + rad²: the 6×6 SLAM marginal with `slam` localisation, the (x, y, θ) one with `odometry`); mean tr(cov) is its average over the run.\n",
+        "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds \
+         (n = k: only k runs have the figure). *finished* = runs that ended with no frontier left (the others hit the time limit, got stuck, or stayed walled in by their map after their recoveries: `trapped`; see summary.csv, which also counts each run's `trap_recoveries`). \
+         tr(cov) is the trace of the current pose's covariance (m² + rad²: the 6×6 SLAM marginal with `slam` localisation, the (x, y, θ) one with `odometry`); mean tr(cov) is its average over the run. \
+         *At 25–90 % coverage*: the mean over the coverage levels 25, 30, …, 90 % of the value when the run first reached each level \
+         (the primary metric: tr(cov) there; a run that never reached 90 % has none). T_90: the time to 90 % coverage.\n",
         strategies.len(),
         seeds.len(),
         seeds.first().copied().unwrap_or(0),
@@ -277,55 +334,111 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
         let finished = runs.iter().filter(|f| f.summary.end_reason == Some(EndReason::NoFrontier)).count();
         let _ = write!(md, "| {} | {} | {finished} |", s.name(), runs.len());
         for m in &METRICS {
-            match Spread::of(&values(s, m)) {
-                Some(sp) => {
-                    let _ = write!(md, " **{}** [{}–{}] ({}–{}) |", num(sp.median), num(sp.q25), num(sp.q75), num(sp.min), num(sp.max));
+            spread_cell(&mut md, &values(s, m));
+        }
+        md.push('\n');
+    }
+    milestones_md(&mut md, strategies, figures);
+    let reference = strategies.iter().copied().find(|&s| s == Strategy::Fit).unwrap_or(strategies[0]);
+    let baselines: Vec<Strategy> = strategies.iter().copied().filter(|&s| s != reference).collect();
+    if !baselines.is_empty() {
+        paired_md(&mut md, reference, &baselines, figures);
+    }
+    md
+}
+
+/// Time and distance to each coverage milestone, per strategy.
+fn milestones_md(md: &mut String, strategies: &[Strategy], figures: &[RunFigures]) {
+    md.push_str(
+        "\n## Coverage milestones\n\nTime (s) and distance (m) at which the run first knew 50, 75, 90 and 99 % of the explorable \
+         ground (Explore-Bench's T_x): **median** [25–75 %] (min–max) over the runs that reached it, n = k when some did not.\n\n| strategy |",
+    );
+    for level in MILESTONES_PCT {
+        let _ = write!(md, " T_{level:.0} (s) | D_{level:.0} (m) |");
+    }
+    md.push_str("\n|---|");
+    md.push_str(&"---|---|".repeat(MILESTONES_PCT.len()));
+    md.push('\n');
+    for &s in strategies {
+        let runs: Vec<&RunFigures> = figures.iter().filter(|f| f.strategy == s).collect();
+        let _ = write!(md, "| {} |", s.name());
+        for k in 0..MILESTONES_PCT.len() {
+            let at = |get: fn(&Milestone) -> f64| runs.iter().map(|f| f.milestones[k].as_ref().map_or(f64::NAN, get)).collect::<Vec<_>>();
+            spread_cell(md, &at(|m| m.time_s));
+            spread_cell(md, &at(|m| m.distance_m));
+        }
+        md.push('\n');
+    }
+}
+
+/// One cell of the paired table.
+struct PairedCell {
+    pairs: usize,
+    mean: f64,
+    ci: (f64, f64),
+    p: f64,
+}
+
+/// Each baseline against `reference`, paired by seed.
+fn paired_md(md: &mut String, reference: Strategy, baselines: &[Strategy], figures: &[RunFigures]) {
+    let _ = writeln!(
+        md,
+        "\n## Each baseline against `{r}`, paired by seed\n\nRuns with the same seed share the world and the sensor noise, so \
+         they are compared in pairs: d = `{r}` − baseline per seed (pairs where both have the figure). Each cell: the mean of d \
+         [95 % percentile-bootstrap interval, {BOOTSTRAP_RESAMPLES} resamples], the two-sided Wilcoxon signed-rank p-value \
+         (normal approximation, tie and continuity corrections, zero differences dropped), and in bold Holm's adjusted p over \
+         the {m} metrics of the row. Negative d: `{r}` lower.\n",
+        r = reference.name(),
+        m = METRICS.len()
+    );
+    md.push_str("| baseline |");
+    for m in &METRICS {
+        let _ = write!(md, " {} |", m.header);
+    }
+    md.push_str("\n|---|");
+    md.push_str(&"---|".repeat(METRICS.len()));
+    md.push('\n');
+    for (bi, &b) in baselines.iter().enumerate() {
+        let cells: Vec<Option<PairedCell>> = METRICS
+            .iter()
+            .enumerate()
+            .map(|(mi, m)| {
+                let d = paired_differences(figures, reference, b, m.get);
+                let test = wilcoxon_signed_rank(&d)?;
+                // One fixed stream per cell: the same summary whatever the run order.
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(((bi as u64) << 32) | mi as u64);
+                let ci = bootstrap_mean_ci(&d, 0.95, BOOTSTRAP_RESAMPLES, &mut rng)?;
+                Some(PairedCell { pairs: d.len(), mean: d.iter().sum::<f64>() / d.len() as f64, ci, p: test.p })
+            })
+            .collect();
+        let tested: Vec<f64> = cells.iter().flatten().map(|c| c.p).collect();
+        let mut adjusted = holm(&tested).into_iter();
+        let _ = write!(md, "| {} |", b.name());
+        for cell in &cells {
+            match cell {
+                Some(c) => {
+                    let adj = adjusted.next().unwrap_or(f64::NAN);
+                    let (n, p, (lo, hi)) = (c.pairs, c.p, c.ci);
+                    let _ = write!(md, " {} [{}, {}] p = {p:.3}, **{adj:.3}** (n = {n}) |", num(c.mean), num(lo), num(hi));
                 }
                 None => md.push_str(" – |"),
             }
         }
         md.push('\n');
     }
-    let reference = strategies.iter().copied().find(|&s| s == Strategy::Fit).unwrap_or(strategies[0]);
-    let baselines: Vec<Strategy> = strategies.iter().copied().filter(|&s| s != reference).collect();
-    if !baselines.is_empty() {
-        let _ = writeln!(
-            md,
-            "\n## Each baseline against `{r}`\n\nTwo-sided Mann–Whitney U test, normal approximation with tie and continuity \
-             corrections: p-value, and whether `{r}`'s median is lower, higher or equal. With {n} seeds per strategy, p < 0.05 \
-             is the usual threshold; a metric where every run is equal gives p = 1.\n",
-            r = reference.name(),
-            n = seeds.len()
-        );
-        md.push_str("| baseline |");
-        for m in &METRICS {
-            let _ = write!(md, " {} |", m.header);
-        }
-        md.push_str("\n|---|");
-        md.push_str(&"---|".repeat(METRICS.len()));
-        md.push('\n');
-        for &b in &baselines {
-            let _ = write!(md, "| {} |", b.name());
-            for m in &METRICS {
-                let (x, y) = (values(reference, m), values(b, m));
-                match (mann_whitney_u(&x, &y), percentile(&x, 0.5), percentile(&y, 0.5)) {
-                    (Some(t), Some(mx), Some(my)) => {
-                        let dir = if mx < my {
-                            "lower"
-                        } else if mx > my {
-                            "higher"
-                        } else {
-                            "equal"
-                        };
-                        let _ = write!(md, " p = {:.3} ({} {dir}) |", t.p, reference.name());
-                    }
-                    _ => md.push_str(" – |"),
-                }
-            }
-            md.push('\n');
-        }
-    }
-    md
+}
+
+/// `reference − baseline` per seed, over the seeds where both runs have a finite figure.
+fn paired_differences(figures: &[RunFigures], reference: Strategy, baseline: Strategy, get: fn(&RunFigures) -> f64) -> Vec<f64> {
+    figures
+        .iter()
+        .filter(|f| f.strategy == reference)
+        .filter_map(|r| {
+            let b = figures.iter().find(|f| f.strategy == baseline && f.seed == r.seed)?;
+            let (x, y) = (get(r), get(b));
+            (x.is_finite() && y.is_finite()).then_some(x - y)
+        })
+        .collect()
 }
 
 #[cfg(test)]

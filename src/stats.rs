@@ -1,13 +1,22 @@
-//! Small statistics for `fitslam compare`: percentiles and the two-sided Mann–Whitney U test.
+//! Small statistics for `fitslam compare`: percentiles and, for paired runs (same world and
+//! seed, two strategies), the Wilcoxon signed-rank test, a percentile-bootstrap confidence
+//! interval of the mean paired difference and Holm's correction over several tests.
 //!
 //! Percentiles use linear interpolation between order statistics (Hyndman & Fan type 7, numpy's
 //! default): for sorted x₀ ≤ … ≤ x_{n−1}, h = (n − 1)·q, Q(q) = x_⌊h⌋ + (h − ⌊h⌋)(x_⌊h⌋+1 − x_⌊h⌋).
 //!
-//! Mann–Whitney U (two-sided, normal approximation with tie and continuity corrections, as
-//! scipy's `mannwhitneyu(method="asymptotic")`): pool the samples, rank them (ties get their mean
-//! rank), R₁ = sum of the first sample's ranks, U₁ = R₁ − n₁(n₁+1)/2, μ = n₁n₂/2,
-//! σ² = n₁n₂/12 · ((n+1) − Σ(t³−t)/(n(n−1))) over tie groups of size t, n = n₁+n₂,
-//! z = (|U₁ − μ| − ½)/σ, p = 2·(1 − Φ(z)) = erfc(z/√2). O(n log n).
+//! Wilcoxon signed-rank (two-sided, zeros dropped, normal approximation with tie and continuity
+//! corrections, as scipy's `wilcoxon(d, zero_method="wilcox", correction=True,
+//! method="approx")`): rank |dᵢ| over the n non-zero differences (ties get their mean rank),
+//! W⁺ = sum of the positive ones' ranks, μ = n(n+1)/4, σ² = n(n+1)(2n+1)/24 − Σ(t³−t)/48,
+//! z = (|W⁺ − μ| − ½)/σ, p = erfc(z/√2).
+//!
+//! Holm's step-down correction (Holm 1979): with the m p-values sorted, p₍₁₎ ≤ … ≤ p₍ₘ₎, the
+//! adjusted p₍ᵢ₎ is maxⱼ≤ᵢ min(1, (m − j + 1)·p₍ⱼ₎); rejecting where it is below α keeps the
+//! family-wise error rate at α.
+//!
+//! Percentile bootstrap (Efron & Tibshirani 1993, §13.3): B resamples of the n differences drawn
+//! with replacement; the interval is the (1−level)/2 and (1+level)/2 percentiles of their means.
 
 /// The q-quantile (0 ≤ q ≤ 1) of `values`, type 7; `None` when empty or any value is NaN.
 pub fn percentile(values: &[f64], q: f64) -> Option<f64> {
@@ -45,53 +54,76 @@ impl Spread {
     }
 }
 
-/// The result of a Mann–Whitney U test.
+/// The result of a Wilcoxon signed-rank test.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MannWhitney {
-    /// U of the first sample (the number of pairs where it is larger, ties counting ½).
-    pub u1: f64,
+pub struct Wilcoxon {
+    /// Sum of the ranks of the positive differences.
+    pub w_plus: f64,
+    /// Non-zero differences.
+    pub n: usize,
     /// z score (with continuity correction, ≥ 0).
     pub z: f64,
     /// Two-sided p-value.
     pub p: f64,
 }
 
-/// Two-sided Mann–Whitney U test of `x` against `y` (see the module doc). `None` if a sample is
-/// empty or holds NaN. When every value is tied (σ = 0) there is no evidence of a difference:
-/// z = 0, p = 1.
-pub fn mann_whitney_u(x: &[f64], y: &[f64]) -> Option<MannWhitney> {
-    if x.is_empty() || y.is_empty() || x.iter().chain(y).any(|v| v.is_nan()) {
+/// Two-sided Wilcoxon signed-rank test of the paired differences `d` (see the module doc).
+/// `None` if `d` holds NaN. No non-zero difference, or every rank tied at σ = 0: p = 1.
+pub fn wilcoxon_signed_rank(d: &[f64]) -> Option<Wilcoxon> {
+    if d.iter().any(|v| v.is_nan()) {
         return None;
     }
-    let (n1, n2) = (x.len() as f64, y.len() as f64);
-    let n = n1 + n2;
-    // (value, from x)
-    let mut pooled: Vec<(f64, bool)> = x.iter().map(|&v| (v, true)).chain(y.iter().map(|&v| (v, false))).collect();
-    pooled.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut r1 = 0.0;
-    let mut tie_sum = 0.0;
+    let mut nz: Vec<f64> = d.iter().copied().filter(|&v| v != 0.0).collect();
+    nz.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
+    let n = nz.len();
+    let (mut w_plus, mut tie_sum) = (0.0, 0.0);
     let mut i = 0;
-    while i < pooled.len() {
+    while i < n {
         let mut j = i + 1;
-        while j < pooled.len() && pooled[j].0 == pooled[i].0 {
+        while j < n && nz[j].abs() == nz[i].abs() {
             j += 1;
         }
-        // Ranks i+1 ..= j share their mean.
         let rank = (i + 1 + j) as f64 / 2.0;
         let t = (j - i) as f64;
         tie_sum += t * t * t - t;
-        r1 += rank * pooled[i..j].iter().filter(|p| p.1).count() as f64;
+        w_plus += rank * nz[i..j].iter().filter(|&&v| v > 0.0).count() as f64;
         i = j;
     }
-    let u1 = r1 - n1 * (n1 + 1.0) / 2.0;
-    let mu = n1 * n2 / 2.0;
-    let var = n1 * n2 / 12.0 * ((n + 1.0) - tie_sum / (n * (n - 1.0)));
-    if var <= 0.0 || !var.is_finite() {
-        return Some(MannWhitney { u1, z: 0.0, p: 1.0 });
+    let nf = n as f64;
+    let mu = nf * (nf + 1.0) / 4.0;
+    let var = nf * (nf + 1.0) * (2.0 * nf + 1.0) / 24.0 - tie_sum / 48.0;
+    if n == 0 || var <= 0.0 {
+        return Some(Wilcoxon { w_plus, n, z: 0.0, p: 1.0 });
     }
-    let z = ((u1 - mu).abs() - 0.5).max(0.0) / var.sqrt();
-    let p = erfc(z / std::f64::consts::SQRT_2).min(1.0);
-    Some(MannWhitney { u1, z, p })
+    let z = ((w_plus - mu).abs() - 0.5).max(0.0) / var.sqrt();
+    Some(Wilcoxon { w_plus, n, z, p: erfc(z / std::f64::consts::SQRT_2).min(1.0) })
+}
+
+/// Holm's step-down adjusted p-values, in the order given (see the module doc).
+pub fn holm(p: &[f64]) -> Vec<f64> {
+    let m = p.len();
+    let mut order: Vec<usize> = (0..m).collect();
+    order.sort_by(|&a, &b| p[a].total_cmp(&p[b]));
+    let mut out = vec![0.0; m];
+    let mut running: f64 = 0.0;
+    for (rank, &i) in order.iter().enumerate() {
+        running = running.max(((m - rank) as f64 * p[i]).min(1.0));
+        out[i] = running;
+    }
+    out
+}
+
+/// Percentile-bootstrap interval at `level` (e.g. 0.95) of the mean of `d`, from `resamples`
+/// resamples drawn with `rng` (see the module doc). `None` when `d` is empty or holds NaN.
+pub fn bootstrap_mean_ci(d: &[f64], level: f64, resamples: usize, rng: &mut impl rand::Rng) -> Option<(f64, f64)> {
+    use rand::RngExt;
+    if d.is_empty() || d.iter().any(|v| v.is_nan()) || resamples == 0 {
+        return None;
+    }
+    let n = d.len();
+    let means: Vec<f64> = (0..resamples).map(|_| (0..n).map(|_| d[rng.random_range(0..n)]).sum::<f64>() / n as f64).collect();
+    let tail = (1.0 - level.clamp(0.0, 1.0)) / 2.0;
+    Some((percentile(&means, tail)?, percentile(&means, 1.0 - tail)?))
 }
 
 /// Complementary error function, Chebyshev fit (Numerical Recipes `erfcc`): fractional error
@@ -141,50 +173,59 @@ mod tests {
     }
 
     #[test]
-    fn mann_whitney_hand_example_without_ties() {
-        // x = 1 2 3, y = 4 5 6: x's ranks 1 2 3, R₁ = 6, U₁ = 6 − 6 = 0, μ = 4.5,
-        // σ² = 9·7/12 = 5.25, z = (4.5 − 0.5)/√5.25 = 1.745743, p = erfc(z/√2) = 0.080856.
-        let r = mann_whitney_u(&[1.0, 2.0, 3.0], &[4.0, 5.0, 6.0]).unwrap();
-        assert_eq!(r.u1, 0.0);
-        close(r.z, 4.0 / 5.25f64.sqrt(), 1e-12);
-        close(r.p, 0.080_855_598_370_052_24, 1e-6); // scipy 1.17 mannwhitneyu(asymptotic)
-        // Symmetric: swapping the samples gives U₂ = n₁n₂ − U₁ and the same p.
-        let s = mann_whitney_u(&[4.0, 5.0, 6.0], &[1.0, 2.0, 3.0]).unwrap();
-        assert_eq!(s.u1, 9.0);
+    fn wilcoxon_hand_example() {
+        // d = 1 −2 3 4 0: the zero is dropped, n = 4, ranks of |d| 1 2 3 4, W⁺ = 1 + 3 + 4 = 8,
+        // μ = 5, σ² = 4·5·9/24 = 7.5, z = (3 − 0.5)/√7.5 = 0.912871, p = erfc(z/√2) = 0.361310.
+        let r = wilcoxon_signed_rank(&[1.0, -2.0, 3.0, 4.0, 0.0]).unwrap();
+        assert_eq!((r.w_plus, r.n), (8.0, 4));
+        close(r.z, 2.5 / 7.5f64.sqrt(), 1e-12);
+        close(r.p, 0.361_310_428_526_178_9, 1e-6);
+        // Ties: d = 1 1 −1 2: |d| ranks 2 2 2 4 (t = 3: Σ = 24), W⁺ = 2 + 2 + 4 = 8, μ = 5,
+        // σ² = 4·5·9/24 − 24/48 = 7, z = 2.5/√7.
+        let r = wilcoxon_signed_rank(&[1.0, 1.0, -1.0, 2.0]).unwrap();
+        assert_eq!(r.w_plus, 8.0);
+        close(r.z, 2.5 / 7f64.sqrt(), 1e-12);
+        // Sign flip: same p.
+        let s = wilcoxon_signed_rank(&[-1.0, -1.0, 1.0, -2.0]).unwrap();
         close(s.p, r.p, 1e-15);
+        assert_eq!(wilcoxon_signed_rank(&[0.0, 0.0]).unwrap().p, 1.0);
+        assert!(wilcoxon_signed_rank(&[f64::NAN]).is_none());
     }
 
     #[test]
-    fn mann_whitney_hand_example_with_ties() {
-        // x = 1 2 2, y = 2 3 4: pooled 1 2 2 2 3 4, ranks 1 | 3 3 3 | 5 | 6. R₁ = 1+3+3 = 7,
-        // U₁ = 7 − 6 = 1. One tie group t = 3: Σ(t³−t) = 24. σ² = 9/12·(7 − 24/30) = 4.65,
-        // z = (3.5 − 0.5)/√4.65 = 1.391212, p = 0.164160.
-        let r = mann_whitney_u(&[1.0, 2.0, 2.0], &[2.0, 3.0, 4.0]).unwrap();
-        assert_eq!(r.u1, 1.0);
-        close(r.z, 3.0 / 4.65f64.sqrt(), 1e-12);
-        close(r.p, 0.164_159_728_478_515_23, 1e-6); // scipy 1.17
+    fn wilcoxon_matches_scipy() {
+        // scipy 1.17.1 wilcoxon(d, zero_method="wilcox", correction=True, method="approx").
+        let d = [0.5, -1.2, 2.3, 0.7, 1.9, -0.4, 3.1, 0.9, 1.1, -0.2, 2.2, 0.6, 1.4, 0.0, 0.8, -0.9, 1.7, 2.6, 0.3, 1.0];
+        let r = wilcoxon_signed_rank(&d).unwrap();
+        close(r.p, 0.004_843_863_368_480_81, 1e-6);
     }
 
     #[test]
-    fn mann_whitney_matches_scipy_on_larger_samples() {
-        // Values and p-values from scipy 1.17.1 `mannwhitneyu(a, b, method="asymptotic")`.
-        let a = [0.3, 0.8, 0.3, -1.3, 0.9, 0.4, -0.5, 0.6, 0.4, 0.3, 0.0, 0.5, -0.7, -0.2, -0.5, 0.6, 0.0, -0.3, -0.8, -0.3];
-        let b = [0.8, 0.5, 2.1, 1.8, -1.9, -1.1, 0.6, 0.4, 1.0, 1.0, 2.9, -0.3, 0.4, 2.8, 1.4, 1.5, 0.3, -0.8, 1.0, 0.9];
-        let r = mann_whitney_u(&a, &b).unwrap();
-        assert_eq!(r.u1, 101.5);
-        close(r.p, 0.007_915_659_451_650_521, 1e-6);
-        let c = [0.0, 0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 3.0];
-        let d = [0.0, 1.0, 1.0, 4.0, 5.0, 0.0, 2.0, 6.0, 7.0];
-        let r = mann_whitney_u(&c, &d).unwrap();
-        assert_eq!(r.u1, 17.5);
-        close(r.p, 0.071_756_149_995_514_34, 1e-6);
+    fn holm_by_hand() {
+        // Sorted 0.01 0.02 0.03 0.5 (m = 4): 0.04, max(0.04, 0.06) = 0.06, max(0.06, 0.06) = 0.06,
+        // max(0.06, 0.5) = 0.5; back in the given order.
+        let adj = holm(&[0.03, 0.5, 0.01, 0.02]);
+        for (a, b) in adj.iter().zip([0.06, 0.5, 0.04, 0.06]) {
+            close(*a, b, 1e-15);
+        }
+        assert_eq!(holm(&[0.6, 0.7]), vec![1.0, 1.0]);
+        assert!(holm(&[]).is_empty());
     }
 
     #[test]
-    fn mann_whitney_degenerate_inputs() {
-        let r = mann_whitney_u(&[0.0, 0.0], &[0.0, 0.0, 0.0]).unwrap();
-        assert_eq!((r.z, r.p), (0.0, 1.0));
-        assert!(mann_whitney_u(&[], &[1.0]).is_none());
-        assert!(mann_whitney_u(&[f64::NAN], &[1.0]).is_none());
+    fn bootstrap_interval_covers_the_mean_and_is_reproducible() {
+        use rand::SeedableRng;
+        let d: Vec<f64> = (0..40).map(|i| (i % 7) as f64 - 2.0).collect();
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        let ci = |seed| bootstrap_mean_ci(&d, 0.95, 2000, &mut rand_chacha::ChaCha8Rng::seed_from_u64(seed)).unwrap();
+        let (lo, hi) = ci(1);
+        assert!(lo < mean && mean < hi, "{lo} {mean} {hi}");
+        // Normal theory: ±1.96·s/√n with s = 2.0 (the values −2…4 in turn) gives about ±0.62.
+        assert!((hi - lo) > 0.8 && (hi - lo) < 1.7, "{lo} {hi}");
+        assert_eq!(ci(1), (lo, hi));
+        // A constant sample: a point interval.
+        let (a, b) = bootstrap_mean_ci(&[2.0; 5], 0.95, 100, &mut rand_chacha::ChaCha8Rng::seed_from_u64(3)).unwrap();
+        assert_eq!((a, b), (2.0, 2.0));
+        assert!(bootstrap_mean_ci(&[], 0.95, 100, &mut rand_chacha::ChaCha8Rng::seed_from_u64(3)).is_none());
     }
 }

@@ -53,23 +53,24 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     let csv = std::fs::read_to_string(a.join("summary.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 1 + 4, "{csv}");
-    assert!(lines[0].starts_with("strategy,seed,end_reason,time_s,unexplored_pct,"));
+    assert!(lines[0].starts_with("strategy,seed,end_reason,matched_cov_trace,time_s,t90_s,unexplored_pct,"), "{}", lines[0]);
+    assert!(lines[0].contains(",t50_s,d50_m,t75_s,d75_m,t90_s,d90_m,t99_s,d99_m,"), "{}", lines[0]);
     let keys: Vec<String> = lines[1..].iter().map(|l| l.split(',').take(2).collect::<Vec<_>>().join(",")).collect();
     assert_eq!(keys, ["fit,1", "fit,2", "random,1", "random,2"]);
     // The per-run summary.json agrees with its summary.csv row.
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(a.join("random/seed_2/summary.json")).unwrap()).unwrap();
-    let time_s: f64 = lines[4].split(',').nth(3).unwrap().parse().unwrap();
-    assert!((json["time_s"].as_f64().unwrap() - time_s).abs() < 1e-6 * time_s.max(1.0));
     let column = |name: &str| lines[0].split(',').position(|h| h == name).unwrap_or_else(|| panic!("no {name} column: {}", lines[0]));
+    let time_s: f64 = lines[4].split(',').nth(column("time_s")).unwrap().parse().unwrap();
+    assert!((json["time_s"].as_f64().unwrap() - time_s).abs() < 1e-6 * time_s.max(1.0));
     for name in ["gt_violations", "safety_stops"] {
         let value: f64 = lines[4].split(',').nth(column(name)).unwrap().parse().unwrap();
         assert_eq!(value, json[name].as_f64().unwrap(), "{name}");
     }
 
     let md = std::fs::read_to_string(a.join("summary.md")).unwrap();
-    assert_eq!(md.lines().filter(|l| l.starts_with("| fit |")).count(), 1, "{md}");
-    assert_eq!(md.lines().filter(|l| l.starts_with("| random |")).count(), 2, "per-strategy row + test row: {md}");
-    assert!(md.contains("Mann–Whitney"));
+    assert_eq!(md.lines().filter(|l| l.starts_with("| fit |")).count(), 2, "per-strategy row + milestones: {md}");
+    assert_eq!(md.lines().filter(|l| l.starts_with("| random |")).count(), 3, "per-strategy row + milestones + paired test: {md}");
+    assert!(md.contains("Wilcoxon signed-rank") && md.contains("Holm") && md.contains("## Coverage milestones"), "{md}");
     assert!(md.contains("p = "));
     let svg = std::fs::read_to_string(a.join("unexplored.svg")).unwrap();
     assert!(svg.contains("fit (n = 2)") && svg.contains("random (n = 2)") && svg.contains("time (s)"));

@@ -1,12 +1,14 @@
 //! The simulator (notes §8): ground-truth worlds (procedural, real DEM or map_server terrain,
 //! rocks, boxes, ramps, landmarks; [`world`]), the robot ([`robot`]) and its sensors
 //! ([`lidar`], [`camera`], [`odometry`]) in one world simulator ([`world_sim`]), localisation
-//! ([`localisation`]: ground truth, odometry, keyframe SLAM), metrics ([`metrics`]) and whole
-//! missions ([`mission`]) driven by the core's exploration policy ([`crate::explore`]), plus the
-//! asset-building helpers (visible ground points, deterministic noise).
+//! ([`localisation`]: ground truth, odometry, keyframe SLAM), metrics ([`metrics`]; coverage
+//! milestones and figures at matched coverage: [`coverage`]) and whole missions ([`mission`])
+//! driven by the core's exploration policy ([`crate::explore`]), plus the asset-building helpers
+//! (visible ground points, deterministic noise).
 
 pub mod camera;
 mod corridor;
+pub mod coverage;
 mod heightfield;
 mod landmarks;
 pub mod lidar;
