@@ -147,6 +147,7 @@ fn rclpy_stack_faults_give_warnings_not_crashes() {
         ("tf stale", "pose stale: tf"),
         ("map → odom stopped", "pose stale: tf map → odom"),
         ("late pose, map → odom missing", "base_link's tree ends at odom"),
+        ("a map whose data does not match its size", "cells of data but width × height"),
     ] {
         assert!(warnings.contains(needle), "{fault}: a warning with `{needle}` in the status; warnings:\n{warnings}\n{context}");
     }

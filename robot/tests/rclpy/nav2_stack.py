@@ -18,7 +18,8 @@ client (rclpy on rmw_fastrtps_cpp, Fast DDS):
 cannot match), a pose that comes late (no tf for 3 s after the map, then 2 s without the SLAM's
 map -> odom link), the action server destroyed and created again during a goal, an aborted
 goal (the 3rd), a rejected goal (the 4th), tf going stale for 4 s, map -> odom stopping for 4 s,
-and a map whose size changes (it grows). --faults none runs the clean loop.
+a map whose data does not match its width x height (once), and a map whose size changes (it
+grows, every second). --faults none runs the clean loop.
 
 Writes a JSON summary to --out when the node reports `done` or at --limit seconds.
 """
@@ -249,6 +250,7 @@ class Stack:
         self.server_group = ReentrantCallbackGroup()
         self.server = self.make_server()
         self.restarted = False
+        self.bad_map_sent = False
         self.tf_off_until = 0.0
         self.map_odom_off_until = 0.0
         self.map_started = False
@@ -306,7 +308,13 @@ class Stack:
         if self.first_map_t is None:
             self.first_map_t = t
             self.log("publishing /map TRANSIENT_LOCAL")
-        self.map_pub.publish(self.map_msg())
+        m = self.map_msg()
+        if self.faults == "all" and not self.bad_map_sent and t > self.first_map_t + 8.0:
+            # A map whose data does not match its size (a broken SLAM or bridge): one message.
+            self.bad_map_sent = True
+            m.info.width += 7
+            self.log("publishing a map whose data does not match its width x height")
+        self.map_pub.publish(m)
         self.publish_landmarks()
 
     def publish_landmarks(self):
