@@ -127,7 +127,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             .map(|&(strategy, seed)| {
                 let dir = args.out.join(strategy.name()).join(format!("seed_{seed}"));
                 let RunOutput { summary, rows, wall_s } =
-                    run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden())?;
+                    run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden(), None)?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", strategy.name()));
                 let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };

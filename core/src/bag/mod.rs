@@ -12,6 +12,7 @@
 //! | [`mcap_write`] | an MCAP writer (rosbag2 profile, uncompressed chunks, summary and indexes) |
 //! | [`cdr`] | CDR (XCDR1) encapsulation, alignment, primitives, strings, sequences |
 //! | [`msgs`] | the messages read: OccupancyGrid, TFMessage, PointCloud2, PoseWithCovarianceStamped, String |
+//! | [`record`] | a simulated mission recorded with the node's topics (`fitslam explore --bag`) |
 //! | [`schemas`] | their ROS 2 Jazzy definitions, as the schemas of a written bag |
 //! | [`replay`] | topics, the inputs at an instant (map, landmarks, pose through tf), decision instants |
 //!
@@ -22,6 +23,7 @@ pub mod cdr;
 pub mod mcap;
 pub mod mcap_write;
 pub mod msgs;
+pub mod record;
 pub mod replay;
 pub mod schemas;
 

@@ -373,7 +373,7 @@ impl Bag {
             let first =
                 self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", u64::MAX)?.first().map(|(_, m)| self.time_s(m.log_time_ns));
             return Err(missing(match first {
-                Some(f) => format!("no map on {} at t = {t_s} s: the first is at {f:.3} s", topics.map_topic),
+                Some(f) => format!("no map on {} at t = {t_s} s: the first is at {f:.6} s", topics.map_topic),
                 None => format!("no map on {} (topics: {})", topics.map_topic, self.topic_names()),
             }));
         };

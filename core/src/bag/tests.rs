@@ -72,7 +72,7 @@ fn a_snapshot_composes_the_tf_chain_and_moves_landmarks_into_the_map_frame() {
     assert_eq!(s.landmarks.points, [Point3::new(0.5, 0.0, 1.0)]);
     assert_eq!(s.robot_choice.as_ref().and_then(|c| c.frontier_m), Some([0.3, 1.0]));
     let e = bag.snapshot(&BagTopics::default(), 0.5).unwrap_err();
-    assert!(e.to_string().contains("no map on /map at t = 0.5 s: the first is at 1.000 s"), "{e}");
+    assert!(e.to_string().contains("no map on /map at t = 0.5 s: the first is at 1.000000 s"), "{e}");
     assert!(matches!(bag.snapshot(&BagTopics::default(), 9.0), Err(BagError::OutOfRange { .. })));
     let topics = BagTopics { map_topic: "/tf".into(), ..BagTopics::default() };
     assert!(matches!(bag.snapshot(&topics, 2.0), Err(BagError::WrongType { .. })));
