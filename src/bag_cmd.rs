@@ -79,7 +79,13 @@ pub fn run(args: &BagInfoArgs) -> Result<()> {
         outln!("{}", serde_json::to_string_pretty(&json)?)?;
         return Ok(());
     }
-    outln!("{}: {:.3} s, {} messages, written by {:?}", args.bag.display(), bag.duration_s(), bag.mcap().messages.len(), bag.mcap().library)?;
+    outln!(
+        "{}: {:.3} s, {} messages, written by {:?}",
+        args.bag.display(),
+        bag.duration_s(),
+        bag.mcap().messages.len(),
+        bag.mcap().library
+    )?;
     outln!("{:<28} {:<44} {:>7} {:>9} {:>9}", "topic", "type", "count", "first_s", "last_s")?;
     for t in &topics {
         outln!("{:<28} {:<44} {:>7} {:>9.3} {:>9.3}", t.topic, t.msg_type, t.count, t.first_s, t.last_s)?;

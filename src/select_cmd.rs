@@ -82,8 +82,8 @@ pub fn run(args: &SelectArgs) -> Result<()> {
     }
     let Inputs { grid, cloud, robot, source, snapshot } = inputs(args, &params)?;
     let landmarks_name = args.landmarks.as_deref().map_or_else(|| source.clone(), |p| p.display().to_string());
-    let landmarks = LandmarkVoxels::new(&cloud, params.u2.voxel_m, params.u2.sigma_landmark_m)
-        .map_err(|e| anyhow::anyhow!("{landmarks_name}: {e}"))?;
+    let landmarks =
+        LandmarkVoxels::new(&cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).map_err(|e| anyhow::anyhow!("{landmarks_name}: {e}"))?;
     let boundary = args.boundary.as_deref().map(parse_boundary).transpose()?;
     if let (Some(text), Some(b)) = (args.boundary.as_deref(), boundary.as_ref()) {
         // A boundary the map does not reach can hold no frontier: say so rather than rank none.

@@ -45,7 +45,11 @@ impl MissionRecorder {
             let h = |f: &str| Header { stamp_s: t_s, frame_id: f.into() };
             let tfs = [
                 TransformStamped { header: h("map"), child_frame_id: "odom".into(), transform: RigidPose::default() },
-                TransformStamped { header: h("odom"), child_frame_id: "base_link".into(), transform: RigidPose::planar(e.x_m, e.y_m, e.yaw_rad) },
+                TransformStamped {
+                    header: h("odom"),
+                    child_frame_id: "base_link".into(),
+                    transform: RigidPose::planar(e.x_m, e.y_m, e.yaw_rad),
+                },
             ];
             self.w.message(self.ch[0], t_ns, &msgs::encode_tf_message(&tfs));
         }
@@ -68,8 +72,15 @@ impl MissionRecorder {
             self.goal = Some((id, xy));
             serde_json::json!({ "id": id, "goal": g.goal, "frontier_m": xy, "inflation_m": g.inflation_m })
         });
-        let phase = if mission.end().is_some() { "done" } else if goal.is_some() { "navigating" } else { "planning" };
-        let status = serde_json::json!({ "t_s": t_s, "phase": phase, "goal": goal, "robot": mission.estimate(), "source": "fitslam explore" });
+        let phase = if mission.end().is_some() {
+            "done"
+        } else if goal.is_some() {
+            "navigating"
+        } else {
+            "planning"
+        };
+        let status =
+            serde_json::json!({ "t_s": t_s, "phase": phase, "goal": goal, "robot": mission.estimate(), "source": "fitslam explore" });
         self.w.message(self.ch[3], t_ns + 1000, &msgs::encode_string(&status.to_string()));
     }
 
