@@ -157,7 +157,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             .map(|&(strategy, seed)| {
                 let dir = args.out.join(strategy.name()).join(format!("seed_{seed}"));
                 let RunOutput { summary, rows, wall_s } =
-                    run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden())?;
+                    run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden(), None)?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", strategy.name()));
                 Ok((RunFigures::new(strategy, seed, summary, rows), wall_s))

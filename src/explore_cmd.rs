@@ -20,6 +20,10 @@ pub struct ExploreArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also record the mission as a rosbag2 MCAP bag with the node's topics (/tf, /map,
+    /// /cloud_map, /fitslam/status), which `select --bag` and `bag-info` read.
+    #[arg(long)]
+    pub bag: Option<PathBuf>,
 }
 
 pub fn run(args: &ExploreArgs) -> Result<()> {
@@ -27,7 +31,7 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
     create_out_dir(&args.out)?;
     let strategy = args.strategy;
     let progress = progress_bar(setup.time_limit_s().ceil() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} s simulated");
-    let run = run_and_write(&setup, strategy, args.seed, args.mission.localisation, &args.out, &progress);
+    let run = run_and_write(&setup, strategy, args.seed, args.mission.localisation, &args.out, &progress, args.bag.as_deref());
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
     outln!(

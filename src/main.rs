@@ -11,6 +11,7 @@ macro_rules! outln {
 }
 
 mod asset_cmd;
+mod bag_cmd;
 mod compare_cmd;
 mod explore_cmd;
 mod load;
@@ -39,6 +40,8 @@ enum Command {
     Params(params_cmd::ParamsArgs),
     /// Rank the frontier candidates of a map and pick the next goal.
     Select(select_cmd::SelectArgs),
+    /// List a rosbag2 MCAP recording's topics, types, counts, duration and decision instants.
+    BagInfo(bag_cmd::BagInfoArgs),
     /// Build a thresholded traversability map (map_server YAML + PGM) and a score PNG from a cloud.
     Traversability(traversability_cmd::TraversabilityArgs),
     /// Build a planning scene (map + landmarks) from a real DEM scaled to rover size.
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Params(a) => params_cmd::run(a),
         Command::Select(a) => select_cmd::run(a),
+        Command::BagInfo(a) => bag_cmd::run(a),
         Command::Traversability(a) => traversability_cmd::run(a),
         Command::BuildAsset(a) => asset_cmd::run(a),
         Command::Optimize(a) => optimize::run(a),

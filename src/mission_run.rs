@@ -9,6 +9,7 @@ use crate::load;
 use crate::plot::{self, Curve};
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use fitslam_core::bag::record::MissionRecorder;
 use fitslam_core::explore::EndReason;
 use fitslam_core::io;
 use fitslam_core::params::{Params, Strategy};
@@ -137,6 +138,7 @@ pub fn run_and_write(
     localisation: Localisation,
     out: &Path,
     progress: &ProgressBar,
+    bag: Option<&Path>,
 ) -> Result<RunOutput> {
     let world_name = &setup.world_name;
     let mut mission = Mission::new(setup.world.clone(), setup.params.clone(), setup.mission_params.clone(), strategy, seed, localisation)
@@ -144,12 +146,23 @@ pub fn run_and_write(
     let t0 = std::time::Instant::now();
     mission.set_clock(Box::new(move || t0.elapsed().as_secs_f64() * 1e3));
     let wall = std::time::Instant::now();
-    while mission.step() == StepOutcome::Running {
+    let mut recorder = bag.map(|_| MissionRecorder::new());
+    loop {
+        let outcome = mission.step();
+        if let Some(r) = recorder.as_mut() {
+            r.record(&mut mission);
+        }
+        if outcome != StepOutcome::Running {
+            break;
+        }
         progress.set_position(mission.time_s() as u64);
     }
     let summary = mission.summary();
     let wall_s = wall.elapsed().as_secs_f64();
 
+    if let (Some(path), Some(r)) = (bag, recorder) {
+        load::write(path, &r.finish())?;
+    }
     load::write(&out.join("metrics.csv"), metrics_csv(mission.rows()).as_bytes())?;
     load::write(&out.join("timing.csv"), timing_csv(mission.rows()).as_bytes())?;
     load::write(&out.join("trajectory_gt.tum"), tum(mission.trajectory_gt()).as_bytes())?;

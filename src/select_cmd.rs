@@ -1,9 +1,11 @@
 //! `fitslam select`: one goal decision on a map and a landmark set, printed as a table or JSON.
 
-use crate::load;
+use crate::{bag_cmd, load};
 use anyhow::{Result, bail};
 use clap::Args;
 use fitslam_core::{
+    OccupancyGrid, PointCloud, Pose2,
+    bag::{PoseSource, Snapshot},
     frontier::{Blacklist, Boundary},
     params::Strategy,
     select::{CandidateReport, Decision, DecisionInput, DropReason, make_selector},
@@ -15,14 +17,23 @@ use std::path::PathBuf;
 #[derive(Args, Debug)]
 pub struct SelectArgs {
     /// Map: map_server YAML (+ the PGM/PNG it names), or a bare PNG/PGM.
-    #[arg(long)]
-    pub map: PathBuf,
+    #[arg(long, required_unless_present = "bag", conflicts_with = "bag")]
+    pub map: Option<PathBuf>,
     /// Landmark set: .pcd, .ply, .csv (x,y,z[,covariance]), .las.
-    #[arg(long)]
-    pub landmarks: PathBuf,
+    #[arg(long, required_unless_present = "bag", conflicts_with = "bag")]
+    pub landmarks: Option<PathBuf>,
     /// Robot pose in the map frame: X,Y,YAW (metres, metres, radians).
-    #[arg(long, allow_hyphen_values = true)]
-    pub pose: String,
+    #[arg(long, allow_hyphen_values = true, required_unless_present = "bag", conflicts_with = "bag")]
+    pub pose: Option<String>,
+    /// Take the map, landmarks and pose from a rosbag2 MCAP recording, as the robot had them at
+    /// `--at`.
+    #[arg(long, requires = "at")]
+    pub bag: Option<PathBuf>,
+    /// Instant of the bag, seconds from its first message.
+    #[arg(long, requires = "bag", allow_hyphen_values = true)]
+    pub at: Option<f64>,
+    #[command(flatten)]
+    pub topics: bag_cmd::TopicArgs,
     /// Parameter file (TOML or YAML); defaults are the paper's.
     #[arg(long)]
     pub params: Option<PathBuf>,
@@ -37,23 +48,49 @@ pub struct SelectArgs {
     pub json: bool,
 }
 
+/// The inputs of one decision, from files or from a bag at an instant.
+struct Inputs {
+    grid: OccupancyGrid,
+    cloud: PointCloud,
+    robot: Pose2,
+    /// Named in errors: the map file, or the bag.
+    source: String,
+    /// The bag's instant, when the inputs come from one.
+    snapshot: Option<Snapshot>,
+}
+
+fn inputs(args: &SelectArgs, params: &fitslam_core::Params) -> Result<Inputs> {
+    if let (Some(path), Some(t_s)) = (args.bag.as_deref(), args.at) {
+        let bag = bag_cmd::open(path)?;
+        let s = bag.snapshot(&args.topics.topics(), t_s)?;
+        let (grid, cloud) = (s.map.clone(), s.landmarks.clone());
+        return Ok(Inputs { grid, cloud, robot: s.robot, source: path.display().to_string(), snapshot: Some(s) });
+    }
+    let (Some(map), Some(landmarks), Some(pose)) = (args.map.as_deref(), args.landmarks.as_deref(), args.pose.as_deref()) else {
+        bail!("give --map, --landmarks and --pose, or --bag and --at");
+    };
+    let robot = load::pose(pose)?;
+    let grid = load::map(map, params)?;
+    let cloud = load::cloud(landmarks)?;
+    Ok(Inputs { grid, cloud, robot, source: map.display().to_string(), snapshot: None })
+}
+
 pub fn run(args: &SelectArgs) -> Result<()> {
     let mut params = load::params(args.params.as_deref())?;
     if let Some(s) = args.strategy {
         params.selector.strategy = s;
     }
-    let robot = load::pose(&args.pose)?;
-    let grid = load::map(&args.map, &params)?;
-    let cloud = load::cloud(&args.landmarks)?;
-    let landmarks = LandmarkVoxels::new(&cloud, params.u2.voxel_m, params.u2.sigma_landmark_m)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.landmarks.display()))?;
+    let Inputs { grid, cloud, robot, source, snapshot } = inputs(args, &params)?;
+    let landmarks_name = args.landmarks.as_deref().map_or_else(|| source.clone(), |p| p.display().to_string());
+    let landmarks =
+        LandmarkVoxels::new(&cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).map_err(|e| anyhow::anyhow!("{landmarks_name}: {e}"))?;
     let boundary = args.boundary.as_deref().map(parse_boundary).transpose()?;
     if let (Some(text), Some(b)) = (args.boundary.as_deref(), boundary.as_ref()) {
         // A boundary the map does not reach can hold no frontier: say so rather than rank none.
         let (x0, y0, x1, y1) = grid.geometry.bounds_m();
         let outside = b.vertices_m.iter().all(|v| v[0] <= x0) || b.vertices_m.iter().all(|v| v[0] >= x1);
         if outside || b.vertices_m.iter().all(|v| v[1] <= y0) || b.vertices_m.iter().all(|v| v[1] >= y1) {
-            bail!("--boundary {text:?} does not overlap the map {} ([{x0}, {x1}] × [{y0}, {y1}] m)", args.map.display());
+            bail!("--boundary {text:?} does not overlap the map {source} ([{x0}, {x1}] × [{y0}, {y1}] m)");
         }
     }
     let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
@@ -62,13 +99,58 @@ pub fn run(args: &SelectArgs) -> Result<()> {
         input = input.with_boundary(b);
     }
     let mut selector = make_selector(&params.selector);
-    let decision = selector.select(&input, &params).map_err(|e| anyhow::anyhow!("{}: {e}", args.map.display()))?;
+    let decision = selector.select(&input, &params).map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
     if args.json {
-        outln!("{}", serde_json::to_string_pretty(&JsonDecision::from(&decision))?)?;
+        let mut json = serde_json::to_value(JsonDecision::from(&decision))?;
+        if let Some(s) = &snapshot {
+            json["bag"] = bag_json(s, landmarks.len());
+        }
+        outln!("{}", serde_json::to_string_pretty(&json)?)?;
     } else {
+        if let Some(s) = &snapshot {
+            print_snapshot(s, landmarks.len())?;
+        }
         print_table(&decision)?;
     }
     Ok(())
+}
+
+/// The bag's instant as JSON: when each input was recorded and what the robot chose.
+fn bag_json(s: &Snapshot, voxels: usize) -> serde_json::Value {
+    serde_json::json!({
+        "t_s": s.t_s,
+        "map_t_s": s.map_t_s,
+        "map_cells": [s.map.geometry.width, s.map.geometry.height],
+        "landmarks_t_s": s.landmarks_t_s,
+        "landmark_voxels": voxels,
+        "pose_source": s.pose_source,
+        "pose_t_s": s.pose_t_s,
+        "robot_choice": s.robot_choice,
+    })
+}
+
+fn print_snapshot(s: &Snapshot, voxels: usize) -> std::io::Result<()> {
+    outln!(
+        "bag at {:.3} s: map of {} × {} cells from {:.3} s, {} landmark voxels{}, pose from {} ({:.3} s)",
+        s.t_s,
+        s.map.geometry.width,
+        s.map.geometry.height,
+        s.map_t_s,
+        voxels,
+        s.landmarks_t_s.map_or_else(|| " (none recorded)".to_string(), |t| format!(" from {t:.3} s")),
+        match s.pose_source {
+            PoseSource::Tf => "tf",
+            PoseSource::Topic => "the pose topic",
+        },
+        s.pose_t_s
+    )?;
+    match &s.robot_choice {
+        Some(c) => {
+            let frontier = c.frontier_m.map_or_else(String::new, |[x, y]| format!(" for the frontier ({x:.2}, {y:.2})"));
+            outln!("robot's choice (status at {:.3} s): goal ({:.2}, {:.2}){frontier}", c.t_s, c.goal.x_m, c.goal.y_m)
+        }
+        None => outln!("robot's choice: none recorded (no status with a goal before this instant)"),
+    }
 }
 
 fn parse_boundary(text: &str) -> Result<Boundary> {

@@ -9,6 +9,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`grid`] | one geometry, flat layers, ROS occupancy convention, inflation |
+//! | [`bag`] | rosbag2 MCAP bags: reader (zstd, lz4), writer, CDR messages, the decision inputs at an instant |
 //! | [`io`] | map_server YAML + PGM, PNG, PCD, PLY, CSV, LAS: bytes in, typed errors out |
 //! | [`traversability`] | per-cell slope / step / roughness from 3D points (notes §2) |
 //! | [`frontier`] | WFD frontiers, clusters, candidates, blacklist (notes §3) |
@@ -25,6 +26,7 @@
 // Tests compare against the platform's maths library on purpose (see math.rs).
 #![cfg_attr(test, allow(clippy::disallowed_methods))]
 
+pub mod bag;
 pub mod cloud;
 pub mod explore;
 pub mod fixtures;

@@ -1,0 +1,81 @@
+//! Recorded missions: rosbag2 MCAP files, read and written, and the decision inputs they held.
+//!
+//! A ROS 2 robot running the fitslam node records its inputs with `ros2 bag record` (MCAP is
+//! rosbag2's default storage since Iron); `fitslam explore --bag` writes a simulated mission the
+//! same way. Either opens here: the map, landmarks and pose the robot had at any instant, and
+//! what the robot chose then (its status messages), so a decision can be made again with other
+//! parameters.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`mcap`] | the MCAP container: records, chunks (zstd, lz4 or none), CRCs |
+//! | [`mcap_write`] | an MCAP writer (rosbag2 profile, uncompressed chunks, summary and indexes) |
+//! | [`cdr`] | CDR (XCDR1) encapsulation, alignment, primitives, strings, sequences |
+//! | [`msgs`] | the messages read: OccupancyGrid, TFMessage, PointCloud2, PoseWithCovarianceStamped, String |
+//! | [`record`] | a simulated mission recorded with the node's topics (`fitslam explore --bag`) |
+//! | [`schemas`] | their ROS 2 Jazzy definitions, as the schemas of a written bag |
+//! | [`replay`] | topics, the inputs at an instant (map, landmarks, pose through tf), decision instants |
+//!
+//! Every function takes bytes and a `source_name` used only in messages; hostile bytes give a
+//! [`BagError`], never a panic.
+
+pub mod cdr;
+pub mod mcap;
+pub mod mcap_write;
+pub mod msgs;
+pub mod record;
+pub mod replay;
+pub mod schemas;
+
+pub use mcap::Mcap;
+pub use mcap_write::McapWriter;
+pub use replay::{Bag, BagTopics, DecisionInstant, InstantSource, PoseSource, RobotChoice, Snapshot, TopicInfo};
+
+use thiserror::Error;
+
+/// Why a bag could not be read, or an instant of it replayed. Every message starts with the
+/// file's name.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum BagError {
+    /// Not an MCAP file (the detail says what it is, when known).
+    #[error("{name}: not an MCAP file: {detail}")]
+    NotMcap { name: String, detail: String },
+    /// The file ends inside a record, or before its data section is closed.
+    #[error("{name}: truncated at byte {offset}: {detail}")]
+    Truncated { name: String, offset: u64, detail: String },
+    /// A record whose content is inconsistent.
+    #[error("{name}: byte {offset}: {detail}")]
+    Malformed { name: String, offset: u64, detail: String },
+    /// A chunk compressed with something this reader does not decode.
+    #[error("{name}: byte {offset}: chunk compression {compression:?} is not supported (zstd, lz4 and none are)")]
+    Compression { name: String, offset: u64, compression: String },
+    /// A chunk whose compressed bytes do not decode to what its header says.
+    #[error("{name}: byte {offset}: {compression} chunk: {detail}")]
+    Decompress { name: String, offset: u64, compression: String, detail: String },
+    /// A message that does not decode as its topic's type.
+    #[error("{name}: {topic} ({msg_type}) message at t = {t_s:.3} s: {detail}")]
+    Message { name: String, topic: String, msg_type: String, t_s: f64, detail: String },
+    /// A topic recorded with a type other than the one a replay reads there.
+    #[error("{name}: topic {topic} has type {found}, expected {expected}")]
+    WrongType { name: String, topic: String, found: String, expected: &'static str },
+    /// An input the replay needs is not in the bag (before the instant asked for).
+    #[error("{name}: {detail}")]
+    Missing { name: String, detail: String },
+    /// An instant outside the bag.
+    #[error("{name}: t = {t_s} s is outside the recording (0 to {duration_s:.3} s from its first message)")]
+    OutOfRange { name: String, t_s: f64, duration_s: f64 },
+}
+
+impl BagError {
+    /// The error of a record inside a decompressed chunk, placed at the chunk's file offset.
+    pub(crate) fn at_chunk(self, chunk_offset: u64) -> Self {
+        match self {
+            BagError::Truncated { name, detail, .. } => BagError::Truncated { name, offset: chunk_offset, detail },
+            BagError::Malformed { name, detail, .. } => BagError::Malformed { name, offset: chunk_offset, detail },
+            other => other,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,463 @@
+//! A recorded mission as decision inputs: what the robot had at an instant and what it chose.
+//!
+//! Time is seconds from the bag's first message (its log time, the recorder's receive time).
+//! At an instant T a [`Snapshot`] holds, from the messages recorded up to T:
+//! - the latest map (`nav_msgs/OccupancyGrid` on `map_topic`);
+//! - the latest landmark cloud (`sensor_msgs/PointCloud2` on `landmarks_topic`), moved into the
+//!   map frame through tf when recorded in another frame;
+//! - the robot's pose: `map_frame ← base_frame` through the tf tree (`/tf` and `/tf_static`,
+//!   REP-105's map → odom → base_link composed, the latest transform of every edge), else the
+//!   latest `geometry_msgs/PoseWithCovarianceStamped` on `pose_topic`;
+//! - the robot's own choice: the goal of the node's latest status (`std_msgs/String` JSON on
+//!   `status_topic`), when recorded.
+//!
+//! Decision instants are the status messages that show a new goal (or, in publish-only mode, a
+//! new suggested goal); a bag without status has one at each map update.
+//!
+//! Cost: a snapshot decodes one map, one cloud and the tf messages up to T: O(messages + cells).
+
+use super::BagError;
+use super::mcap::{Channel, Mcap, Message};
+use super::msgs::{self, RigidPose};
+use crate::cloud::PointCloud;
+use crate::grid::OccupancyGrid;
+use crate::pose::Pose2;
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// The latest transform of every tf edge: child → (parent, parent_from_child, log time; `None`
+/// for a static edge).
+type TfEdges = HashMap<String, (String, Isometry3<f64>, Option<u64>)>;
+
+/// Deepest tf tree walked (guards against cycles).
+const MAX_TF_DEPTH: usize = 64;
+
+/// Where a replay finds its inputs: the fitslam node's configuration defaults
+/// (`robot/src/config.rs`, `NodeConfig`), each overridable.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BagTopics {
+    /// `nav_msgs/OccupancyGrid`. Default `/map`.
+    pub map_topic: String,
+    /// `sensor_msgs/PointCloud2` landmark map; empty: none. Default `/cloud_map`.
+    pub landmarks_topic: String,
+    /// `geometry_msgs/PoseWithCovarianceStamped`, used when tf gives no pose. Default
+    /// `/localization_pose`.
+    pub pose_topic: String,
+    /// The node's `std_msgs/String` status JSON. Default `/fitslam/status`.
+    pub status_topic: String,
+    /// Default `/tf`.
+    pub tf_topic: String,
+    /// Default `/tf_static`.
+    pub tf_static_topic: String,
+    /// Global frame (REP-105). Default `map`.
+    pub map_frame: String,
+    /// Robot body frame. Default `base_link`.
+    pub base_frame: String,
+    /// Where the pose comes from; `None`: tf when it links the two frames, else the pose topic.
+    pub pose_source: Option<PoseSource>,
+}
+
+impl Default for BagTopics {
+    fn default() -> Self {
+        Self {
+            map_topic: "/map".into(),
+            landmarks_topic: "/cloud_map".into(),
+            pose_topic: "/localization_pose".into(),
+            status_topic: "/fitslam/status".into(),
+            tf_topic: "/tf".into(),
+            tf_static_topic: "/tf_static".into(),
+            map_frame: "map".into(),
+            base_frame: "base_link".into(),
+            pose_source: None,
+        }
+    }
+}
+
+/// Where a snapshot's pose came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum PoseSource {
+    /// The tf tree, `map_frame ← base_frame`.
+    Tf,
+    /// The pose topic.
+    Topic,
+}
+
+/// One topic of a bag.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TopicInfo {
+    pub topic: String,
+    pub msg_type: String,
+    pub count: usize,
+    /// First and last message, seconds from the bag's start.
+    pub first_s: f64,
+    pub last_s: f64,
+}
+
+/// What marks a decision instant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InstantSource {
+    /// A status message showing a goal the one before did not.
+    NewGoal,
+    /// A map update (bags without status).
+    MapUpdate,
+}
+
+/// A moment the robot decided (or could have).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct DecisionInstant {
+    /// Seconds from the bag's start.
+    pub t_s: f64,
+    pub source: InstantSource,
+    /// The frontier (else the goal) the robot chose then, map frame.
+    pub goal: Option<Pose2>,
+}
+
+/// The robot's choice, from its status.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RobotChoice {
+    /// When the status was recorded, seconds from the bag's start.
+    pub t_s: f64,
+    /// The goal sent (set back from unknown ground by the node).
+    pub goal: Pose2,
+    /// The frontier candidate it serves, when the status names it.
+    pub frontier_m: Option<[f64; 2]>,
+    /// The node's phase then (`navigating`, `planning`…).
+    pub phase: Option<String>,
+}
+
+/// The decision inputs at an instant.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Snapshot {
+    pub t_s: f64,
+    pub map: OccupancyGrid,
+    pub map_t_s: f64,
+    /// Landmarks in the map frame (empty when none was recorded before T).
+    pub landmarks: PointCloud,
+    pub landmarks_t_s: Option<f64>,
+    pub robot: Pose2,
+    pub pose_source: PoseSource,
+    /// When the newest message the pose rests on was recorded, seconds from the bag's start.
+    pub pose_t_s: f64,
+    pub robot_choice: Option<RobotChoice>,
+}
+
+/// The node's status JSON, the keys a replay reads (others are ignored).
+#[derive(Deserialize)]
+struct StatusJson {
+    #[serde(default)]
+    phase: Option<String>,
+    #[serde(default)]
+    goal: Option<GoalJson>,
+    #[serde(default)]
+    suggested_goal: Option<Pose2>,
+}
+
+#[derive(Deserialize)]
+struct GoalJson {
+    #[serde(default)]
+    id: Option<u64>,
+    goal: Pose2,
+    #[serde(default)]
+    frontier_m: Option<[f64; 2]>,
+}
+
+/// A parsed bag.
+#[derive(Clone, Debug)]
+pub struct Bag {
+    name: String,
+    mcap: Mcap,
+    start_ns: u64,
+    end_ns: u64,
+}
+
+/// Types accepted on a topic: the rosbag2 name (`pkg/msg/Type`) or the short one.
+fn type_matches(found: &str, expected: &str) -> bool {
+    found == expected || found == expected.replacen("/msg/", "/", 1)
+}
+
+fn frame(f: &str) -> &str {
+    f.trim_start_matches('/')
+}
+
+impl Bag {
+    /// Reads an MCAP bag.
+    pub fn parse(bytes: &[u8], name: &str) -> Result<Self, BagError> {
+        let mcap = Mcap::parse(bytes, name)?;
+        let (Some(first), Some(last)) = (mcap.messages.first(), mcap.messages.last()) else {
+            return Err(BagError::Missing { name: name.into(), detail: "the bag holds no messages".into() });
+        };
+        let (start_ns, end_ns) = (first.log_time_ns, last.log_time_ns);
+        Ok(Self { name: name.into(), mcap, start_ns, end_ns })
+    }
+
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn mcap(&self) -> &Mcap {
+        &self.mcap
+    }
+
+    /// From the first message to the last, seconds.
+    pub fn duration_s(&self) -> f64 {
+        (self.end_ns - self.start_ns) as f64 * 1e-9
+    }
+
+    /// Seconds from the bag's start of a log time.
+    pub fn time_s(&self, log_time_ns: u64) -> f64 {
+        log_time_ns.saturating_sub(self.start_ns) as f64 * 1e-9
+    }
+
+    /// Every topic, sorted by name.
+    pub fn topics(&self) -> Vec<TopicInfo> {
+        let mut out: Vec<TopicInfo> = Vec::new();
+        for m in &self.mcap.messages {
+            let Some(c) = self.mcap.channel(m.channel_id) else { continue };
+            let t = self.time_s(m.log_time_ns);
+            match out.iter_mut().find(|i| i.topic == c.topic) {
+                Some(i) => {
+                    i.count += 1;
+                    i.last_s = t;
+                }
+                None => {
+                    out.push(TopicInfo { topic: c.topic.clone(), msg_type: self.mcap.type_of(c).into(), count: 1, first_s: t, last_s: t })
+                }
+            }
+        }
+        out.sort_by(|a, b| a.topic.cmp(&b.topic));
+        out
+    }
+
+    /// The messages on `topic` recorded at or before `until_ns`, in log-time order, each with its
+    /// channel; a channel of another type than `expected` is an error.
+    fn on_topic<'a>(&'a self, topic: &str, expected: &'static str, until_ns: u64) -> Result<Vec<(&'a Channel, &'a Message)>, BagError> {
+        let mut out = Vec::new();
+        for m in self.mcap.messages.iter().take_while(|m| m.log_time_ns <= until_ns) {
+            let Some(c) = self.mcap.channel(m.channel_id).filter(|c| !topic.is_empty() && c.topic == topic) else { continue };
+            let found = self.mcap.type_of(c);
+            if !type_matches(found, expected) {
+                return Err(BagError::WrongType { name: self.name.clone(), topic: topic.into(), found: found.into(), expected });
+            }
+            out.push((c, m));
+        }
+        Ok(out)
+    }
+
+    fn decode_err(&self, c: &Channel, m: &Message, detail: impl ToString) -> BagError {
+        BagError::Message {
+            name: self.name.clone(),
+            topic: c.topic.clone(),
+            msg_type: self.mcap.type_of(c).into(),
+            t_s: self.time_s(m.log_time_ns),
+            detail: detail.to_string(),
+        }
+    }
+
+    /// The log time of an instant, after checking it lies in the bag.
+    fn until_ns(&self, t_s: f64) -> Result<u64, BagError> {
+        let d = self.duration_s();
+        if !(t_s.is_finite() && t_s >= 0.0 && t_s <= d + 1e-9) {
+            return Err(BagError::OutOfRange { name: self.name.clone(), t_s, duration_s: d });
+        }
+        Ok(self.start_ns.saturating_add(libm::round(t_s * 1e9) as u64))
+    }
+
+    /// The node's status messages up to `until_ns`: (seconds from start, parsed).
+    fn statuses(&self, topics: &BagTopics, until_ns: u64) -> Result<Vec<(f64, StatusJson)>, BagError> {
+        let mut out = Vec::new();
+        for (c, m) in self.on_topic(&topics.status_topic, "std_msgs/msg/String", until_ns)? {
+            let text = msgs::decode_string(&m.data).map_err(|e| self.decode_err(c, m, e))?;
+            let s: StatusJson =
+                serde_json::from_str(&text).map_err(|e| self.decode_err(c, m, format!("status is not the node's JSON: {e}")))?;
+            out.push((self.time_s(m.log_time_ns), s));
+        }
+        Ok(out)
+    }
+
+    /// The decision instants: new goals in the node's status, else map updates.
+    pub fn decision_instants(&self, topics: &BagTopics) -> Result<Vec<DecisionInstant>, BagError> {
+        let statuses = self.statuses(topics, u64::MAX)?;
+        if statuses.is_empty() {
+            let maps = self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", u64::MAX)?;
+            return Ok(maps
+                .iter()
+                .map(|(_, m)| DecisionInstant { t_s: self.time_s(m.log_time_ns), source: InstantSource::MapUpdate, goal: None })
+                .collect());
+        }
+        let mut out = Vec::new();
+        let mut last: Option<(Option<u64>, [f64; 2])> = None;
+        for (t_s, s) in statuses {
+            let current = match (&s.goal, s.suggested_goal) {
+                (Some(g), _) => {
+                    let chosen = g.frontier_m.map_or(g.goal, |[x, y]| Pose2::new(x, y, g.goal.yaw_rad));
+                    Some((g.id, [g.goal.x_m, g.goal.y_m], chosen))
+                }
+                (None, Some(p)) => Some((None, [p.x_m, p.y_m], p)),
+                (None, None) => None,
+            };
+            if let Some((id, xy, chosen)) = current {
+                let key = (id, xy);
+                // A goal id identifies a goal; without one, the position does.
+                let same = last.is_some_and(|(lid, lxy)| if id.is_some() { lid == id } else { lxy == xy });
+                if !same {
+                    out.push(DecisionInstant { t_s, source: InstantSource::NewGoal, goal: Some(chosen) });
+                }
+                last = Some(key);
+            } else {
+                last = None;
+            }
+        }
+        Ok(out)
+    }
+
+    /// The latest transform of every tf edge recorded up to `until_ns`: child → (parent,
+    /// parent_from_child, log time; `None` for a static edge).
+    fn tf_edges(&self, topics: &BagTopics, until_ns: u64) -> Result<TfEdges, BagError> {
+        let mut msgs_in_order: Vec<(&Channel, &Message, bool)> = Vec::new();
+        for (topic, is_static) in [(&topics.tf_static_topic, true), (&topics.tf_topic, false)] {
+            for (c, m) in self.on_topic(topic, "tf2_msgs/msg/TFMessage", until_ns)? {
+                msgs_in_order.push((c, m, is_static));
+            }
+        }
+        msgs_in_order.sort_by_key(|(_, m, _)| m.log_time_ns);
+        let mut edges = HashMap::new();
+        for (c, m, is_static) in msgs_in_order {
+            for t in msgs::decode_tf_message(&m.data).map_err(|e| self.decode_err(c, m, e))? {
+                let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
+                if parent.is_empty() || child.is_empty() || parent == child {
+                    return Err(self.decode_err(c, m, format!("transform {parent:?} → {child:?}: empty or equal frame names")));
+                }
+                let iso = t
+                    .transform
+                    .isometry()
+                    .ok_or_else(|| self.decode_err(c, m, format!("transform {parent} → {child} is not finite or has a zero quaternion")))?;
+                edges.insert(child.to_string(), (parent.to_string(), iso, (!is_static).then_some(m.log_time_ns)));
+            }
+        }
+        Ok(edges)
+    }
+
+    /// `target_from_source` through the tree, with the newest log time of its dynamic edges.
+    fn lookup(edges: &TfEdges, target: &str, source: &str) -> Option<(Isometry3<f64>, Option<u64>)> {
+        // (ancestor, ancestor_from_frame, newest dynamic edge) from the frame up to its root.
+        let to_root = |f: &str| {
+            let mut out = vec![(f.to_string(), Isometry3::identity(), None::<u64>)];
+            for _ in 0..MAX_TF_DEPTH {
+                let Some((cur, cur_from_f, newest)) = out.last().cloned() else { break };
+                let Some((parent, parent_from_cur, t)) = edges.get(&cur) else { break };
+                out.push((parent.clone(), parent_from_cur * cur_from_f, newest.max(*t)));
+            }
+            out
+        };
+        let from_source = to_root(source);
+        let from_target = to_root(target);
+        for (name, anc_from_source, ts) in &from_source {
+            if let Some((_, anc_from_target, tt)) = from_target.iter().find(|(n, _, _)| n == name) {
+                return Some((anc_from_target.inverse() * anc_from_source, (*ts).max(*tt)));
+            }
+        }
+        None
+    }
+
+    /// The decision inputs at `t_s` seconds from the bag's start.
+    pub fn snapshot(&self, topics: &BagTopics, t_s: f64) -> Result<Snapshot, BagError> {
+        let until = self.until_ns(t_s)?;
+        let missing = |detail: String| BagError::Missing { name: self.name.clone(), detail };
+        let maps = self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", until)?;
+        let Some(&(c, m)) = maps.last() else {
+            let first =
+                self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", u64::MAX)?.first().map(|(_, m)| self.time_s(m.log_time_ns));
+            return Err(missing(match first {
+                Some(f) => format!("no map on {} at t = {t_s} s: the first is at {f:.6} s", topics.map_topic),
+                None => format!("no map on {} (topics: {})", topics.map_topic, self.topic_names()),
+            }));
+        };
+        let map_msg = msgs::decode_occupancy_grid(&m.data).map_err(|e| self.decode_err(c, m, e))?;
+        let map = map_msg.to_grid().map_err(|e| self.decode_err(c, m, e))?;
+        let map_t_s = self.time_s(m.log_time_ns);
+
+        let edges = self.tf_edges(topics, until)?;
+        let map_frame = frame(&topics.map_frame);
+        let to_map = |from: &str| Self::lookup(&edges, map_frame, frame(from)).map(|(iso, _)| iso);
+
+        let tf_pose = match topics.pose_source {
+            Some(PoseSource::Topic) => None,
+            _ => Self::lookup(&edges, map_frame, frame(&topics.base_frame)),
+        };
+        let (robot, pose_source, pose_t_s) = match tf_pose {
+            Some((iso, newest)) => (planar(&iso), PoseSource::Tf, newest.map_or(0.0, |t| self.time_s(t))),
+            None if topics.pose_source == Some(PoseSource::Tf) => {
+                return Err(missing(format!("no tf path {} ← {} at t = {t_s} s", topics.map_frame, topics.base_frame)));
+            }
+            None => {
+                let poses = self.on_topic(&topics.pose_topic, "geometry_msgs/msg/PoseWithCovarianceStamped", until)?;
+                let Some(&(c, m)) = poses.last() else {
+                    return Err(missing(format!(
+                        "no pose at t = {t_s} s: no tf path {} ← {} and no message on {}",
+                        topics.map_frame, topics.base_frame, topics.pose_topic
+                    )));
+                };
+                let p = msgs::decode_pose_with_covariance(&m.data).map_err(|e| self.decode_err(c, m, e))?;
+                let frame_from_base =
+                    p.pose.isometry().ok_or_else(|| self.decode_err(c, m, "pose is not finite or has a zero quaternion"))?;
+                let pose_frame = if p.header.frame_id.is_empty() { map_frame } else { frame(&p.header.frame_id) };
+                let map_from_base = if pose_frame == map_frame {
+                    frame_from_base
+                } else {
+                    to_map(pose_frame).ok_or_else(|| self.decode_err(c, m, format!("no tf path {map_frame} ← {pose_frame}")))?
+                        * frame_from_base
+                };
+                (planar(&map_from_base), PoseSource::Topic, self.time_s(m.log_time_ns))
+            }
+        };
+
+        let clouds = self.on_topic(&topics.landmarks_topic, "sensor_msgs/msg/PointCloud2", until)?;
+        let (landmarks, landmarks_t_s) = match clouds.last() {
+            None => (PointCloud::default(), None),
+            Some(&(c, m)) => {
+                let cloud = msgs::decode_point_cloud2(&m.data).map_err(|e| self.decode_err(c, m, e))?;
+                let mut points = cloud.points().map_err(|e| self.decode_err(c, m, e))?;
+                let cloud_frame = frame(&cloud.header.frame_id);
+                if !cloud_frame.is_empty() && cloud_frame != map_frame {
+                    let map_from_cloud =
+                        to_map(cloud_frame).ok_or_else(|| self.decode_err(c, m, format!("no tf path {map_frame} ← {cloud_frame}")))?;
+                    for p in &mut points {
+                        *p = map_from_cloud * *p;
+                    }
+                }
+                (PointCloud::from_points(points), Some(self.time_s(m.log_time_ns)))
+            }
+        };
+
+        let robot_choice = self.statuses(topics, until)?.into_iter().last().and_then(|(st, s)| {
+            let (goal, frontier_m) = match (s.goal, s.suggested_goal) {
+                (Some(g), _) => (g.goal, g.frontier_m),
+                (None, Some(p)) => (p, None),
+                (None, None) => return None,
+            };
+            Some(RobotChoice { t_s: st, goal, frontier_m, phase: s.phase })
+        });
+        Ok(Snapshot { t_s, map, map_t_s, landmarks, landmarks_t_s, robot, pose_source, pose_t_s, robot_choice })
+    }
+
+    fn topic_names(&self) -> String {
+        let names: Vec<String> = self.topics().into_iter().map(|t| t.topic).collect();
+        if names.is_empty() { "none".into() } else { names.join(", ") }
+    }
+}
+
+/// The planar pose (x, y, yaw) of a 3D transform.
+fn planar(iso: &Isometry3<f64>) -> Pose2 {
+    let t = iso.translation.vector;
+    Pose2::new(t.x, t.y, iso.rotation.euler_angles().2)
+}
+
+/// A transform message's pose, for writers: `parent_from_child` of a planar pose.
+pub fn rigid_of_pose2(p: Pose2) -> RigidPose {
+    RigidPose::planar(p.x_m, p.y_m, p.yaw_rad)
+}
