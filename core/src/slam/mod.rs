@@ -62,7 +62,7 @@ pub use graph_slam::{
     CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend,
     SlamError,
 };
-pub use incremental::{IncrementalError, Isam2, Isam2Params, UpdateReport};
+pub use incremental::{G2oReplay, IncrementalError, Isam2, Isam2Params, ReplayError, UpdateReport};
 pub use lie::{Se2, Se3};
 pub use linear_system::Factorisation;
 pub use marginals::{FactorStats, MarginalError, Marginals};

@@ -24,6 +24,7 @@
 //! O(|F_root|² · dim). All covariances are at θ, in the body frame, tangent (δt, δφ).
 
 mod clique;
+pub mod g2o_replay;
 mod ordering;
 #[cfg(test)]
 mod tests;
@@ -33,6 +34,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use self::clique::Clique;
+pub use self::g2o_replay::{G2oReplay, ReplayError};
 use super::factors::{Factor, FactorError, Jacobian, MAX_FACTOR_KEYS};
 use super::graph::{FactorGraph, GraphError};
 use super::values::{Values, VarId, Variable};
