@@ -9,6 +9,8 @@
 //! marginal). `last_marginal` is the covariance of the pose with the largest id, row-major, in
 //! our tangent order ξ = (δt, δφ), body frame.
 
+mod incremental;
+
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -78,6 +80,20 @@ pub struct OptimizeArgs {
     /// Skip the marginal covariance (last_marginal is then empty).
     #[arg(long)]
     pub no_marginal: bool,
+    /// Replay the g2o file through iSAM2, one update per vertex (JSON: final_chi2, total_ms,
+    /// max_update_ms, steps, last_marginal); the first pose is anchored by a prior
+    /// (`--prior-sigma`, 1e-3 by default).
+    #[arg(long)]
+    pub incremental: bool,
+    /// iSAM2: relinearise a variable when its step's max-abs reaches this (m, rad).
+    #[arg(long, default_value_t = 0.1)]
+    pub relinearize_threshold: f64,
+    /// iSAM2: check relinearisation every this many updates.
+    #[arg(long, default_value_t = 10)]
+    pub relinearize_skip: usize,
+    /// iSAM2: stop back-substitution below cliques whose step moved by at most this.
+    #[arg(long, default_value_t = 0.001)]
+    pub wildfire_threshold: f64,
 }
 
 enum Input {
@@ -95,6 +111,9 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
         Residual2d::Log => Se2Residual::Log,
         Residual2d::Vector => Se2Residual::Vector,
     };
+    if args.incremental {
+        return incremental::run(args, residual);
+    }
     let first_tag = fitslam_core::io::without_bom(&bytes)
         .split(|b| b.is_ascii_whitespace())
         .find(|t| !t.is_empty())

@@ -33,6 +33,7 @@
 //! | [`graph`] | the factor graph |
 //! | [`linear_system`] | sparse normal equations, Cholesky with cached symbolic analysis |
 //! | [`optimizer`] | Gauss-Newton and Levenberg-Marquardt (`step` / `optimize`) |
+//! | [`incremental`] | iSAM2: Bayes tree, fluid relinearisation, wildfire back-substitution, marginals from the tree |
 //! | [`marginals`] | marginal covariances by solving `H X = E` |
 //! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
 //! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
@@ -43,6 +44,7 @@ pub mod factors;
 pub mod g2o;
 pub mod graph;
 pub mod graph_slam;
+pub mod incremental;
 pub mod keyframes;
 pub mod lie;
 pub mod linear_system;
@@ -60,6 +62,7 @@ pub use graph_slam::{
     CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend,
     SlamError,
 };
+pub use incremental::{G2oReplay, IncrementalError, Isam2, Isam2Params, ReplayError, UpdateReport};
 pub use lie::{Se2, Se3};
 pub use linear_system::Factorisation;
 pub use marginals::{FactorStats, MarginalError, Marginals};

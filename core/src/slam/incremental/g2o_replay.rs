@@ -1,0 +1,246 @@
+//! A g2o graph replayed as an online SLAM run, one [`Isam2::update`] per step, in vertex order
+//! (increasing file id, poses and landmarks alike): step k adds the edges whose later end is
+//! vertex k, with vertex k and any vertex first linked by them (a vertex linked only to later
+//! ones enters with them). A new vertex starts at the current estimate of a known vertex composed
+//! with the first of the step's edges that links them (file order); a vertex no such edge reaches
+//! (a pose seen only from a landmark) starts at the file's value. The first pose is anchored by a
+//! prior at its file value (GTSAM's gauge, as `--prior-sigma`). Vertices without edges never
+//! enter. Building the schedule is O(E log V); each step adds its edges in O(edges).
+
+use std::collections::BTreeMap;
+
+use super::{IncrementalError, Isam2};
+use crate::slam::factors::{
+    BetweenSe2, BetweenSe3, Factor, GaussianNoise, NoiseError, PointObservation2, PointObservation3, PriorSe2, PriorSe3, Se2Residual,
+};
+use crate::slam::g2o::{G2oEdge, G2oFile, G2oVertex};
+use crate::slam::lie::{Se2, Se3};
+use crate::slam::values::{VarId, Variable};
+
+#[derive(Clone, Debug, thiserror::Error, PartialEq)]
+pub enum ReplayError {
+    #[error("edge {edge} (0-based): information matrix: {source}")]
+    Information { edge: usize, source: NoiseError },
+    #[error("first-pose prior: {0}")]
+    Prior(NoiseError),
+    #[error("edge {edge} (0-based): sensor offset {id} has no PARAMS_SE3OFFSET line")]
+    UnknownOffset { edge: usize, id: u64 },
+    #[error("edge {edge} (0-based): vertex {id} is a {found}, the edge needs a {expected}")]
+    VertexKind { edge: usize, id: u64, expected: &'static str, found: &'static str },
+    #[error("the graph has no pose")]
+    NoPose,
+    #[error(transparent)]
+    Solver(#[from] IncrementalError),
+}
+
+/// The update schedule of a g2o file.
+#[derive(Debug)]
+pub struct G2oReplay<'a> {
+    file: &'a G2oFile,
+    se2_residual: Se2Residual,
+    prior_sigma: f64,
+    /// File id of every vertex, by rank (increasing id).
+    ids: Vec<u64>,
+    /// The file's value of every vertex (identity / origin for ids only edges name).
+    initial: Vec<Variable>,
+    /// Per step: (rank of the step's vertex, edges in file order).
+    steps: Vec<(usize, Vec<usize>)>,
+    first_pose: usize,
+    /// Solver variable of every rank, once entered.
+    var_of: Vec<Option<VarId>>,
+    next_step: usize,
+}
+
+impl<'a> G2oReplay<'a> {
+    /// The schedule of `file`, its first pose anchored by a prior of standard deviation
+    /// `prior_sigma` on every tangent component.
+    pub fn new(file: &'a G2oFile, se2_residual: Se2Residual, prior_sigma: f64) -> Result<Self, ReplayError> {
+        let mut by_id: BTreeMap<u64, Variable> = BTreeMap::new();
+        for v in &file.vertices {
+            let var = match *v {
+                G2oVertex::Se2 { pose, .. } => Variable::Se2(pose),
+                G2oVertex::Se3 { pose, .. } => Variable::Se3(pose),
+                G2oVertex::Point2 { point, .. } => Variable::Point2(point),
+                G2oVertex::Point3 { point, .. } => Variable::Point3(point),
+            };
+            by_id.insert(v.id(), var);
+        }
+        for e in &file.edges {
+            let (from, to) = e.ids();
+            let (a, b) = match e {
+                G2oEdge::Se2 { .. } => (Variable::Se2(Se2::identity()), Variable::Se2(Se2::identity())),
+                G2oEdge::Se3 { .. } => (Variable::Se3(Se3::identity()), Variable::Se3(Se3::identity())),
+                G2oEdge::Se2Point2 { .. } => (Variable::Se2(Se2::identity()), Variable::Point2(nalgebra::Vector2::zeros())),
+                G2oEdge::Se3Point3 { .. } => (Variable::Se3(Se3::identity()), Variable::Point3(nalgebra::Vector3::zeros())),
+            };
+            by_id.entry(from).or_insert(a);
+            by_id.entry(to).or_insert(b);
+        }
+        let ids: Vec<u64> = by_id.keys().copied().collect();
+        let initial: Vec<Variable> = by_id.values().copied().collect();
+        let rank = |id: u64| ids.partition_point(|&x| x < id);
+        let first_pose = initial.iter().position(|v| matches!(v, Variable::Se2(_) | Variable::Se3(_))).ok_or(ReplayError::NoPose)?;
+        let mut at_rank: Vec<Vec<usize>> = vec![Vec::new(); ids.len()];
+        for (k, e) in file.edges.iter().enumerate() {
+            let (from, to) = e.ids();
+            at_rank[rank(from).max(rank(to))].push(k);
+        }
+        let steps: Vec<(usize, Vec<usize>)> =
+            at_rank.into_iter().enumerate().filter(|(r, edges)| !edges.is_empty() || *r == first_pose).collect();
+        let n = ids.len();
+        Ok(Self { file, se2_residual, prior_sigma, ids, initial, steps, first_pose, var_of: vec![None; n], next_step: 0 })
+    }
+
+    /// Number of updates.
+    pub fn len(&self) -> usize {
+        self.steps.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.steps.is_empty()
+    }
+
+    /// The solver variable of a file id, once it entered.
+    pub fn var_of(&self, id: u64) -> Option<VarId> {
+        let r = self.ids.partition_point(|&x| x < id);
+        if self.ids.get(r) == Some(&id) { self.var_of[r] } else { None }
+    }
+
+    /// Runs the next step on `isam`; returns the variable of the step's vertex (the newest), or
+    /// `None` when every step ran.
+    pub fn step(&mut self, isam: &mut Isam2) -> Result<Option<VarId>, ReplayError> {
+        let Some((vertex, edges)) = self.steps.get(self.next_step) else { return Ok(None) };
+        let (vertex, edges) = (*vertex, edges.clone());
+        self.next_step += 1;
+        let rank = |id: u64| self.ids.partition_point(|&x| x < id);
+        // New vertices, initialised by composition (passes until no edge reaches a new one).
+        let mut fresh: BTreeMap<usize, Option<Variable>> = BTreeMap::new();
+        if self.var_of[vertex].is_none() {
+            fresh.insert(vertex, None);
+        }
+        for &k in &edges {
+            let (from, to) = self.file.edges[k].ids();
+            for r in [rank(from), rank(to)] {
+                if self.var_of[r].is_none() {
+                    fresh.entry(r).or_insert(None);
+                }
+            }
+        }
+        if let Some(v) = fresh.get_mut(&self.first_pose) {
+            *v = Some(self.initial[self.first_pose]);
+        }
+        loop {
+            let mut progress = false;
+            for &k in &edges {
+                let e = &self.file.edges[k];
+                let (from, to) = e.ids();
+                let (rf, rt) = (rank(from), rank(to));
+                let known = |r: usize| match fresh.get(&r) {
+                    Some(v) => *v,
+                    None => self.var_of[r].and_then(|v| isam.estimate_of(v)),
+                };
+                let composed = match (
+                    known(rf),
+                    known(rt),
+                    fresh.get(&rf).is_some_and(Option::is_none),
+                    fresh.get(&rt).is_some_and(Option::is_none),
+                ) {
+                    (Some(a), None, _, true) => compose_forward(e, &a, self.file).map(|v| (rt, v)),
+                    (None, Some(b), true, _) => compose_backward(e, &b).map(|v| (rf, v)),
+                    _ => None,
+                };
+                if let Some((r, v)) = composed {
+                    fresh.insert(r, Some(v));
+                    progress = true;
+                }
+            }
+            if !progress {
+                break;
+            }
+        }
+        let mut new_variables = Vec::with_capacity(fresh.len());
+        for (&r, v) in &fresh {
+            self.var_of[r] = Some(VarId(isam.len() + new_variables.len()));
+            new_variables.push(v.unwrap_or(self.initial[r]));
+        }
+        let mut factors: Vec<Box<dyn Factor>> = Vec::with_capacity(edges.len() + 1);
+        if fresh.contains_key(&self.first_pose)
+            && let Some(v) = self.var_of[self.first_pose]
+        {
+            factors.push(match self.initial[self.first_pose] {
+                Variable::Se3(p) => {
+                    Box::new(PriorSe3::new(v, p, GaussianNoise::isotropic(6, self.prior_sigma).map_err(ReplayError::Prior)?))
+                }
+                Variable::Se2(p) => {
+                    Box::new(PriorSe2::new(v, p, GaussianNoise::isotropic(3, self.prior_sigma).map_err(ReplayError::Prior)?))
+                }
+                _ => return Err(ReplayError::NoPose),
+            });
+        }
+        for &k in &edges {
+            factors.push(self.factor(k, &rank)?);
+        }
+        isam.update(&new_variables, factors)?;
+        Ok(self.var_of[vertex])
+    }
+
+    fn factor(&self, k: usize, rank: &dyn Fn(u64) -> usize) -> Result<Box<dyn Factor>, ReplayError> {
+        let e = &self.file.edges[k];
+        let (from, to) = e.ids();
+        let var = |id: u64, expected: &'static str, ok: fn(&Variable) -> bool| {
+            let r = rank(id);
+            match (self.var_of[r], ok(&self.initial[r])) {
+                (Some(v), true) => Ok(v),
+                _ => Err(ReplayError::VertexKind { edge: k, id, expected, found: self.initial[r].kind() }),
+            }
+        };
+        let information = |source| ReplayError::Information { edge: k, source };
+        Ok(match *e {
+            G2oEdge::Se2 { measurement, information: info, .. } => {
+                let is = |v: &Variable| matches!(v, Variable::Se2(_));
+                let noise = GaussianNoise::from_information(&info).map_err(information)?;
+                Box::new(BetweenSe2::new(var(from, "SE2", is)?, var(to, "SE2", is)?, measurement, noise).with_residual(self.se2_residual))
+            }
+            G2oEdge::Se3 { measurement, information: info, .. } => {
+                let is = |v: &Variable| matches!(v, Variable::Se3(_));
+                let noise = GaussianNoise::from_information(&info).map_err(information)?;
+                Box::new(BetweenSe3::new(var(from, "SE3", is)?, var(to, "SE3", is)?, measurement, noise))
+            }
+            G2oEdge::Se2Point2 { measurement, information: info, .. } => {
+                let noise = GaussianNoise::from_information(&info).map_err(information)?;
+                let pose = var(from, "SE2", |v| matches!(v, Variable::Se2(_)))?;
+                Box::new(PointObservation2::new(pose, var(to, "Point2", |v| matches!(v, Variable::Point2(_)))?, measurement, noise))
+            }
+            G2oEdge::Se3Point3 { offset, measurement, information: info, .. } => {
+                let o = self.file.offsets.get(&offset).ok_or(ReplayError::UnknownOffset { edge: k, id: offset })?;
+                let r = o.rotation_matrix();
+                let noise = GaussianNoise::from_information(&(r * info * r.transpose())).map_err(information)?;
+                let pose = var(from, "SE3", |v| matches!(v, Variable::Se3(_)))?;
+                let point = var(to, "Point3", |v| matches!(v, Variable::Point3(_)))?;
+                Box::new(PointObservation3::new(pose, point, o.transform_point(&measurement), noise))
+            }
+        })
+    }
+}
+
+/// The `to` end of an edge from its `from` end: `x_from · z`, or the landmark `x_from · z`.
+fn compose_forward(e: &G2oEdge, from: &Variable, file: &G2oFile) -> Option<Variable> {
+    match (*e, from) {
+        (G2oEdge::Se2 { measurement, .. }, Variable::Se2(p)) => Some(Variable::Se2(*p * measurement)),
+        (G2oEdge::Se3 { measurement, .. }, Variable::Se3(p)) => Some(Variable::Se3(*p * measurement)),
+        (G2oEdge::Se2Point2 { measurement, .. }, Variable::Se2(p)) => Some(Variable::Point2(p.transform_point(&measurement))),
+        (G2oEdge::Se3Point3 { offset, measurement, .. }, Variable::Se3(p)) => {
+            file.offsets.get(&offset).map(|o| Variable::Point3(p.transform_point(&o.transform_point(&measurement))))
+        }
+        _ => None,
+    }
+}
+
+/// The `from` end of a pose edge from its `to` end: `x_to · z⁻¹` (a landmark does not give a pose).
+fn compose_backward(e: &G2oEdge, to: &Variable) -> Option<Variable> {
+    match (*e, to) {
+        (G2oEdge::Se2 { measurement, .. }, Variable::Se2(p)) => Some(Variable::Se2(*p * measurement.inverse())),
+        (G2oEdge::Se3 { measurement, .. }, Variable::Se3(p)) => Some(Variable::Se3(*p * measurement.inverse())),
+        _ => None,
+    }
+}
