@@ -160,7 +160,8 @@ fn explore_writes_a_bag_that_reads_back_and_replays() {
     let python = venv.join("bin/python");
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/bags/write_bag.py");
     let o = Command::new(&python).arg(script).arg("check").arg(&bag_path).output();
-    let o = o.unwrap_or_else(|e| panic!("{}: {e}: run scripts/ros2-jazzy-venv (scripts/test does), which installs rosbags", python.display()));
+    let o =
+        o.unwrap_or_else(|e| panic!("{}: {e}: run scripts/ros2-jazzy-venv (scripts/test does), which installs rosbags", python.display()));
     assert!(o.status.success(), "rosbags (run scripts/ros2-jazzy-venv if it is missing): {}", String::from_utf8_lossy(&o.stderr));
     let listing = String::from_utf8(o.stdout).unwrap();
     assert!(listing.contains("/map nav_msgs/msg/OccupancyGrid") && listing.contains("/tf tf2_msgs/msg/TFMessage"), "{listing}");
