@@ -7,7 +7,8 @@ adds vertex k with the edges whose later end it is, the new vertex starting at t
 estimate of the other end composed with the first such edge (file order); the first pose is
 anchored by a prior of standard deviation SIGMA on every tangent component at its file value.
 One ISAM2 update per step, GTSAM's default ISAM2Params (relinearizeThreshold 0.1,
-relinearizeSkip 10, Cholesky), as fitslam's defaults. Pose graphs only (VERTEX_SE2 / EDGE_SE2,
+relinearizeSkip 10, Cholesky), as fitslam's defaults (`--relinearize-threshold`,
+`--relinearize-skip` set both). Pose graphs only (VERTEX_SE2 / EDGE_SE2,
 VERTEX_SE3:QUAT / EDGE_SE3:QUAT), read by GTSAM's readG2o.
 
 Printed per file: both final chi2 (2 x the full graph's error at the final estimate), their
@@ -49,16 +50,16 @@ def is_3d(path):
     return False
 
 
-def run_gtsam(path, sigma):
+def run_gtsam(path, sigma, threshold, skip):
     """The replay through ISAM2 with Cholesky; on GTSAM's IndeterminateSystemException (some
     public graphs' near-singular edges) again with QR, which the result then says."""
     try:
-        return dict(replay_gtsam(path, sigma, "CHOLESKY"), factorization="Cholesky")
+        return dict(replay_gtsam(path, sigma, threshold, skip, "CHOLESKY"), factorization="Cholesky")
     except RuntimeError:
-        return dict(replay_gtsam(path, sigma, "QR"), factorization="QR")
+        return dict(replay_gtsam(path, sigma, threshold, skip, "QR"), factorization="QR")
 
 
-def replay_gtsam(path, sigma, factorization):
+def replay_gtsam(path, sigma, threshold, skip, factorization):
     three_d = is_3d(path)
     graph, initial = gtsam.readG2o(path, three_d)
     factors = [graph.at(i) for i in range(graph.size()) if graph.at(i) is not None]
@@ -73,6 +74,8 @@ def replay_gtsam(path, sigma, factorization):
     value = initial.atPose3 if three_d else initial.atPose2
     params = gtsam.ISAM2Params()
     params.setFactorization(factorization)
+    params.setRelinearizeThreshold(threshold)
+    params.relinearizeSkip = skip
     isam = gtsam.ISAM2(params)
     full = gtsam.NonlinearFactorGraph()
     t_update = t_query = 0.0
@@ -117,9 +120,10 @@ def replay_gtsam(path, sigma, factorization):
             "total_ms": 1e3 * (t_update + t_query), "steps": count}
 
 
-def run_fitslam(path):
+def run_fitslam(path, threshold, skip):
     exe = os.path.join(ROOT, "target", "release", "fitslam")
-    out = subprocess.run([exe, "optimize", "--incremental", "--g2o", path, "--json"], check=True, capture_output=True, text=True)
+    cmd = [exe, "optimize", "--incremental", "--g2o", path, "--json", "--relinearize-threshold", str(threshold), "--relinearize-skip", str(skip)]
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     j = json.loads(out.stdout)
     m = np.array(j["last_marginal"], dtype=float)
     n = int(round(len(m) ** 0.5))
@@ -131,6 +135,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("files", nargs="*")
     ap.add_argument("--sigma", type=float, default=1e-3, help="first-pose prior sigma (fitslam's default)")
+    ap.add_argument("--relinearize-threshold", type=float, default=0.1, help="both solvers (GTSAM's default)")
+    ap.add_argument("--relinearize-skip", type=int, default=10, help="both solvers (GTSAM's default)")
     args = ap.parse_args()
     files = args.files or [os.path.join(DATA, f) for f in DEFAULT_FILES]
     if hasattr(os, "sched_setaffinity"):
@@ -139,7 +145,8 @@ def main():
     print(f"{'file':<20} {'steps f/g':>11} {'chi2 fitslam':>14} {'chi2 gtsam':>14} {'rel':>9} {'tr fitslam':>12} {'tr gtsam':>12} {'rel':>9}"
           f" {'ms fitslam':>11} {'ms g upd':>9} {'ms g all':>9} gtsam")
     for path in files:
-        ours, ref = run_fitslam(path), run_gtsam(path, args.sigma)
+        t, k = args.relinearize_threshold, args.relinearize_skip
+        ours, ref = run_fitslam(path, t, k), run_gtsam(path, args.sigma, t, k)
         rel_chi2 = (ours["final_chi2"] - ref["final_chi2"]) / ref["final_chi2"]
         rel_tr = (ours["trace"] - ref["trace"]) / ref["trace"]
         print(f"{os.path.basename(path):<20} {ours['steps']:>5}/{ref['steps']:<5} {ours['final_chi2']:>14.6f} {ref['final_chi2']:>14.6f} {rel_chi2:>9.2e}"
