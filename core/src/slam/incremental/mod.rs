@@ -540,13 +540,21 @@ impl Isam2 {
         Ok(())
     }
 
-    /// Wildfire back-substitution (Alg. 7) from every root.
+    /// Wildfire back-substitution (Alg. 7) from every root. A clique is solved again when it was
+    /// re-eliminated in this update or when any of its separator variables changed (by the
+    /// running intersection property its subtree is otherwise untouched, as in GTSAM's
+    /// `optimizeWildfireNode`); its frontals take the new values, and count as changed, only
+    /// when the largest change reaches `wildfire_threshold`.
     fn back_substitute(&mut self, replaced: &[bool]) {
         let mut stack: Vec<usize> = self.roots.clone();
+        let mut changed = vec![false; self.dim.len()];
         let mut x_s = Vec::new();
         let mut x_f = Vec::new();
         while let Some(c) = stack.pop() {
             let Some(clique) = &self.cliques[c] else { continue };
+            if !replaced[c] && !clique.separator.iter().any(|v| changed[v.0]) {
+                continue;
+            }
             x_s.clear();
             for v in &clique.separator {
                 let o = self.offset[v.0];
@@ -564,16 +572,17 @@ impl Isam2 {
                     k += 1;
                 }
             }
-            if replaced[c] || change > self.params.wildfire_threshold {
+            if replaced[c] || change >= self.params.wildfire_threshold {
                 let mut k = 0;
                 for v in &clique.frontals {
                     let o = self.offset[v.0];
                     let d = self.dim[v.0];
                     self.delta[o..o + d].copy_from_slice(&x_f[k..k + d]);
+                    changed[v.0] = true;
                     k += d;
                 }
-                stack.extend(clique.children.iter().copied());
             }
+            stack.extend(clique.children.iter().copied());
         }
     }
 
