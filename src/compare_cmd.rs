@@ -289,8 +289,8 @@ fn num(v: f64) -> String {
 /// Resamples of the bootstrap intervals.
 const BOOTSTRAP_RESAMPLES: usize = 10_000;
 
-/// `md` gets a table row per strategy: for each metric, the spread over the runs where it is
-/// defined (NaN: a coverage level never reached), with their count when some are missing.
+/// One table cell: the spread of `values` over the runs where it is defined (NaN: a coverage
+/// level never reached), with their count when some are missing.
 fn spread_cell(md: &mut String, values: &[f64]) {
     let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
     match Spread::of(&finite) {

@@ -382,12 +382,7 @@ class Stack:
         started = self.now()
         if self.faults == "all" and k == 3:
             time.sleep(0.5)
-            self.goals[k - 1][2] = "aborted"
-            self.log(f"goal {k}: aborted (fault)")
-            result.error_code = NavigateToPose.Result.UNKNOWN
-            result.error_msg = "aborted by the test's Nav2 stand-in"
-            gh.abort()
-            return result
+            return self.abort(gh, k, "aborted", "aborted by the test's Nav2 stand-in")
         with self.world.lock:
             path = self.world.plan(gx, gy)
             if path is not None:
@@ -395,12 +390,7 @@ class Stack:
                 self.world.goal_yaw = yaw
                 self.world.driving_for = k
         if path is None:
-            self.goals[k - 1][2] = "aborted: no path"
-            self.log(f"goal {k}: no path on the ground truth, aborted")
-            result.error_code = NavigateToPose.Result.UNKNOWN
-            result.error_msg = "no path"
-            gh.abort()
-            return result
+            return self.abort(gh, k, "aborted: no path", "no path")
         while True:
             time.sleep(0.05)
             t = self.now()
@@ -418,11 +408,7 @@ class Stack:
             with self.world.lock:
                 if self.world.driving_for != k:
                     # A newer goal took over the robot (the client sent it before cancelling this one).
-                    self.goals[k - 1][2] = "superseded"
-                    result.error_code = NavigateToPose.Result.UNKNOWN
-                    result.error_msg = "superseded by a newer goal"
-                    gh.abort()
-                    return result
+                    return self.abort(gh, k, "superseded", "superseded by a newer goal")
                 arrived = not self.world.path
                 remaining = self.world.remaining_m()
                 pose = tuple(self.world.pose)
@@ -450,6 +436,16 @@ class Stack:
             fb.navigation_time = Duration(sec=int(t - started), nanosec=int((t - started) % 1 * 1e9))
             fb.distance_remaining = float(remaining)
             gh.publish_feedback(fb)
+
+    def abort(self, gh, k, outcome, message):
+        """Ends goal k as Nav2 does when it fails: ABORTED, error UNKNOWN with `message`."""
+        self.goals[k - 1][2] = outcome
+        self.log(f"goal {k}: {outcome} ({message})")
+        result = NavigateToPose.Result()
+        result.error_code = NavigateToPose.Result.UNKNOWN
+        result.error_msg = message
+        gh.abort()
+        return result
 
     def restart_server(self):
         self.log("action server destroyed mid-goal")

@@ -108,6 +108,8 @@ pub struct Isam2 {
     updates: usize,
     /// Scratch per variable: index in the top, or scalar offset in the clique being assembled.
     scratch: Vec<usize>,
+    /// Per variable: changed in the current back-substitution (reused between updates).
+    changed: Vec<bool>,
     /// Scratch per factor: the update that last collected it.
     factor_stamp: Vec<usize>,
 }
@@ -130,6 +132,7 @@ impl Isam2 {
             next_position: 0,
             updates: 0,
             scratch: Vec::new(),
+            changed: Vec::new(),
             factor_stamp: Vec::new(),
         }
     }
@@ -547,7 +550,9 @@ impl Isam2 {
     /// when the largest change reaches `wildfire_threshold`.
     fn back_substitute(&mut self, replaced: &[bool]) {
         let mut stack: Vec<usize> = self.roots.clone();
-        let mut changed = vec![false; self.dim.len()];
+        let mut changed = std::mem::take(&mut self.changed);
+        changed.clear();
+        changed.resize(self.dim.len(), false);
         let mut x_s = Vec::new();
         let mut x_f = Vec::new();
         while let Some(c) = stack.pop() {
@@ -584,6 +589,7 @@ impl Isam2 {
             }
             stack.extend(clique.children.iter().copied());
         }
+        self.changed = changed;
     }
 
     /// The marginal covariance of `id` at θ (body frame, tangent order of [`Variable`]).
