@@ -15,8 +15,8 @@
 //! the same for the final graph. Timing only; nothing is asserted.
 //!
 //! `cargo bench --bench slam_bound -- [WORLD.toml] [--seed S] [--time-s T] [--dense-n N]
-//! [--structure-out FILE]` (defaults: `benches/worlds/long_40m.toml`, seed 1, the world's time
-//! limit). `--structure-out` writes the final graph's structure for `scripts/ordering_fill.py`
+//! [--solver batch|incremental] [--structure-out FILE]` (defaults: `benches/worlds/long_40m.toml`,
+//! seed 1, the world's time limit, the default solver). `--structure-out` writes the final graph's structure for `scripts/ordering_fill.py`
 //! (which compares the flops of other elimination orders): a line `v <var> <dim> <position>` per
 //! free variable (its place in faer's AMD order) and `f <var> <var> …` per factor.
 //!
@@ -32,7 +32,7 @@ use std::time::Instant;
 use faer::{Mat, Side};
 use fitslam_core::params::{Params, Strategy};
 use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
-use fitslam_core::slam::Marginals;
+use fitslam_core::slam::{Marginals, SlamSolver};
 
 fn main() {
     let args = common::Args::from_env();
@@ -46,7 +46,14 @@ fn main() {
 
     let params = Params::default();
     let world = common::load_world(&world_file, &params);
-    let mission_params = MissionParams { time_limit_s: value("--time-s"), ..MissionParams::default() };
+    let mut mission_params = MissionParams { time_limit_s: value("--time-s"), ..MissionParams::default() };
+    if let Some(solver) = args.text("--solver") {
+        mission_params.slam.graph.solver = match solver {
+            "batch" => SlamSolver::Batch,
+            "incremental" => SlamSolver::Incremental,
+            other => panic!("--solver {other}: batch or incremental"),
+        };
+    }
     let mut mission = Mission::new(world, params, mission_params, Strategy::Fit, seed, Localisation::Slam).expect("mission");
 
     let (mut mission_s, mut closures) = (0.0, 0);
@@ -113,7 +120,7 @@ fn structure(mission: &Mission, marginals: &Marginals) -> String {
     use std::fmt::Write;
     let backend = mission.slam_frontend().expect("a SLAM mission").backend();
     let mut out = String::new();
-    let values = backend.values();
+    let values = backend.estimate();
     for (id, v) in values.iter() {
         if let Some(position) = marginals.elimination_position(id) {
             writeln!(out, "v {} {} {position}", id.0, v.dim()).expect("a String takes writes");

@@ -37,7 +37,7 @@
 //! | [`marginals`] | marginal covariances by solving `H X = E` |
 //! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
 //! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
-//! | [`graph_slam`] | keyframe graph SLAM back end: sliding window, full optimisation, covariances |
+//! | [`graph_slam`] | keyframe graph SLAM back end: incremental (iSAM2) or batch (sliding window + full), covariances |
 //! | [`keyframes`] | keyframe SLAM front end: odometry in SE(3), landmark and gravity factors, keyframe clouds and re-registration |
 
 pub mod factors;
@@ -59,8 +59,8 @@ pub mod victoria;
 pub use factors::{Factor, FactorError, GaussianNoise, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
 pub use graph_slam::{
-    CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend,
-    SlamError,
+    ANCHOR_SIGMA, CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry,
+    SlamBackend, SlamError, SlamSolver,
 };
 pub use incremental::{G2oReplay, IncrementalError, Isam2, Isam2Params, ReplayError, UpdateReport};
 pub use lie::{Se2, Se3};

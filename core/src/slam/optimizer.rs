@@ -104,7 +104,7 @@ pub struct StepReport {
 }
 
 /// The outcome of [`Optimizer::optimize`].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     pub initial_chi2: f64,
     pub final_chi2: f64,

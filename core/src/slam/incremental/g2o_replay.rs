@@ -244,3 +244,97 @@ fn compose_backward(e: &G2oEdge, to: &Variable) -> Option<Variable> {
         _ => None,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::g2o::read_g2o;
+    use crate::slam::incremental::Isam2Params;
+    use nalgebra::Vector2;
+
+    /// Exact measurements of a known scene (the file's vertex values are all zero, so every
+    /// vertex but the first must come from composition): landmark 1 is seen only from the later
+    /// pose 2, pose 3 is linked only to the later pose 4, landmark 5 from poses 0 and 4.
+    /// Truth: x0 = (0, 0, 0), x2 = (1, 0, 0), x3 = (2, −1, π/2), x4 = (2, 0, π/2),
+    /// l1 = (1.5, 1), l5 = (3, 2); each measurement is the later end in the earlier's frame,
+    /// e.g. l5 from x4: R(−π/2) ((3, 2) − (2, 0)) = (2, −1).
+    const SCENE: &str = "\
+VERTEX_SE2 0 0 0 0
+VERTEX_XY 1 0 0
+VERTEX_SE2 2 0 0 0
+VERTEX_SE2 3 0 0 0
+VERTEX_SE2 4 0 0 0
+VERTEX_XY 5 0 0
+EDGE_SE2 0 2 1 0 0 100 0 0 100 0 1000
+EDGE_SE2_XY 2 1 0.5 1 100 0 100
+EDGE_SE2 3 4 1 0 0 100 0 0 100 0 1000
+EDGE_SE2 2 4 1 0 1.5707963267948966 100 0 0 100 0 1000
+EDGE_SE2_XY 0 5 3 2 100 0 100
+EDGE_SE2_XY 4 5 2 -1 100 0 100
+";
+
+    fn pose(isam: &Isam2, replay: &G2oReplay, id: u64) -> Se2 {
+        match replay.var_of(id).and_then(|v| isam.estimate_of(v)) {
+            Some(Variable::Se2(p)) => p,
+            other => panic!("vertex {id}: {other:?}"),
+        }
+    }
+
+    fn point(isam: &Isam2, replay: &G2oReplay, id: u64) -> Vector2<f64> {
+        match replay.var_of(id).and_then(|v| isam.estimate_of(v)) {
+            Some(Variable::Point2(p)) => p,
+            other => panic!("vertex {id}: {other:?}"),
+        }
+    }
+
+    fn near(p: Se2, x: f64, y: f64, yaw: f64) -> bool {
+        (p.x_m - x).abs() < 1e-9 && (p.y_m - y).abs() < 1e-9 && (p.yaw_rad - yaw).abs() < 1e-9
+    }
+
+    #[test]
+    fn vertices_enter_in_id_order_with_the_edges_whose_later_end_they_are() {
+        let file = read_g2o(SCENE.as_bytes()).unwrap();
+        let mut replay = G2oReplay::new(&file, Se2Residual::Log, 1e-3).unwrap();
+        // Steps: vertex 0 (the anchor), 2 (with landmark 1), 4 (with pose 3), 5.
+        assert_eq!(replay.len(), 4);
+        let mut isam = isam_fresh();
+        let entered = |r: &G2oReplay| [0, 1, 2, 3, 4, 5].map(|id| r.var_of(id).is_some());
+        assert_eq!(replay.step(&mut isam).unwrap(), Some(VarId(0)));
+        assert_eq!(entered(&replay), [true, false, false, false, false, false]);
+        assert!(replay.step(&mut isam).unwrap().is_some());
+        assert_eq!(entered(&replay), [true, true, true, false, false, false]);
+        assert!(near(pose(&isam, &replay, 2), 1.0, 0.0, 0.0));
+        assert!((point(&isam, &replay, 1) - Vector2::new(1.5, 1.0)).amax() < 1e-9, "composed forward from the later pose");
+        assert!(replay.step(&mut isam).unwrap().is_some());
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        assert!(near(pose(&isam, &replay, 4), 2.0, 0.0, half_pi));
+        assert!(near(pose(&isam, &replay, 3), 2.0, -1.0, half_pi), "composed backward: {:?}", pose(&isam, &replay, 3));
+        assert_eq!(replay.step(&mut isam).unwrap(), replay.var_of(5));
+        assert!((point(&isam, &replay, 5) - Vector2::new(3.0, 2.0)).amax() < 1e-9);
+        assert_eq!(replay.step(&mut isam).unwrap(), None, "every step ran");
+        assert!(isam.chi2().unwrap() < 1e-12);
+        // The anchor plus the six edges.
+        assert_eq!(isam.graph().len(), 7);
+    }
+
+    #[test]
+    fn malformed_graphs_give_typed_errors() {
+        let no_pose = read_g2o(b"VERTEX_XY 0 1 2\nVERTEX_XY 1 1 2\n").unwrap();
+        assert!(matches!(G2oReplay::new(&no_pose, Se2Residual::Log, 1e-3), Err(ReplayError::NoPose)));
+        // A landmark edge whose landmark is a pose.
+        let kind = read_g2o(b"VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 0 0 0\nEDGE_SE2_XY 0 1 1 0 1 0 1\n").unwrap();
+        let mut replay = G2oReplay::new(&kind, Se2Residual::Log, 1e-3).unwrap();
+        let mut isam = isam_fresh();
+        replay.step(&mut isam).unwrap();
+        let err = replay.step(&mut isam).unwrap_err();
+        assert_eq!(err, ReplayError::VertexKind { edge: 0, id: 1, expected: "Point2", found: "SE2" });
+        // A non-positive prior σ.
+        let ok = read_g2o(SCENE.as_bytes()).unwrap();
+        let mut replay = G2oReplay::new(&ok, Se2Residual::Log, 0.0).unwrap();
+        assert!(matches!(replay.step(&mut isam_fresh()), Err(ReplayError::Prior(_))));
+    }
+
+    fn isam_fresh() -> Isam2 {
+        Isam2::new(Isam2Params::default())
+    }
+}

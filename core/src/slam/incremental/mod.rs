@@ -29,6 +29,8 @@ mod ordering;
 #[cfg(test)]
 mod tests;
 
+use std::collections::BTreeMap;
+
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
@@ -196,6 +198,24 @@ impl Isam2 {
     /// any variables, each new variable in at least one), then runs one iSAM2 step. On an error
     /// before the elimination nothing changed; a failed elimination leaves the solver unusable.
     pub fn update(&mut self, new_variables: &[Variable], new_factors: Vec<Box<dyn Factor>>) -> Result<UpdateReport, IncrementalError> {
+        let due = self.params.relinearize_skip > 0 && (self.updates + 1).is_multiple_of(self.params.relinearize_skip);
+        self.update_with(new_variables, new_factors, due.then_some(self.params.relinearize_threshold))
+    }
+
+    /// An update without new factors that relinearises every variable whose step reaches
+    /// `threshold` now, whatever [`Isam2Params::relinearize_skip`] says (GTSAM's
+    /// `force_relinearize`); with 0 every variable that moved, so that repeated calls are
+    /// Gauss-Newton iterations on the whole problem.
+    pub fn relinearize(&mut self, threshold: f64) -> Result<UpdateReport, IncrementalError> {
+        self.update_with(&[], Vec::new(), Some(threshold))
+    }
+
+    fn update_with(
+        &mut self,
+        new_variables: &[Variable],
+        new_factors: Vec<Box<dyn Factor>>,
+        relinearize_at: Option<f64>,
+    ) -> Result<UpdateReport, IncrementalError> {
         let n_old = self.theta.len();
         let n_all = n_old + new_variables.len();
         let mut covered = vec![false; new_variables.len()];
@@ -227,11 +247,11 @@ impl Isam2 {
 
         // 1. Fluid relinearisation (GTSAM: `maxDelta >= threshold`).
         let mut relinearized = 0;
-        if self.params.relinearize_skip > 0 && self.updates.is_multiple_of(self.params.relinearize_skip) {
+        if let Some(threshold) = relinearize_at {
             for v in 0..n_old {
                 let (o, d) = (self.offset[v], self.dim[v]);
                 let max = self.delta[o..o + d].iter().fold(0.0f64, |m, x| m.max(x.abs()));
-                if max < self.params.relinearize_threshold {
+                if max < threshold || max == 0.0 {
                     continue;
                 }
                 relinearized += 1;
@@ -594,48 +614,78 @@ impl Isam2 {
 
     /// The marginal covariance of `id` at θ (body frame, tangent order of [`Variable`]).
     pub fn marginal_covariance(&self, id: VarId) -> Result<DMatrix<f64>, IncrementalError> {
-        let c = *self.clique_of.get(id.0).filter(|&&c| c != NONE).ok_or(IncrementalError::UnknownVariable(id))?;
+        let c = self.clique_index(id)?;
         let clique = self.cliques[c].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
-        let offset_in = |cl: &Clique, v: VarId| {
-            let mut o = 0;
-            for u in cl.variables() {
-                if u == v {
-                    return Some(o);
-                }
-                o += self.dim[u.0];
-            }
-            None
-        };
-        let d = self.dim[id.0];
-        let o = offset_in(clique, id).ok_or(IncrementalError::UnknownVariable(id))?;
         if clique.parent.is_none() {
-            return clique::root_block_covariance(&clique.matrix, clique.frontal_dim, o, d).ok_or(IncrementalError::NotPositiveDefinite);
+            let o = self.offset_in(clique, id).ok_or(IncrementalError::UnknownVariable(id))?;
+            return clique::root_block_covariance(&clique.matrix, clique.frontal_dim, o, self.dim[id.0])
+                .ok_or(IncrementalError::NotPositiveDefinite);
         }
-        let mut path = vec![c];
-        let mut at = clique;
-        while let Some(p) = at.parent {
-            path.push(p);
-            at = self.cliques[p].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
+        Ok(self.marginal_covariances(&[id])?.remove(0))
+    }
+
+    /// The marginal covariances of `ids`, in order. Each clique's joint on the paths to the
+    /// root is computed once for the whole call, so variables sharing ancestors (landmarks seen
+    /// recently sit near the root) cost one propagation.
+    pub fn marginal_covariances(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, IncrementalError> {
+        let mut joints: BTreeMap<usize, DMatrix<f64>> = BTreeMap::new();
+        let mut out = Vec::with_capacity(ids.len());
+        for &id in ids {
+            let c = self.clique_index(id)?;
+            self.fill_joints(c, &mut joints)?;
+            let clique = self.cliques[c].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
+            let o = self.offset_in(clique, id).ok_or(IncrementalError::UnknownVariable(id))?;
+            let d = self.dim[id.0];
+            out.push(joints[&c].view((o, o), (d, d)).into_owned());
         }
-        // The joint of each clique on the path, from the root down.
-        let mut joint: Option<(usize, DMatrix<f64>)> = None;
-        for &c in path.iter().rev() {
-            let cl = self.cliques[c].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
-            let ns = cl.dim() - cl.frontal_dim;
-            let mut cov_s = DMatrix::zeros(ns, ns);
-            if let Some((parent, pj)) = &joint {
-                let pcl = self.cliques[*parent].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
-                let mut map = Vec::with_capacity(ns);
-                for v in &cl.separator {
-                    let po = offset_in(pcl, *v).ok_or(IncrementalError::UnknownVariable(*v))?;
-                    map.extend(po..po + self.dim[v.0]);
-                }
-                cov_s = DMatrix::from_fn(ns, ns, |i, j| pj[(map[i], map[j])]);
+        Ok(out)
+    }
+
+    fn clique_index(&self, id: VarId) -> Result<usize, IncrementalError> {
+        self.clique_of.get(id.0).copied().filter(|&c| c != NONE && self.cliques[c].is_some()).ok_or(IncrementalError::UnknownVariable(id))
+    }
+
+    /// Scalar offset of `v` in the clique's rows (frontals, then separator).
+    fn offset_in(&self, clique: &Clique, v: VarId) -> Option<usize> {
+        let mut o = 0;
+        for u in clique.variables() {
+            if u == v {
+                return Some(o);
             }
-            let j = clique::joint_covariance(&cl.matrix, cl.frontal_dim, &cov_s).ok_or(IncrementalError::NotPositiveDefinite)?;
-            joint = Some((c, j));
+            o += self.dim[u.0];
         }
-        let (_, j) = joint.ok_or(IncrementalError::UnknownVariable(id))?;
-        Ok(j.view((o, o), (d, d)).into_owned())
+        None
+    }
+
+    /// Computes the joint covariance of clique `c` and of every ancestor not in `joints` yet:
+    /// a clique's joint from its separator's block of its parent's joint (the conditionals are
+    /// linear-Gaussian), the root's from its conditional alone.
+    fn fill_joints(&self, c: usize, joints: &mut BTreeMap<usize, DMatrix<f64>>) -> Result<(), IncrementalError> {
+        let broken = || IncrementalError::NotPositiveDefinite;
+        let mut path = Vec::new();
+        let mut at = Some(c);
+        while let Some(k) = at.filter(|k| !joints.contains_key(k)) {
+            path.push(k);
+            at = self.cliques[k].as_ref().ok_or_else(broken)?.parent;
+        }
+        for &k in path.iter().rev() {
+            let cl = self.cliques[k].as_ref().ok_or_else(broken)?;
+            let ns = cl.dim() - cl.frontal_dim;
+            let cov_s = match cl.parent {
+                None => DMatrix::zeros(0, 0),
+                Some(p) => {
+                    let (pcl, pj) = (self.cliques[p].as_ref().ok_or_else(broken)?, &joints[&p]);
+                    let mut map = Vec::with_capacity(ns);
+                    for v in &cl.separator {
+                        let po = self.offset_in(pcl, *v).ok_or(IncrementalError::UnknownVariable(*v))?;
+                        map.extend(po..po + self.dim[v.0]);
+                    }
+                    DMatrix::from_fn(ns, ns, |i, j| pj[(map[i], map[j])])
+                }
+            };
+            let joint = clique::joint_covariance(&cl.matrix, cl.frontal_dim, &cov_s).ok_or_else(broken)?;
+            joints.insert(k, joint);
+        }
+        Ok(())
     }
 }

@@ -253,6 +253,15 @@ fn check_against_batch(vars: &[Variable], specs: &[Spec], batches: &[Vec<usize>]
         let err = (&ours - expected).amax() / expected.amax();
         assert!(err < 1e-6, "variable {v}: marginal off by {err:e} (relative)");
     }
+    // All at once (the clique joints shared along the paths): the same blocks, in order.
+    let all: Vec<VarId> = id.iter().rev().map(|&nv| VarId(nv)).collect();
+    for (k, ours) in isam.marginal_covariances(&all).unwrap().iter().enumerate() {
+        let v = id.len() - 1 - k;
+        let d = vars[v].dim();
+        let expected = cov.view((offsets[v], offsets[v]), (d, d));
+        let err = (ours - expected).amax() / expected.amax();
+        assert!(err < 1e-6, "variable {v}, in the batch call: marginal off by {err:e} (relative)");
+    }
 }
 
 /// One update per pose, in pose order, with the factors whose later end it is (the CLI's

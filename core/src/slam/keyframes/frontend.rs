@@ -8,7 +8,7 @@ use super::odometry::with_floor;
 use super::*;
 use crate::cloud::PointCloud;
 use crate::slam::lie::so3_log;
-use crate::slam::{GraphSlam, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError};
+use crate::slam::{GraphSlam, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError, SlamSolver};
 use crate::traversability::TraversabilityMap;
 
 /// A landmark observed by the camera: its id (known data association), the measured point in the
@@ -159,7 +159,9 @@ impl SlamFrontend {
         self.relative_cov = Matrix6::zeros();
         self.keyframes_since_marginal += 1;
         self.keyframe_cov = compounded;
-        let exact_due = update.full || self.keyframes_since_marginal >= self.params.marginal_every_keyframes;
+        let exact_due = self.params.graph.solver == SlamSolver::Incremental
+            || update.full
+            || self.keyframes_since_marginal >= self.params.marginal_every_keyframes;
         if let Some(c) = exact_due.then(|| self.slam.current_pose_covariance().ok()).flatten() {
             self.keyframe_cov = c;
             self.keyframes_since_marginal = 0;

@@ -24,7 +24,9 @@ pub struct SlamParams {
     pub gravity_sigma_rad: f64,
     /// Landmark observations used per keyframe. Default 30.
     pub max_observations_per_keyframe: usize,
-    /// Exact pose marginal every this many keyframes (and at every loop closure). Default 20.
+    /// Batch solver: exact pose marginal every this many keyframes (and at every loop closure;
+    /// compounded from odometry in between). The incremental solver gives the exact one at
+    /// every keyframe. Default 20.
     pub marginal_every_keyframes: usize,
     /// At a decision, when this many keyframes were added since the last refresh, exact
     /// marginals for the landmarks seen since then. Default 20.
