@@ -761,6 +761,9 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
         ("[slam.graph.optimizer]\nlambda_initial_factor = 0.0", "slam.graph.optimizer.lambda_initial_factor"),
         ("[slam.graph.optimizer]\nlambda_max = inf", "slam.graph.optimizer.lambda_max"),
         ("[slam.graph.optimizer]\nmax_iterations = 0", "slam.graph.optimizer.max_iterations"),
+        ("[slam.graph.isam2]\nrelinearize_threshold = -0.1", "slam.graph.isam2.relinearize_threshold"),
+        ("[slam.graph.isam2]\nwildfire_threshold = nan", "slam.graph.isam2.wildfire_threshold"),
+        ("[slam.graph]\nsolver = \"qr\"", "line 2: unknown variant `qr`"),
     ] {
         match MissionParams::from_toml(text, "sim.toml") {
             Err(e) if e.to_string().starts_with("sim.toml: ") && e.to_string().contains(key) => {}

@@ -330,10 +330,27 @@ impl GraphSlam {
 
     /// The current estimate of every variable, with only the first keyframe fixed.
     pub fn estimate(&self) -> Values {
-        let mut v = match &self.solver {
+        self.first_fixed(match &self.solver {
             Solver::Batch(b) => b.values.clone(),
             Solver::Incremental(i) => i.isam.estimate(),
-        };
+        })
+    }
+
+    /// Where the marginals are taken, with only the first keyframe fixed: the incremental
+    /// solver's linearisation point θ (the estimate is θ ⊕ Δ), the batch solver's estimate.
+    pub fn linearization_point(&self) -> Values {
+        match &self.solver {
+            Solver::Batch(_) => self.estimate(),
+            Solver::Incremental(i) => self.first_fixed(i.isam.linearization_point().clone()),
+        }
+    }
+
+    /// The variable of the latest keyframe.
+    pub fn current_variable(&self) -> VarId {
+        self.keyframes.last().copied().unwrap_or(VarId(0))
+    }
+
+    fn first_fixed(&self, mut v: Values) -> Values {
         for k in 0..v.len() {
             v.set_fixed(VarId(k), false);
         }

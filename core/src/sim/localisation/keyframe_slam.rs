@@ -1,6 +1,6 @@
 //! Keyframe graph SLAM as the simulated robot's localisation ([`crate::slam::keyframes`]):
-//! odometry + IMU attitude lifted to SE(3), camera landmarks at keyframes, sliding window / full
-//! optimisation on loop closure, 6×6 pose covariance, the traversability map re-registered from
+//! odometry + IMU attitude lifted to SE(3), camera landmarks at keyframes, an iSAM2 update per
+//! keyframe (or the batch solver's window / full optimisation), 6×6 pose covariance, the traversability map re-registered from
 //! the keyframe clouds when a loop closure moves the keyframes, the planner's landmark map with
 //! SLAM covariances.
 

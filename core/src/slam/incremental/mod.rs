@@ -320,7 +320,7 @@ impl Isam2 {
         }
         top_vars.sort_unstable();
         let reeliminated = top_vars.len();
-        let new_cliques = self.reeliminate(&top_vars, &orphans, first_new_factor)?;
+        let new_cliques = self.reeliminate(&top_vars, &orphans, first_new_factor, n_old)?;
 
         // 4. Partial back-substitution from the roots.
         let mut replaced = vec![false; self.cliques.len()];
@@ -348,7 +348,13 @@ impl Isam2 {
     }
 
     /// Orders, eliminates and links the top's variables (sorted by id); returns the new cliques.
-    fn reeliminate(&mut self, top: &[VarId], orphans: &[usize], first_new_factor: usize) -> Result<Vec<usize>, IncrementalError> {
+    fn reeliminate(
+        &mut self,
+        top: &[VarId],
+        orphans: &[usize],
+        first_new_factor: usize,
+        first_new_variable: usize,
+    ) -> Result<Vec<usize>, IncrementalError> {
         for (i, v) in top.iter().enumerate() {
             self.scratch[v.0] = i;
         }
@@ -356,7 +362,8 @@ impl Isam2 {
         let stamp = self.updates;
         let mut factors = Vec::new();
         let mut edges: Vec<Vec<usize>> = Vec::new();
-        let mut constrained = vec![false; top.len()];
+        // Ordering groups: 0 the rest, 1 the new factors' variables, 2 the new variables.
+        let mut group: Vec<u8> = top.iter().map(|v| if v.0 >= first_new_variable { 2 } else { 0 }).collect();
         for v in top {
             for &f in &self.factors_of[v.0] {
                 if self.factor_stamp[f] == stamp {
@@ -369,7 +376,7 @@ impl Isam2 {
                     let local: Vec<usize> = keys.iter().map(|k| self.scratch[k.0]).collect();
                     if f >= first_new_factor {
                         for &l in &local {
-                            constrained[l] = true;
+                            group[l] = group[l].max(1);
                         }
                     }
                     edges.push(local);
@@ -381,7 +388,7 @@ impl Isam2 {
                 edges.push(c.separator.iter().map(|k| self.scratch[k.0]).collect());
             }
         }
-        let elim = ordering::eliminate(top.len(), &edges, &constrained);
+        let elim = ordering::eliminate(top.len(), &edges, &group);
         for v in top {
             self.scratch[v.0] = NONE;
         }

@@ -303,8 +303,9 @@ fn the_newest_pose_is_in_the_root_clique() {
         let factors = batch.iter().filter(|&&f| specs[f].keys().iter().all(|&k| k < 30)).map(|&f| specs[f].build()).collect();
         let report = isam.update(&new_vars, factors).unwrap();
         assert!(isam.root_variables().contains(&VarId(pose)), "pose {pose} not in the root");
-        // Only the top is re-eliminated: odometry-only steps touch a few variables.
-        if pose > 12 && batch.len() == 1 {
+        // Only the top is re-eliminated: odometry-only steps without relinearisation touch a
+        // few variables.
+        if pose > 12 && batch.len() == 1 && report.relinearized == 0 {
             assert!(report.reeliminated < pose / 2, "pose {pose}: {} re-eliminated", report.reeliminated);
         }
     }

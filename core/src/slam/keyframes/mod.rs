@@ -1,11 +1,13 @@
 //! The simulator's SLAM front end (notes §1, §2, §8): turns the measured odometry, the IMU
 //! attitude, the camera's landmark observations and the sensor clouds into keyframes for the
-//! [`GraphSlam`] back end, and gives the mission its pose estimate, 6×6 covariance, landmark map
-//! and the keyframe clouds to re-register the traversability map after a loop closure.
+//! [`GraphSlam`] back end (incremental or batch), and gives the mission its pose estimate, 6×6
+//! covariance, landmark map and the keyframe clouds to re-register the traversability map after
+//! a loop closure.
 //!
 //! **Keyframes.** A keyframe is taken when the odometry says the robot moved
 //! `keyframe_every_m` (0.5 m) or turned `keyframe_every_rad` (0.5 rad) since the last one (never
-//! while standing still). The first keyframe is the start pose (the map frame, fixed: the gauge).
+//! while standing still). The first keyframe is the start pose (the map frame, anchored: the
+//! gauge).
 //!
 //! **Odometry in SE(3), integrated in the body frame** (notes §8). Each control tick the wheels
 //! measure the distance driven `d` (along the body's x axis) and the gyro the body-frame rotation
@@ -31,15 +33,18 @@
 //!
 //! **Between keyframes** the estimate is `T = T_k ⊕ (T_o(k)⁻¹ T_o(now))` and its covariance the
 //! keyframe's marginal compounded with the odometry since: `Σ = Ad(T_rel⁻¹) Σ_k Ad(T_rel⁻¹)ᵀ +
-//! Σ_rel` (right perturbations). **Keyframe marginals**: the exact 6×6 marginal of the full
-//! problem (one sparse Cholesky) after every loop closure and every `marginal_every_keyframes`
-//! keyframes; at the other keyframes the compounded covariance above is kept (it ignores the
-//! landmark information since the last exact marginal, so it over-estimates; the exact one drops
-//! back). Landmark covariances for the planner: at a decision, when `landmark_refresh_keyframes`
-//! keyframes were added since the last refresh, the exact marginals (3 solves each) of the
-//! landmarks seen since the last refresh; older landmarks keep their last exact covariance (a
-//! later loop closure lowers the true one: theirs is then conservative); a landmark added since
-//! the last refresh gets `R C Rᵀ + G Σ_k Gᵀ` (its observation's covariance
+//! Σ_rel` (right perturbations): the marginal of a pose joined to keyframe k by that odometry
+//! alone, to first order. **Keyframe marginals**: with the incremental solver (default,
+//! [`crate::slam::SlamSolver`]) the exact 6×6 marginal of the full problem at every keyframe,
+//! from the Bayes tree's root (at the solver's linearisation point). With the batch solver the
+//! exact marginal (one sparse Cholesky of the whole problem) after every loop closure and every
+//! `marginal_every_keyframes` keyframes; at the other keyframes the compounded covariance above
+//! is kept (it ignores the landmark information since the last exact marginal, so it
+//! over-estimates; the exact one drops back). Landmark covariances for the planner: at a
+//! decision, when `landmark_refresh_keyframes` keyframes were added since the last refresh, the
+//! exact marginals of the landmarks seen since the last refresh; older landmarks keep their last
+//! exact covariance (a later loop closure lowers the true one: theirs is then conservative); a
+//! landmark added since the last refresh gets `R C Rᵀ + G Σ_k Gᵀ` (its observation's covariance
 //! plus its keyframe's pose covariance through `G = R [I, −[p]×]`, correlations ignored).
 //!
 //! **Re-registration.** Every sensor cloud (LiDAR, depth camera, footprint) is stored in the body
@@ -50,8 +55,10 @@
 //! is rebuilt from every keyframe cloud with the new poses ([`reregister`]). Points forgotten by a
 //! trapped robot's recovery ([`SlamFrontend::forget_disc`]) stay out of every later rebuild.
 //!
-//! Cost per tick O(1); per keyframe one window optimisation (O(window)), plus one full sparse
-//! Cholesky every `marginal_every_keyframes`; per stored point O(1) (a hash-set lookup); a
+//! Cost per tick O(1); per keyframe one iSAM2 update (the cliques the keyframe's factors touch
+//! and their paths to the root: small while exploring, up to the whole trajectory since a
+//! re-observed landmark was last seen) or, batch, one window optimisation (O(window)) plus one
+//! full sparse Cholesky every `marginal_every_keyframes`; per stored point O(1) (a hash-set lookup); a
 //! re-registration O(stored points + cells × disc).
 
 mod clouds;

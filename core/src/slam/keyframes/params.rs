@@ -83,6 +83,8 @@ impl SlamParams {
         at_least_one("marginal_every_keyframes", self.marginal_every_keyframes)?;
         at_least_one("landmark_refresh_keyframes", self.landmark_refresh_keyframes)?;
         at_least_one("graph.window_keyframes", self.graph.window_keyframes)?;
+        nonneg("graph.isam2.relinearize_threshold", self.graph.isam2.relinearize_threshold)?;
+        nonneg("graph.isam2.wildfire_threshold", self.graph.isam2.wildfire_threshold)?;
         // The back end's optimiser has no check of its own: a NaN tolerance never stops it, a
         // λ₀ of 0 (absolute in the GTSAM schedule) never grows, an infinite λ_max never gives up.
         let o = &self.graph.optimizer;
