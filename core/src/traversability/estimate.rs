@@ -31,7 +31,7 @@
 //! known/unknown flags without estimating. Against the straightforward gather-then-fuse of notes
 //! §2 the disc sums agree to rounding (proptest `optimised_estimate_agrees_with_straightforward_reference`).
 
-use super::disc_sums::{DiscSum, DiscSums, centre_local};
+use super::disc_sums::{DiscSum, DiscSums, centre_local, prefetch};
 use super::map::TraversabilityMap;
 use super::moments::CellMoments;
 use super::plane::fit_plane;
@@ -278,7 +278,19 @@ impl TraversabilityMap {
         let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
         let mut n = 0;
         // A cell refreshed on its own since it was listed (Self::refresh_cells) is skipped.
-        self.stale_estimate.drain_in_order(|j| {
+        let moments = &self.moments;
+        let ahead = |a: usize| {
+            sums.sums[a].prefetch();
+            // The disc's cells: consecutive stale cells mostly share them, so the rows' last
+            // cells (the lines new to the next cell along the row) are enough.
+            for &o in &sums.disc.row_ends {
+                if let Some(m) = moments.get(a.wrapping_add_signed(o)) {
+                    prefetch(m);
+                    prefetch(&m.var_sum_m2);
+                }
+            }
+        };
+        self.stale_estimate.drain_in_order(ahead, |j| {
             let e = estimate_cell(sums, &self.moments, &g, j, params);
             layers.write(j, self.moments[j].count, &e);
             n += 1;
@@ -340,7 +352,7 @@ impl TraversabilityMap {
             }
             stale.clear();
         } else {
-            stale.drain_in_order(|j| check(j, &mut self.known));
+            stale.drain_in_order(|a| sums.sums[a].prefetch(), |j| check(j, &mut self.known));
         }
     }
 }
