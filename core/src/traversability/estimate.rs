@@ -173,8 +173,8 @@ pub(super) fn known_moments(sum: &DiscSum, p: &TraversabilityParams) -> Option<C
     Some(fused)
 }
 
-/// The estimate of cell `index` from its disc sum (slope, roughness) and its disc's cells (step):
-/// O(disc cells), no allocation, no data-dependent branch in the loop over the cells.
+/// The estimate of cell `index` from its disc sum (slope, roughness) and its disc's non-empty
+/// cells (step): O(disc cells), no allocation.
 #[inline]
 pub(super) fn estimate_cell(
     sums: &DiscSums,
@@ -202,10 +202,14 @@ pub(super) fn estimate_cell(
     let (x_c, y_c) = centre_local(g, index);
     let z_ref = sum.z_ref_m;
     let relative = p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some();
-    // Empty cells have z_max = −∞, z_min = +∞ (and a finite mean): they change nothing.
     let (mut raw_hi, mut raw_lo, mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
     sums.disc.for_each(g, index, |k, _, _| {
         let m = &moments[k];
+        // Empty cells (z_max = −∞, z_min = +∞) would change nothing: skipped, with their
+        // plane-height division.
+        if m.count == 0 {
+            return;
+        }
         raw_hi = raw_hi.max(m.z_max);
         raw_lo = raw_lo.min(m.z_min);
         if relative {
