@@ -100,44 +100,31 @@ pub(super) struct Disc {
     pub(super) offsets: Vec<(i32, i32)>,
     /// `dy · width + dx`, valid for cells at least `r_cells` inside the grid.
     pub(super) flat: Vec<isize>,
-    /// The flat offsets of each row's last (largest dx) cell.
-    pub(super) row_ends: Vec<isize>,
     pub(super) r_cells: i32,
 }
 
 impl Disc {
     pub(super) fn new(radius_m: f64, g: &GridGeometry) -> Self {
         let offsets = disc_offsets(radius_m, g.resolution_m);
-        let flat: Vec<isize> = offsets.iter().map(|&(dx, dy)| dy as isize * g.width as isize + dx as isize).collect();
+        let flat = offsets.iter().map(|&(dx, dy)| dy as isize * g.width as isize + dx as isize).collect();
         let r_cells = offsets.iter().map(|&(dx, dy)| dx.abs().max(dy.abs())).max().unwrap_or(0);
-        // Row-major offsets: a row's last cell is the one before the next row's first.
-        let row_ends = offsets
-            .iter()
-            .enumerate()
-            .filter(|&(k, &(_, dy))| offsets.get(k + 1).is_none_or(|&(_, next)| next != dy))
-            .map(|(k, _)| flat[k])
-            .collect();
-        Self { offsets, flat, row_ends, r_cells }
+        Self { offsets, flat, r_cells }
     }
 
     /// Calls `f(k, col, row)` for every cell k = (col, row) of the disc around `index` that lies
-    /// in the grid, in offset order (the column and row come from the offsets: no division per
-    /// cell).
+    /// in the grid, in offset order (the column and row come from the offsets, k = index + the
+    /// flat offset: no division per cell; the bounds are checked only near the grid's border).
     #[inline]
     pub(super) fn for_each(&self, g: &GridGeometry, index: usize, mut f: impl FnMut(usize, i32, i32)) {
         let (w, h) = (g.width as i32, g.height as i32);
         let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
         let r = self.r_cells;
-        if col >= r && row >= r && col + r < w && row + r < h {
-            for (&o, &(dx, dy)) in self.flat.iter().zip(&self.offsets) {
-                f((index as isize + o) as usize, col + dx, row + dy);
-            }
-        } else {
-            for &(dx, dy) in &self.offsets {
-                let (c, rr) = (col + dx, row + dy);
-                if c >= 0 && rr >= 0 && c < w && rr < h {
-                    f(rr as usize * g.width + c as usize, c, rr);
-                }
+        let interior = col >= r && row >= r && col + r < w && row + r < h;
+        // One call site, so that `f` is inlined.
+        for (&o, &(dx, dy)) in self.flat.iter().zip(&self.offsets) {
+            let (c, rr) = (col + dx, row + dy);
+            if interior || (c >= 0 && rr >= 0 && c < w && rr < h) {
+                f(index.wrapping_add_signed(o), c, rr);
             }
         }
     }

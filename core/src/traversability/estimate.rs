@@ -285,9 +285,7 @@ impl TraversabilityMap {
         let moments = &self.moments;
         let ahead = |a: usize| {
             sums.sums[a].prefetch();
-            // The disc's cells: consecutive stale cells mostly share them, so the rows' last
-            // cells (the lines new to the next cell along the row) are enough.
-            for &o in &sums.disc.row_ends {
+            for &o in &sums.disc.flat {
                 if let Some(m) = moments.get(a.wrapping_add_signed(o)) {
                     prefetch(m);
                     prefetch(&m.var_sum_m2);

@@ -30,7 +30,7 @@ const INSERT_CHUNK: usize = 64;
 /// the time of that many insertions).
 const INSERT_AHEAD: usize = 6;
 /// How many cells ahead of its visit [`StaleCells::drain_in_order`] offers a cell for prefetching.
-pub(super) const DRAIN_AHEAD: usize = 8;
+pub(super) const DRAIN_AHEAD: usize = 16;
 
 /// What happened to the points given to [`TraversabilityMap::insert_points`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
