@@ -7,14 +7,15 @@
 //! - the surface is split into *patches* between four neighbouring sample centres (half patches
 //!   at the border, where `Heightfield::height_at` clamps), on which the height is bilinear;
 //! - level 0 stores each patch's highest corner (a bilinear patch's maximum is at a corner),
-//!   level k the maximum over 2^k × 2^k patches, rounded up to `f32`;
+//!   level k the maximum over 2^k × 2^k patches, rounded up to `f32`, each level in 4 × 4-node
+//!   tiles of one cache line;
 //! - the ray walks the quadtree: a node whose maximum lies below the ray's lowest z over the
 //!   node is skipped whole (and the walk climbs a level), otherwise it descends; on a patch the
 //!   height along the ray is a quadratic in t, so the first crossing is the smallest root of
 //!   z(t) − h(t) in the patch's t interval, in closed form.
 //!
 //! Per ray: O(levels × nodes crossed + patches near the terrain), no allocation; per scan
-//! O(rings × azimuths × that). [`RayCaster::new`] is O(cells).
+//! O(rings × azimuths × that), the origin's lookup done once. [`RayCaster::new`] is O(cells).
 
 use super::Heightfield;
 use crate::math;
@@ -62,12 +63,39 @@ impl Default for LidarParams {
 /// at 5 cm cells).
 const MAX_LEVEL: usize = 6;
 
-/// One level of the maximum mip-map: `width` × `height` nodes, row-major.
+/// 4 × 4 nodes of one mip level, row-major, in one 64-byte cache line.
+#[derive(Clone, Copy, Debug)]
+#[repr(align(64))]
+struct Tile([f32; 16]);
+
+/// One level of the maximum mip-map: `width` × `height` nodes in 4 × 4 tiles, the tiles
+/// row-major, so that a ray's successive nodes mostly share a cache line (row-major nodes put
+/// every step across a row on another line).
 #[derive(Clone, Debug)]
 struct MaxLevel {
-    max_m: Vec<f32>,
+    tiles: Vec<Tile>,
+    tiles_width: usize,
     width: usize,
     height: usize,
+}
+
+impl MaxLevel {
+    /// A level of `width` × `height` nodes, all −∞.
+    fn new(width: usize, height: usize) -> Self {
+        let tiles_width = width.div_ceil(4);
+        Self { tiles: vec![Tile([f32::NEG_INFINITY; 16]); tiles_width * height.div_ceil(4)], tiles_width, width, height }
+    }
+
+    /// The maximum of node (`i`, `j`), metres.
+    #[inline]
+    fn max_m(&self, i: usize, j: usize) -> f32 {
+        self.tiles[(j >> 2) * self.tiles_width + (i >> 2)].0[(j & 3) * 4 + (i & 3)]
+    }
+
+    #[inline]
+    fn max_m_mut(&mut self, i: usize, j: usize) -> &mut f32 {
+        &mut self.tiles[(j >> 2) * self.tiles_width + (i >> 2)].0[(j & 3) * 4 + (i & 3)]
+    }
 }
 
 /// `v` rounded up to an `f32` (never below `v`, so skipping on it is conservative).
@@ -92,31 +120,30 @@ impl RayCaster {
         let z = |c: usize, r: usize| field.heights_m.get(r * w + c).copied().unwrap_or(f64::INFINITY);
         // Patch (p, q) spans sample columns p − 1, p and rows q − 1, q, clamped to the grid.
         let (pw, ph) = (w + 1, h + 1);
-        let mut max_m = Vec::with_capacity(pw * ph);
+        let mut level0 = MaxLevel::new(pw, ph);
         for q in 0..ph {
             let (r0, r1) = (q.saturating_sub(1).min(h.saturating_sub(1)), q.min(h.saturating_sub(1)));
             for p in 0..pw {
                 let (c0, c1) = (p.saturating_sub(1).min(w.saturating_sub(1)), p.min(w.saturating_sub(1)));
                 let m = z(c0, r0).max(z(c1, r0)).max(z(c0, r1)).max(z(c1, r1));
                 // NaN heights never let a ray skip: +∞.
-                max_m.push(if m.is_nan() { f32::INFINITY } else { f32_at_least(m) });
+                *level0.max_m_mut(p, q) = if m.is_nan() { f32::INFINITY } else { f32_at_least(m) };
             }
         }
-        let mut levels = vec![MaxLevel { max_m, width: pw, height: ph }];
+        let mut levels = vec![level0];
         while levels.len() <= MAX_LEVEL {
             let below = &levels[levels.len() - 1];
             if below.width <= 1 && below.height <= 1 {
                 break;
             }
-            let (nw, nh) = (below.width.div_ceil(2), below.height.div_ceil(2));
-            let mut max_m = vec![f32::NEG_INFINITY; nw * nh];
+            let mut next = MaxLevel::new(below.width.div_ceil(2), below.height.div_ceil(2));
             for r in 0..below.height {
                 for c in 0..below.width {
-                    let m = &mut max_m[(r / 2) * nw + c / 2];
-                    *m = m.max(below.max_m[r * below.width + c]);
+                    let m = next.max_m_mut(c / 2, r / 2);
+                    *m = m.max(below.max_m(c, r));
                 }
             }
-            levels.push(MaxLevel { max_m, width: nw, height: nh });
+            levels.push(next);
         }
         Self { geometry: g, levels }
     }
@@ -125,29 +152,51 @@ impl RayCaster {
     /// `max_range_m` (0 when `origin` is not above the terrain); `None` if the ray leaves the map
     /// or the range first, or `origin` is outside the map.
     pub fn cast(&self, field: &Heightfield, origin: Point3<f64>, dir: Vector3<f64>, max_range_m: f64) -> Option<f64> {
-        if field.geometry != self.geometry || field.heights_m.len() != self.geometry.len() {
+        if !self.built_for(field) {
             // Built for another field: correct, if slow.
             return RayCaster::new(field).cast(field, origin, dir, max_range_m);
         }
+        self.cast_from(field, self.ray_origin(field, origin), dir, max_range_m)
+    }
+
+    /// Whether this caster's mip-map is `field`'s.
+    fn built_for(&self, field: &Heightfield) -> bool {
+        field.geometry == self.geometry && field.heights_m.len() == self.geometry.len()
+    }
+
+    /// The direction-independent part of a cast from `origin` (a sweep's rays share it).
+    fn ray_origin(&self, field: &Heightfield, origin: Point3<f64>) -> RayOrigin {
         let g = self.geometry;
         let (w, h) = (g.width, g.height);
         if w == 0 || h == 0 {
-            return None;
+            return RayOrigin::Outside;
         }
-        let z0 = field.height_at(origin.x, origin.y)?;
+        let Some(z0) = field.height_at(origin.x, origin.y) else { return RayOrigin::Outside };
         if origin.z <= z0 {
-            return Some(0.0);
-        }
-        if max_range_m.is_nan() || max_range_m <= 0.0 || !dir.iter().all(|v| v.is_finite()) {
-            return None;
+            return RayOrigin::Below;
         }
         // Sample coordinates: u = (x − x₀)/res − ½, so sample column c sits at u = c and patch p
         // spans u ∈ [p − 1, p] (clipped to the grid's u ∈ [−½, w − ½)).
         let inv_res = 1.0 / g.resolution_m;
-        let (au, bu) = ((origin.x - g.origin_x_m) * inv_res - 0.5, dir.x * inv_res);
-        let (av, bv) = ((origin.y - g.origin_y_m) * inv_res - 0.5, dir.y * inv_res);
-        let (oz, dz) = (origin.z, dir.z);
-        let (mut p, mut q) = (patch_index(au, w), patch_index(av, h));
+        let (au, av) = ((origin.x - g.origin_x_m) * inv_res - 0.5, (origin.y - g.origin_y_m) * inv_res - 0.5);
+        RayOrigin::Above { au, av, oz: origin.z, p: patch_index(au, w), q: patch_index(av, h) }
+    }
+
+    /// [`Self::cast`] from an origin prepared by [`Self::ray_origin`] (on `field`, which this
+    /// caster was built for).
+    fn cast_from(&self, field: &Heightfield, origin: RayOrigin, dir: Vector3<f64>, max_range_m: f64) -> Option<f64> {
+        let (au, av, oz, mut p, mut q) = match origin {
+            RayOrigin::Outside => return None,
+            RayOrigin::Below => return Some(0.0),
+            RayOrigin::Above { au, av, oz, p, q } => (au, av, oz, p, q),
+        };
+        if max_range_m.is_nan() || max_range_m <= 0.0 || !dir.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let g = self.geometry;
+        let (w, h) = (g.width, g.height);
+        let inv_res = 1.0 / g.resolution_m;
+        let (bu, bv, dz) = (dir.x * inv_res, dir.y * inv_res, dir.z);
         let top = self.levels.len() - 1;
         let mut level = 0usize;
         let mut t = 0.0f64;
@@ -175,8 +224,7 @@ impl RayCaster {
             let t_exit = tx.min(ty).max(t);
             let seg_end = t_exit.min(max_range_m);
             let z_low = oz + dz * if dz < 0.0 { seg_end } else { t };
-            let lv = &self.levels[level];
-            let node_max = f64::from(lv.max_m[nj * lv.width + ni]);
+            let node_max = f64::from(self.levels[level].max_m(ni, nj));
             if z_low <= node_max {
                 if level > 0 {
                     level -= 1;
@@ -197,6 +245,17 @@ impl RayCaster {
             level = (level + 1).min(top);
         }
     }
+}
+
+/// Where a ray starts, relative to the terrain ([`RayCaster::cast`]).
+#[derive(Clone, Copy, Debug)]
+enum RayOrigin {
+    /// Outside the map (or an empty map): no hit.
+    Outside,
+    /// At or below the terrain: a hit at 0.
+    Below,
+    /// Above the terrain at sample coordinates (`au`, `av`), height `oz`, in patch (`p`, `q`).
+    Above { au: f64, av: f64, oz: f64, p: usize, q: usize },
 }
 
 /// One axis of the walk's step to the next node: the patch index after the node spanning
@@ -314,6 +373,14 @@ pub fn scan(
             (math::cos(az), math::sin(az))
         })
         .collect();
+    let owned;
+    let caster = if caster.built_for(field) {
+        caster
+    } else {
+        owned = RayCaster::new(field);
+        &owned
+    };
+    let origin = caster.ray_origin(field, sensor_m);
     let mut rays = 0;
     for k in 0..params.rings {
         let el = ring_elevation_rad(params, k);
@@ -321,7 +388,7 @@ pub fn scan(
         for &(ca, sa) in &azimuths {
             let dir = world_from_sensor * Vector3::new(ce * ca, ce * sa, se);
             rays += 1;
-            if let Some(r) = caster.cast(field, sensor_m, dir, params.max_range_m) {
+            if let Some(r) = caster.cast_from(field, origin, dir, params.max_range_m) {
                 let noisy = r + params.range_sigma_m * gaussian(rng);
                 if r >= params.min_range_m {
                     out.push(sensor_m + dir * noisy);
@@ -612,6 +679,38 @@ mod tests {
                 // A grazing ray may touch within one fine step: tolerate only near-misses.
                 (a, b) => panic!("fast {a:?} vs brute {b:?} (az {az}, el {el})"),
             }
+        }
+    }
+
+    #[test]
+    fn a_sweep_hits_where_each_ray_cast_on_its_own_hits() {
+        // `scan` prepares the origin once per sweep: the same points, bit for bit, as casting
+        // every ray with `cast` and the same noise.
+        let field = terrain((0.5, 0.4, 1.0, 0.5), 0.05, 120);
+        let caster = RayCaster::new(&field);
+        let p = LidarParams { max_range_m: 4.0, ..LidarParams::default() };
+        let rot = Rotation3::from_euler_angles(0.1, -0.05, 0.7);
+        for (x, y) in [(1.0, 1.5), (3.0, 3.0), (-1.0, 1.0)] {
+            let o = Point3::new(x, y, field.height_at(x, y).map_or(0.3, |z| z + 0.3));
+            let (mut swept, mut single) = (Vec::new(), Vec::new());
+            scan(&field, &caster, o, &rot, &p, &mut ChaCha8Rng::seed_from_u64(5), &mut swept);
+            let mut rng = ChaCha8Rng::seed_from_u64(5);
+            let n_az = (std::f64::consts::TAU / p.azimuth_step_rad).round() as usize;
+            for k in 0..p.rings {
+                let el = ring_elevation_rad(&p, k);
+                for a in 0..n_az {
+                    let az = a as f64 * p.azimuth_step_rad;
+                    let dir = rot * Vector3::new(math::cos(el) * math::cos(az), math::cos(el) * math::sin(az), math::sin(el));
+                    if let Some(r) = caster.cast(&field, o, dir, p.max_range_m) {
+                        let noisy = r + p.range_sigma_m * gaussian(&mut rng);
+                        if r >= p.min_range_m {
+                            single.push(o + dir * noisy);
+                        }
+                    }
+                }
+            }
+            assert_eq!(swept, single);
+            assert_eq!(swept.is_empty(), x < 0.0, "{} points from ({x}, {y})", swept.len());
         }
     }
 

@@ -17,8 +17,10 @@ use super::moments::{CellMoments, add_outer};
 use crate::grid::GridGeometry;
 
 /// Raw moments of one disc (see the module doc), coordinates relative to the cell's centre and
-/// `z_ref_m`.
+/// `z_ref_m`. `repr(C)`: [`DiscSum::prefetch`] relies on the field order (96 bytes, `count` first,
+/// `var_sum_m2` last).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
 pub(super) struct DiscSum {
     pub(super) count: u64,
     /// Reference height, map-local metres (the first point's z).
@@ -48,6 +50,15 @@ impl DiscSum {
         s[4] += scatter[4] + n * mean[1] * mean[2];
         s[5] += scatter[5] + n * mean[2] * mean[2];
         self.count += count;
+    }
+
+    /// Asks the cache for this sum's lines ahead of its use: the bytes at 0, 48 and 88 of its
+    /// 96 are at most 48 apart, so every 64-byte line it spans is requested.
+    #[inline(always)]
+    pub(super) fn prefetch(&self) {
+        prefetch(self);
+        prefetch(&self.sum_sq[1]);
+        prefetch(&self.var_sum_m2);
     }
 
     /// Adds one point, `d` relative to the disc's reference, with vertical noise variance `var_m2`.
@@ -101,26 +112,33 @@ impl Disc {
     }
 
     /// Calls `f(k, col, row)` for every cell k = (col, row) of the disc around `index` that lies
-    /// in the grid, in offset order (the column and row come from the offsets: no division per
-    /// cell).
+    /// in the grid, in offset order (the column and row come from the offsets, k = index + the
+    /// flat offset: no division per cell; the bounds are checked only near the grid's border).
     #[inline]
     pub(super) fn for_each(&self, g: &GridGeometry, index: usize, mut f: impl FnMut(usize, i32, i32)) {
         let (w, h) = (g.width as i32, g.height as i32);
         let (col, row) = ((index % g.width) as i32, (index / g.width) as i32);
         let r = self.r_cells;
-        if col >= r && row >= r && col + r < w && row + r < h {
-            for (&o, &(dx, dy)) in self.flat.iter().zip(&self.offsets) {
-                f((index as isize + o) as usize, col + dx, row + dy);
-            }
-        } else {
-            for &(dx, dy) in &self.offsets {
-                let (c, rr) = (col + dx, row + dy);
-                if c >= 0 && rr >= 0 && c < w && rr < h {
-                    f(rr as usize * g.width + c as usize, c, rr);
-                }
+        let interior = col >= r && row >= r && col + r < w && row + r < h;
+        // One call site, so that `f` is inlined.
+        for (&o, &(dx, dy)) in self.flat.iter().zip(&self.offsets) {
+            let (c, rr) = (col + dx, row + dy);
+            if interior || (c >= 0 && rr >= 0 && c < w && rr < h) {
+                f(index.wrapping_add_signed(o), c, rr);
             }
         }
     }
+}
+
+/// Asks the cache for the line holding `x`, ahead of its use: a hint that never faults and changes
+/// no result. The map is far larger than the caches and a scan's points (or a drain's stale cells)
+/// are spread over it, so without the hint most of a disc's lines miss on their first touch.
+#[inline(always)]
+pub(super) fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    safe_arch::prefetch_t0(x);
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
 }
 
 /// The disc sums of every cell of one grid, for one disc radius.
@@ -150,6 +168,17 @@ impl DiscSums {
             });
         }
         Self { radius_m, disc, sums }
+    }
+
+    /// Prefetches ([`prefetch`]) the sums of the disc around `index` (near the grid's border the
+    /// row-major offsets wrap to other cells: harmless for a hint). O(disc cells).
+    #[inline]
+    pub(super) fn prefetch_disc(&self, index: usize) {
+        for &o in &self.disc.flat {
+            if let Some(s) = self.sums.get(index.wrapping_add_signed(o)) {
+                s.prefetch();
+            }
+        }
     }
 
     /// Adds a point (map-local coordinates, vertical noise variance `var_m2`) of cell `index` to

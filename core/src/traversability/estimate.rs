@@ -31,7 +31,7 @@
 //! known/unknown flags without estimating. Against the straightforward gather-then-fuse of notes
 //! §2 the disc sums agree to rounding (proptest `optimised_estimate_agrees_with_straightforward_reference`).
 
-use super::disc_sums::{DiscSum, DiscSums, centre_local};
+use super::disc_sums::{DiscSum, DiscSums, centre_local, prefetch};
 use super::map::TraversabilityMap;
 use super::moments::CellMoments;
 use super::plane::fit_plane;
@@ -173,8 +173,8 @@ pub(super) fn known_moments(sum: &DiscSum, p: &TraversabilityParams) -> Option<C
     Some(fused)
 }
 
-/// The estimate of cell `index` from its disc sum (slope, roughness) and its disc's cells (step):
-/// O(disc cells), no allocation, no data-dependent branch in the loop over the cells.
+/// The estimate of cell `index` from its disc sum (slope, roughness) and its disc's non-empty
+/// cells (step): O(disc cells), no allocation.
 #[inline]
 pub(super) fn estimate_cell(
     sums: &DiscSums,
@@ -202,10 +202,14 @@ pub(super) fn estimate_cell(
     let (x_c, y_c) = centre_local(g, index);
     let z_ref = sum.z_ref_m;
     let relative = p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some();
-    // Empty cells have z_max = −∞, z_min = +∞ (and a finite mean): they change nothing.
     let (mut raw_hi, mut raw_lo, mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
     sums.disc.for_each(g, index, |k, _, _| {
         let m = &moments[k];
+        // Empty cells (z_max = −∞, z_min = +∞) would change nothing: skipped, with their
+        // plane-height division.
+        if m.count == 0 {
+            return;
+        }
         raw_hi = raw_hi.max(m.z_max);
         raw_lo = raw_lo.min(m.z_min);
         if relative {
@@ -278,7 +282,17 @@ impl TraversabilityMap {
         let Some(sums) = &self.discs else { unreachable!("ensure_discs built them") };
         let mut n = 0;
         // A cell refreshed on its own since it was listed (Self::refresh_cells) is skipped.
-        self.stale_estimate.drain_in_order(|j| {
+        let moments = &self.moments;
+        let ahead = |a: usize| {
+            sums.sums[a].prefetch();
+            for &o in &sums.disc.flat {
+                if let Some(m) = moments.get(a.wrapping_add_signed(o)) {
+                    prefetch(m);
+                    prefetch(&m.var_sum_m2);
+                }
+            }
+        };
+        self.stale_estimate.drain_in_order(ahead, |j| {
             let e = estimate_cell(sums, &self.moments, &g, j, params);
             layers.write(j, self.moments[j].count, &e);
             n += 1;
@@ -340,7 +354,7 @@ impl TraversabilityMap {
             }
             stale.clear();
         } else {
-            stale.drain_in_order(|j| check(j, &mut self.known));
+            stale.drain_in_order(|a| sums.sums[a].prefetch(), |j| check(j, &mut self.known));
         }
     }
 }

@@ -18,11 +18,19 @@
 use nalgebra::Point3;
 
 use super::TraversabilityError;
-use super::disc_sums::DiscSums;
+use super::disc_sums::{DiscSums, prefetch};
 use super::moments::CellMoments;
 use crate::cloud::PointCloud;
 use crate::grid::{GridGeometry, MAX_CELLS};
 use crate::params::Params;
+
+/// Points binned per chunk by [`TraversabilityMap::insert_points_with_variance`].
+const INSERT_CHUNK: usize = 64;
+/// How many points ahead of its update a point's cells are prefetched (a DRAM latency is about
+/// the time of that many insertions).
+const INSERT_AHEAD: usize = 6;
+/// How many cells ahead of its visit [`StaleCells::drain_in_order`] offers a cell for prefetching.
+pub(super) const DRAIN_AHEAD: usize = 16;
 
 /// What happened to the points given to [`TraversabilityMap::insert_points`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -88,27 +96,36 @@ impl StaleCells {
 
     /// Calls `f` once with every flagged cell, in increasing (row-major) order, so that
     /// neighbouring discs share cache lines, and empties the set (`all` is the caller's to handle
-    /// first). A cell unflagged since it was listed is skipped. Sorts the list when it is short,
-    /// else scans the flags 64 at a time: O(min(k log k, cells / 64 + k)) for k listed cells.
-    pub(super) fn drain_in_order(&mut self, mut f: impl FnMut(usize)) {
-        if self.list.len() * 64 < self.flag.len() {
+    /// first); before `f` sees a cell, `ahead` sees the cell [`DRAIN_AHEAD`] places later (for
+    /// prefetching). A cell unflagged since it was listed is skipped. Sorts the list when it is
+    /// short, else scans the flags 64 at a time: O(min(k log k, cells / 64 + k)) for k listed cells.
+    pub(super) fn drain_in_order(&mut self, mut ahead: impl FnMut(usize), mut f: impl FnMut(usize)) {
+        let flag = &mut self.flag;
+        if self.list.len() * 64 < flag.len() {
             self.list.sort_unstable();
-            for &i in &self.list {
-                if std::mem::take(&mut self.flag[i as usize]) {
-                    f(i as usize);
-                }
-            }
+            // Unflags as it goes, so a cell listed twice stays once.
+            self.list.retain(|&i| std::mem::take(&mut flag[i as usize]));
         } else {
-            for (k, chunk) in self.flag.chunks_mut(64).enumerate() {
+            self.list.clear();
+            for (k, chunk) in flag.chunks_mut(64).enumerate() {
                 // A branch-free OR over the chunk (vectorised), then the flagged cells.
                 if chunk.iter().fold(false, |any, &b| any | b) {
                     for (j, b) in chunk.iter_mut().enumerate() {
                         if std::mem::take(b) {
-                            f(k * 64 + j);
+                            self.list.push((k * 64 + j) as u32);
                         }
                     }
                 }
             }
+        }
+        for &i in self.list.iter().take(DRAIN_AHEAD) {
+            ahead(i as usize);
+        }
+        for (k, &i) in self.list.iter().enumerate() {
+            if let Some(&a) = self.list.get(k + DRAIN_AHEAD) {
+                ahead(a as usize);
+            }
+            f(i as usize);
         }
         self.list.clear();
         self.all = false;
@@ -211,29 +228,64 @@ impl TraversabilityMap {
     pub fn insert_points_with_variance<I: IntoIterator<Item = (Point3<f64>, f64)>>(&mut self, world_points: I) -> InsertStats {
         let mut stats = InsertStats::default();
         let g = self.geometry;
-        for (p, var_m2) in world_points {
-            let var_m2 = if var_m2.is_finite() { var_m2.max(0.0) } else { 0.0 };
-            if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
-                stats.ignored += 1;
-                continue;
+        // Points are binned a chunk at a time so that each point's cells can be prefetched
+        // `INSERT_AHEAD` points before they are updated (in the input order: the sums are the
+        // same, bit for bit).
+        let mut chunk = [(0usize, [0.0f64; 3], 0.0f64); INSERT_CHUNK];
+        let mut points = world_points.into_iter();
+        loop {
+            let mut n = 0;
+            for (p, var_m2) in points.by_ref() {
+                let var_m2 = if var_m2.is_finite() { var_m2.max(0.0) } else { 0.0 };
+                if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
+                    stats.ignored += 1;
+                    continue;
+                }
+                let Some(i) = g.cell_of(p.x, p.y).and_then(|c| g.index(c)) else {
+                    stats.ignored += 1;
+                    continue;
+                };
+                let z0 = *self.z_origin_m.get_or_insert(p.z);
+                chunk[n] = (i, [p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0], var_m2);
+                n += 1;
+                if n == INSERT_CHUNK {
+                    break;
+                }
             }
-            let Some(i) = g.cell_of(p.x, p.y).and_then(|c| g.index(c)) else {
-                stats.ignored += 1;
-                continue;
-            };
-            let z0 = *self.z_origin_m.get_or_insert(p.z);
-            let q = [p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0];
-            self.moments[i].add_with_variance(q, var_m2);
-            if let Some(d) = self.discs.as_mut() {
-                let (se, sk) = (&mut self.stale_estimate, &mut self.stale_known);
-                d.add_point(&g, i, q, var_m2, |c| {
-                    se.mark(c);
-                    sk.mark(c);
-                });
+            if n == 0 {
+                return stats;
             }
-            stats.inserted += 1;
+            let chunk = &chunk[..n];
+            for &(i, _, _) in chunk.iter().take(INSERT_AHEAD) {
+                self.prefetch_cell(i);
+            }
+            for (k, &(i, q, var_m2)) in chunk.iter().enumerate() {
+                if let Some(&(ahead, _, _)) = chunk.get(k + INSERT_AHEAD) {
+                    self.prefetch_cell(ahead);
+                }
+                self.moments[i].add_with_variance(q, var_m2);
+                if let Some(d) = self.discs.as_mut() {
+                    let (se, sk) = (&mut self.stale_estimate, &mut self.stale_known);
+                    d.add_point(&g, i, q, var_m2, |c| {
+                        se.mark(c);
+                        sk.mark(c);
+                    });
+                }
+            }
+            stats.inserted += n;
         }
-        stats
+    }
+
+    /// Prefetches what inserting a point of cell `index` updates: its moments and its disc's sums.
+    #[inline]
+    fn prefetch_cell(&self, index: usize) {
+        let m = &self.moments[index];
+        prefetch(m);
+        prefetch(&m.scatter[3]);
+        prefetch(&m.var_sum_m2);
+        if let Some(d) = &self.discs {
+            d.prefetch_disc(index);
+        }
     }
 
     /// Removes every point (e.g. before re-registering all scans after a loop closure). Keeps
@@ -306,9 +358,11 @@ mod tests {
             }
             let mut want: Vec<usize> = (0..cells).filter(|&i| s.flag[i]).collect();
             want.dedup();
-            let mut got = Vec::new();
-            s.drain_in_order(|i| got.push(i));
-            prop_assert_eq!(got, want);
+            let (mut got, mut offered) = (Vec::new(), Vec::new());
+            s.drain_in_order(|i| offered.push(i), |i| got.push(i));
+            prop_assert_eq!(&got, &want);
+            // Each cell is offered for prefetching once, DRAIN_AHEAD visits early at most.
+            prop_assert_eq!(offered, want);
             prop_assert!(s.list.is_empty() && !s.all && s.flag.iter().all(|&f| !f));
         }
     }
