@@ -256,8 +256,9 @@ fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_core::Param
     rects.push(("mission_localisation", combo.response.rect));
     let slam = m.config.localisation == Localisation::Slam;
     let r = ui.add_enabled(slam, egui::Checkbox::new(&mut m.config.reproducible_slam, "same bits on every CPU")).on_hover_text(
-        "Graph SLAM with the reproducible (simplicial) factorisation: this run is then the same in the browser, natively and in \
-         `fitslam explore` with factorisation = \"reproducible\", at some cost in speed on long missions.",
+        "For the batch SLAM solver (solver = \"batch\" under [slam.graph]): the reproducible (simplicial) factorisation, so \
+         that the run is the same in the browser, natively and in `fitslam explore` with factorisation = \"reproducible\". \
+         The default incremental solver (iSAM2) gives the same run everywhere without it.",
     );
     rects.push(("mission_reproducible", r.rect));
     let header = egui::CollapsingHeader::new("simulator parameters").default_open(false).show(ui, |ui| {

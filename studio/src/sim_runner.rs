@@ -109,9 +109,10 @@ pub struct MissionConfig {
     /// Sensor-noise (and random-strategy) seed, the same for every lane.
     pub seed: u64,
     pub localisation: Localisation,
-    /// Graph SLAM with the reproducible factorisation: the same bits on every CPU, in the
-    /// browser and in `fitslam explore` with `factorisation = "reproducible"` (slower on long
-    /// missions; README, "Same seed, same run").
+    /// The batch SLAM solver's reproducible factorisation: the same bits on every CPU, in the
+    /// browser and in `fitslam explore` with `factorisation = "reproducible"` (README, "Same
+    /// seed, same run"); the default incremental solver does not factorise with faer and is the
+    /// same everywhere without it.
     pub reproducible_slam: bool,
     /// Simulator parameters as `fitslam explore --sim-params` reads them: TOML over the
     /// defaults (a key left out keeps its default); empty or blank: the defaults.
