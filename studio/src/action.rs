@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 /// A request from a view to the app.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Action {
     /// Write the parameters as the robot node's YAML file.
     ExportParams,
@@ -14,6 +14,12 @@ pub enum Action {
     ExportRanking { json: bool },
     /// Load mission lane `i`'s current state into the Planner mode and switch to it.
     OpenLaneInPlanner(usize),
+    /// Show the open recording at this instant, seconds from its start.
+    ShowInstant(f64),
+    /// Close the open recording (the scene stays).
+    CloseRecording,
+    /// Write the scene as files `fitslam select` reads.
+    ExportScene,
 }
 
 /// Screen rectangles of named widgets this frame.

@@ -16,6 +16,7 @@ use crate::loader::{self, Loaded};
 use crate::mission_view::MissionView;
 use crate::panels::{self, TableState};
 use crate::planner::{Layer, PlannerState};
+use crate::recording::{self, Recording};
 use crate::scene::{Landmarks, Scene};
 use crate::tour::Tour;
 use fitslam_core::Params;
@@ -48,6 +49,8 @@ pub struct StudioApp {
     pub mode: Mode,
     /// The Mission mode's state (its missions are started when the mode is first shown).
     pub mission: MissionView,
+    /// The recorded mission shown in the Planner mode, if one is open.
+    pub recording: Option<Recording>,
     inbox: Inbox,
     browser: FileBrowser,
     /// Map YAMLs waiting for their image, and the last bare image (for a YAML that comes later).
@@ -86,6 +89,7 @@ impl StudioApp {
             tour: Tour::default(),
             mode: Mode::Planner,
             mission: MissionView::default(),
+            recording: None,
             inbox: Inbox::default(),
             browser: FileBrowser::default(),
             pairing: loader::Pairing::default(),
@@ -101,6 +105,7 @@ impl StudioApp {
     pub fn load_builtin(&mut self, name: &str) {
         match assets::builtin(name).map(|b| b.build(self.planner.params.frontier.blacklist_radius_m)) {
             Some(Ok(scene)) => {
+                self.close_recording();
                 self.planner.scene = scene;
                 self.planner.revs.map += 1;
                 self.planner.revs.landmarks += 1;
@@ -143,6 +148,7 @@ impl StudioApp {
         for r in results {
             match r {
                 Ok(Loaded::Map(map)) => {
+                    self.close_recording();
                     let (name, cells, known) = (map.source.clone(), map.geometry().len(), map.known_cells());
                     let robot = self.planner.scene.robot;
                     let landmarks = std::mem::take(&mut self.planner.scene.landmarks);
@@ -170,6 +176,7 @@ impl StudioApp {
                     self.planner.params = *p;
                     self.info("parameters loaded");
                 }
+                Ok(Loaded::Recording(r)) => self.open_recording(*r),
                 Ok(Loaded::WaitingForImage { yaml_name, image }) => {
                     self.info(format!("{yaml_name}: now drop or open its image {image}"));
                 }
@@ -177,6 +184,76 @@ impl StudioApp {
                 Err(e) => self.error(e),
             }
         }
+    }
+
+    /// Opens a recording at its first decision instant (else its end).
+    pub fn open_recording(&mut self, rec: Recording) {
+        let (name, n, duration) = (rec.name().to_string(), rec.instants().len(), rec.duration_s());
+        let t = rec.first_instant_s();
+        self.recording = Some(rec);
+        if self.show_instant(t) {
+            self.canvas.fit_requested = true;
+            self.info(format!("recording {name}: {duration:.1} s, {n} decision instants"));
+        } else {
+            self.recording = None;
+        }
+    }
+
+    /// Shows the open recording at `t_s`: the robot's scene then, its choice beside the
+    /// re-ranking. The view is kept (the map grows in the same frame). Returns whether it could.
+    pub fn show_instant(&mut self, t_s: f64) -> bool {
+        let radius = self.planner.params.frontier.blacklist_radius_m;
+        let Some(rec) = self.recording.as_mut() else { return false };
+        match rec.scene_at(t_s, radius) {
+            Ok(scene) => {
+                self.planner.recorded_goal_m = rec.robot_target();
+                self.planner.scene = scene;
+                self.planner.revs.map += 1;
+                self.planner.revs.landmarks += 1;
+                self.planner.revs.layout += 1;
+                self.planner.selected = None;
+                self.planner.hovered = None;
+                true
+            }
+            Err(e) => {
+                self.error(e);
+                false
+            }
+        }
+    }
+
+    /// Closes the recording; the scene shown stays.
+    pub fn close_recording(&mut self) {
+        self.recording = None;
+        self.planner.recorded_goal_m = None;
+    }
+
+    /// Writes the scene as files `fitslam select` reads (the grid at τ, the landmarks, the
+    /// command line with the pose); named after the recording's instant when one is shown.
+    pub fn export_scene(&mut self) {
+        let Some(grid) = self.planner.pipeline.occupancy() else {
+            self.error("no scene to export yet");
+            return;
+        };
+        let stem = match &self.recording {
+            Some(r) => {
+                let base = loader::base_name(r.name());
+                format!("{}_t{:.3}s", base.strip_suffix(".mcap").unwrap_or(base), r.t_s)
+            }
+            None => "fitslam_scene".to_string(),
+        };
+        let files = recording::scene_files(grid, &self.planner.scene.landmarks, self.planner.scene.robot, &stem);
+        let mut written = Vec::new();
+        for (name, bytes) in &files {
+            match files::save(name, "application/octet-stream", bytes) {
+                Ok(p) => written.push(p),
+                Err(e) => {
+                    self.error(format!("export scene: {e}"));
+                    return;
+                }
+            }
+        }
+        self.info(format!("scene written: {}", written.join(", ")));
     }
 
     /// Draws the whole studio into `ui` and updates the decision; the body of `eframe::App::ui`.
@@ -212,6 +289,11 @@ impl StudioApp {
     fn planner_panels(&mut self, ui: &mut egui::Ui) {
         let ctx = ui.ctx().clone();
         let mut actions = Vec::new();
+        if let Some(rec) = &self.recording {
+            egui::Panel::top("recording").show(ui, |ui| {
+                crate::recording_view::show(ui, rec, self.planner.pipeline.ok_decision(), &mut self.widget_rects, &mut actions)
+            });
+        }
         let p = &mut self.planner;
         egui::Panel::left("params").resizable(true).default_size(270.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| panels::params_panel(ui, &mut p.params, &mut self.widget_rects, &mut actions));
@@ -266,6 +348,7 @@ impl StudioApp {
         scene.boundary = m.world().boundary.clone();
         scene.blacklist = m.explorer().blacklist().clone();
         let (strategy, seed) = (lane.strategy, m.seed());
+        self.close_recording();
         self.planner.scene = scene;
         self.planner.params.selector.strategy = strategy;
         self.planner.params.selector.seed = seed;
@@ -307,13 +390,18 @@ impl StudioApp {
                 Action::ExportParams => self.export_params(),
                 Action::ExportRanking { json } => self.export_ranking(json),
                 Action::OpenLaneInPlanner(i) => self.open_lane_in_planner(i),
+                Action::ShowInstant(t) => {
+                    self.show_instant(t);
+                }
+                Action::CloseRecording => self.close_recording(),
+                Action::ExportScene => self.export_scene(),
             }
         }
     }
 
     /// Writes the parameters as the robot node's YAML file.
     pub fn export_params(&mut self) {
-        match files::save_text("fitslam_params.yaml", "application/yaml", &self.planner.params.to_yaml()) {
+        match files::save("fitslam_params.yaml", "application/yaml", self.planner.params.to_yaml().as_bytes()) {
             Ok(p) => self.info(format!("parameters written to {p}")),
             Err(e) => self.error(format!("export parameters: {e}")),
         }
@@ -334,7 +422,7 @@ impl StudioApp {
         } else {
             ("fitslam_ranking.csv", "text/csv", export::ranking_csv(d))
         };
-        match files::save_text(name, mime, &text) {
+        match files::save(name, mime, text.as_bytes()) {
             Ok(p) => self.info(format!("ranking written to {p}")),
             Err(e) => self.error(format!("export ranking: {e}")),
         }
@@ -370,6 +458,9 @@ impl StudioApp {
             if ui.button("Open parameters (YAML, TOML)…").clicked() {
                 files::open_picker(Intent::Params, &self.inbox, &ctx, &mut self.browser);
             }
+            if ui.button("Open recording (rosbag2 MCAP)…").clicked() {
+                files::open_picker(Intent::Recording, &self.inbox, &ctx, &mut self.browser);
+            }
             ui.separator();
             if ui.button("Export parameters (robot YAML, Ctrl+E)").clicked() {
                 self.export_params();
@@ -379,6 +470,9 @@ impl StudioApp {
             }
             if ui.button("Export ranking CSV (Ctrl+Shift+C)").clicked() {
                 self.export_ranking(false);
+            }
+            if ui.button("Export scene (map, landmarks, pose for `fitslam select`)").clicked() {
+                self.export_scene();
             }
         });
         ui.menu_button("Built-in", |ui| {
@@ -500,7 +594,7 @@ impl StudioApp {
         egui::Window::new("About the FIT-SLAM studio").open(&mut open).show(ctx, |ui| {
             ui.label("FIT-SLAM ranks frontier goals by u1 (path length and expected entropy gain over the camera's best heading Θ*) and re-ranks the best N by u2 (landmark Fisher information along the path).");
             ui.label("Drag the robot to move it, drag its heading handle to rotate it, scroll to zoom, drag the background to pan. Hover or click a candidate for its numbers.");
-            ui.label("Drop map_server YAML + PGM/PNG, PNG, or PCD/PLY/CSV/LAS files on the window to load them.");
+            ui.label("Drop map_server YAML + PGM/PNG, PNG, or PCD/PLY/CSV/LAS files on the window to load them; drop a rosbag2 MCAP recording to replay the robot's decisions.");
         });
         self.show_about = open;
     }
@@ -541,6 +635,16 @@ impl StudioApp {
             "slider_width": ctx.global_style().spacing.slider_width,
             "cloud_question": self.ask_cloud.as_ref().map(|f| f.name.clone()),
             "mode": if self.mode == Mode::Mission { "mission" } else { "planner" },
+            "recording": self.recording.as_ref().map(|r| serde_json::json!({
+                "name": r.name(),
+                "duration_s": r.duration_s(),
+                "instants_s": r.instants().iter().map(|i| i.t_s).collect::<Vec<_>>(),
+                "index": r.current_index(),
+                "t_s": r.t_s,
+                "robot_goal": r.robot_target(),
+                "chosen_m": self.planner.pipeline.ok_decision().and_then(|d| d.chosen_candidate()).map(|c| [c.x_m, c.y_m]),
+                "goal_gap_m": crate::recording_view::choice_gap_m(r, self.planner.pipeline.ok_decision()),
+            })),
             "mission": if self.mode == Mode::Mission || self.mission.runner.is_some() {
                 self.mission.stats()
             } else {

@@ -47,14 +47,14 @@ pub fn pick_files(extensions: &[&str], on_read: impl Fn(Vec<ReadFile>) + Clone +
     input.click();
 }
 
-/// Offers `text` as a download named `file_name`.
-pub fn download(file_name: &str, mime: &str, text: &str) -> Result<(), String> {
+/// Offers `bytes` as a download named `file_name`.
+pub fn download(file_name: &str, mime: &str, bytes: &[u8]) -> Result<(), String> {
     let err = |e: JsValue| format!("download failed: {e:?}");
     let document = web_sys::window().and_then(|w| w.document()).ok_or("no document")?;
-    let parts = js_sys::Array::of1(&JsValue::from_str(text));
+    let parts = js_sys::Array::of1(&js_sys::Uint8Array::from(bytes));
     let opts = web_sys::BlobPropertyBag::new();
     opts.set_type(mime);
-    let blob = web_sys::Blob::new_with_str_sequence_and_options(&parts, &opts).map_err(err)?;
+    let blob = web_sys::Blob::new_with_u8_array_sequence_and_options(&parts, &opts).map_err(err)?;
     let url = web_sys::Url::create_object_url_with_blob(&blob).map_err(err)?;
     let a = document.create_element("a").map_err(err)?.unchecked_into::<web_sys::HtmlAnchorElement>();
     a.set_href(&url);

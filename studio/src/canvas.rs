@@ -333,6 +333,11 @@ pub fn show(ui: &mut egui::Ui, planner: &mut PlannerState, canvas: &mut CanvasSt
         }
     }
     widget_rects.extend(rank_rects);
+    if let Some([x, y]) = planner.recorded_goal_m {
+        let p = view.to_screen(x, y);
+        crate::recording_view::draw_robot_choice(&painter, p);
+        widget_rects.insert("robot_choice", egui::Rect::from_center_size(p, Vec2::splat(22.0)));
+    }
 
     draw_robot(&painter, robot_px, body_r, handle_px, canvas.drag == Drag::RotateRobot);
 

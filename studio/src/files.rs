@@ -3,7 +3,7 @@
 //! In: files dropped on the window (both), the browser's file picker (web), an in-app file
 //! browser (native: plain egui over `std::fs`, no system dialog needed). Every file arrives in the
 //! [`Inbox`] as a name plus bytes (or a read error), and the app turns it into scene parts with
-//! [`crate::loader`]. Out: [`save_text`] downloads a file in the browser and writes it natively.
+//! [`crate::loader`]. Out: [`save`] downloads a file in the browser and writes it natively.
 
 use std::sync::{Arc, Mutex};
 
@@ -31,6 +31,8 @@ pub enum Intent {
     TerrainCloud,
     /// A parameter file (YAML, TOML).
     Params,
+    /// A recorded mission (rosbag2 MCAP).
+    Recording,
 }
 
 /// Files waiting to be loaded; filled by async readers on the web, drained once per frame.
@@ -93,26 +95,27 @@ impl Inbox {
 /// The extensions each intent accepts (lower case, without the dot).
 pub fn extensions(intent: Intent) -> &'static [&'static str] {
     match intent {
-        Intent::Any => &["yaml", "yml", "pgm", "png", "pcd", "ply", "csv", "las", "laz", "toml"],
+        Intent::Any => &["yaml", "yml", "pgm", "png", "pcd", "ply", "csv", "las", "laz", "toml", "mcap"],
         Intent::Map => &["yaml", "yml", "pgm", "png"],
         Intent::Landmarks | Intent::TerrainCloud => &["pcd", "ply", "csv", "las", "laz"],
         Intent::Params => &["yaml", "yml", "toml"],
+        Intent::Recording => &["mcap"],
     }
 }
 
-/// Saves `text` as `file_name`: a download in the browser; natively a file in the current
+/// Saves `bytes` as `file_name`: a download in the browser; natively a file in the current
 /// directory (the path is returned for the status line).
-pub fn save_text(file_name: &str, mime: &str, text: &str) -> Result<String, String> {
+pub fn save(file_name: &str, mime: &str, bytes: &[u8]) -> Result<String, String> {
     #[cfg(target_arch = "wasm32")]
     {
-        crate::browser::download(file_name, mime, text)?;
+        crate::browser::download(file_name, mime, bytes)?;
         Ok(file_name.to_string())
     }
     #[cfg(not(target_arch = "wasm32"))]
     {
         let _ = mime;
         let path = std::env::current_dir().map_err(|e| e.to_string())?.join(file_name);
-        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
         Ok(path.display().to_string())
     }
 }

@@ -16,6 +16,7 @@
 //! | [`panels`] | parameter sliders, candidate details, sortable table |
 //! | [`summary`] | one candidate's numbers (canvas tooltip, details panel) |
 //! | [`loader`] / [`files`] | files → scene parts; drop, picker, in-app file browser, downloads |
+//! | [`recording`] / [`recording_view`] | a recorded mission (rosbag2 MCAP): decision instants, the scene at an instant, the robot's choice beside the re-ranking, export; its timeline |
 //! | [`export`] | ranking CSV / JSON, parameter YAML, digest |
 //! | [`assets`] | built-in scenes (embedded) |
 //! | [`tour`] | the teaching tour |
@@ -36,6 +37,8 @@ pub mod mission_view;
 pub mod panels;
 pub mod pipeline;
 pub mod planner;
+pub mod recording;
+pub mod recording_view;
 pub mod scene;
 pub mod sim_runner;
 pub mod summary;

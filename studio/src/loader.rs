@@ -6,10 +6,12 @@
 //! | `.yaml`/`.yml`/`.toml` parameter file | the parameters |
 //! | `.png`/`.pgm` alone | a map at the current resolution, origin (0, 0), map_server's default thresholds |
 //! | `.pcd`/`.ply`/`.csv`/`.las`/`.laz` | a landmark set, or a traversability map computed from it (the user says which) |
+//! | `.mcap` | a recorded mission (rosbag2), opened at its first decision instant |
 //!
 //! Every failure is a message naming the file; nothing here panics on input.
 
 use crate::files::{IncomingFile, Intent};
+use crate::recording::Recording;
 use crate::scene::{Landmarks, MapKind, MapLayers};
 use fitslam_core::Params;
 use fitslam_core::io::{self, MapError, MapThresholds, MapYaml};
@@ -21,6 +23,7 @@ pub enum Loaded {
     Map(MapLayers),
     Landmarks(Landmarks),
     Params(Box<Params>),
+    Recording(Box<Recording>),
     /// A map YAML whose image has not arrived yet (the web cannot read a file's neighbours).
     WaitingForImage {
         yaml_name: String,
@@ -106,9 +109,10 @@ pub fn load_batch(files: Vec<IncomingFile>, pairing: &mut Pairing, params: &Para
                 }
             },
             "toml" => out.push(params_or_error(&bytes, &f.name, None)),
+            "mcap" => out.push(Recording::open(&bytes, &f.name).map(|r| Loaded::Recording(Box::new(r)))),
             e if is_cloud(e) => out.push(load_cloud(f.name, bytes, f.intent, params)),
             _ => out.push(Err(format!(
-                "{}: unsupported file type (maps: .yaml + .pgm/.png, .png; landmarks or terrain: .pcd .ply .csv .las; parameters: .yaml .toml)",
+                "{}: unsupported file type (maps: .yaml + .pgm/.png, .png; landmarks or terrain: .pcd .ply .csv .las; parameters: .yaml .toml; recordings: .mcap)",
                 f.name
             ))),
         }
@@ -163,7 +167,9 @@ fn load_cloud(name: String, bytes: Vec<u8>, intent: Intent, params: &Params) -> 
             let map = TraversabilityMap::from_cloud(&cloud, params).map_err(|e| format!("{name}: {e}"))?;
             Ok(Loaded::Map(MapLayers::from_terrain(map, &params.traversability, base_name(&name))))
         }
-        Intent::Any | Intent::Map | Intent::Params => Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent })),
+        Intent::Any | Intent::Map | Intent::Params | Intent::Recording => {
+            Ok(Loaded::AskCloudUse(IncomingFile { name, bytes: Ok(bytes), intent }))
+        }
     }
 }
 

@@ -101,6 +101,9 @@ pub struct PlannerState {
     pub selected: Option<usize>,
     /// Candidate under the pointer in the canvas this frame.
     pub hovered: Option<usize>,
+    /// The goal a recorded robot chose at this scene's instant (map frame), drawn beside the
+    /// re-ranked one; set while a recording is shown.
+    pub recorded_goal_m: Option<[f64; 2]>,
 }
 
 impl PlannerState {
@@ -115,6 +118,7 @@ impl PlannerState {
             overlays: Overlays::default(),
             selected: None,
             hovered: None,
+            recorded_goal_m: None,
         };
         planner.pipeline.update(&planner.scene, planner.revs, &planner.params);
         planner

@@ -6,6 +6,9 @@
 //   3. drops a landmark set (landmarks.ply) on the canvas and answers "Landmarks" in the dialog;
 //   4. drags the α slider to its end and checks that the ranking changed;
 //   5. clicks the best candidate, drags the robot, and times re-ranking over many slider moves;
+//   5d. records a short mission as a rosbag2 bag with the native CLI, opens it through the picker
+//      and by drop, steps to the next decision, and checks each instant's re-ranking against
+//      `fitslam select --bag --at` (target/debug/fitslam);
 //   6. reloads without a query: the default built-in scene shows with a decision made;
 //   7. opens the Mission mode, plays fit / greedy / random side by side on the paper world until
 //      time advances and every lane explores, then measures the simulated seconds per real second
@@ -184,6 +187,82 @@ async function sameRunAsNative() {
   return s;
 }
 
+// Drops the file at `file` on the canvas under the name `name`, as a user dragging it there.
+async function dropFile(file, name) {
+  const b64 = fs.readFileSync(file).toString("base64");
+  await page.evaluate(async ([b64, name]) => {
+    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+    const dt = new DataTransfer();
+    dt.items.add(new File([bytes], name, { type: "application/octet-stream" }));
+    const canvas = document.getElementById("fitslam_canvas");
+    const r = canvas.getBoundingClientRect();
+    const at = { clientX: r.left + r.width / 2, clientY: r.top + r.height / 2 };
+    for (const type of ["dragenter", "dragover", "drop"]) {
+      canvas.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true, ...at }));
+    }
+  }, [b64, name]);
+}
+
+// The native CLI's view of a bag: its decision instants and its choice at two of them.
+function nativeBag(dir) {
+  const cli = path.join(targetDir, "debug", process.platform === "win32" ? "fitslam.exe" : "fitslam");
+  const bag = path.join(dir, "mission.mcap");
+  execFileSync(cli, ["explore", "--world", path.join(repo, "assets/worlds/paper_unstructured_20m.toml"), "--strategy", "fit",
+    "--seed", "1", "--localisation", "ground-truth", "--time-limit-s", "60", "--out", path.join(dir, "out"), "--bag", bag], { stdio: "pipe" });
+  const info = JSON.parse(execFileSync(cli, ["bag-info", bag, "--json"], { encoding: "utf8" }));
+  const instants = info.decision_instants.map((i) => i.t_s);
+  const chosen = instants.slice(0, 2).map((t) => {
+    const d = JSON.parse(execFileSync(cli, ["select", "--bag", bag, "--at", String(t), "--json"], { encoding: "utf8" }));
+    return d.chosen === null ? null : [d.candidates[d.chosen].x, d.candidates[d.chosen].y];
+  });
+  return { bag, instants, chosen };
+}
+
+async function recordedMission() {
+  let native;
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), "fitslam-bag-"));
+  try {
+    native = nativeBag(dir);
+  } catch (e) {
+    check("the native CLI records a mission bag", false, String(e.message ?? e).split("\n")[0]);
+    return;
+  }
+  check("the native CLI records a mission bag with two decisions or more", native.instants.length >= 2, `${native.instants.length} instants`);
+  const sameChoice = (s, k) => JSON.stringify(s.stats.recording.chosen_m) === JSON.stringify(native.chosen[k]);
+
+  let s = await state();
+  await page.mouse.click(...center(rect(s, "canvas")));
+  await page.keyboard.press("Control+o");
+  for (let k = 0; k < 100 && choosers.length === 0; k++) await page.waitForTimeout(100);
+  const chooser = choosers.shift();
+  if (!check("Ctrl+O opens the file picker for the bag", chooser !== undefined)) return;
+  await chooser.setFiles([native.bag]);
+  s = await waitFor("bag opened through the picker", (s) => s.stats.recording?.name === "mission.mcap" && s.stats.recording.chosen_m !== undefined, 60000);
+  if (!s) return;
+  const r = s.stats.recording;
+  check("the studio finds the CLI's decision instants", JSON.stringify(r.instants_s) === JSON.stringify(native.instants),
+    `${r.instants_s.length} instants, first at ${r.instants_s[0]} s`);
+  check("it opens at the first decision", r.index === 0 && r.t_s === native.instants[0], `t = ${r.t_s} s`);
+  check("the robot's choice is recorded", Array.isArray(r.robot_goal), JSON.stringify(r.robot_goal));
+  s = await waitFor("re-ranked at the first decision as `fitslam select --bag --at` does", (s) => sameChoice(s, 0), 10000);
+  if (s) check("first decision: the studio and the CLI choose the same goal", true, `${JSON.stringify(native.chosen[0])}, ${s.stats.recording.goal_gap_m} m from the robot's`);
+  notBlank("recording screenshot", await shot("05b-recording.png"));
+
+  s = await settledState();
+  await page.mouse.click(...center(rect(s, "bag_next")));
+  s = await waitFor("next decision shown", (s) => s.stats.recording?.index === 1, 20000);
+  if (s) {
+    check("next decision: the instant of the CLI's second decision", s.stats.recording.t_s === native.instants[1], `t = ${s.stats.recording.t_s} s`);
+    s = await waitFor("re-ranked at the second decision", (s) => sameChoice(s, 1), 10000);
+    if (s) check("second decision: the studio and the CLI choose the same goal", true, JSON.stringify(native.chosen[1]));
+  }
+
+  await dropFile(native.bag, "dropped.mcap");
+  s = await waitFor("bag opened by drop", (s) => s.stats.recording?.name === "dropped.mcap", 60000);
+  if (s) check("a dropped bag opens at its first decision", s.stats.recording.index === 0 && sameChoice(s, 0), `t = ${s.stats.recording.t_s} s`);
+  fs.rmSync(dir, { recursive: true, force: true });
+}
+
 function notBlank(name, m) {
   return check(`${name} is not blank`, m.colours >= 50 && m.nonBackground >= 0.2, `${m.colours} colours, ${(100 * m.nonBackground).toFixed(0)}% drawn (${path.relative(repo, m.file)})`);
 }
@@ -216,18 +295,7 @@ try {
   }
 
   // 3. Drop a landmark set on the canvas; the studio asks what the cloud is.
-  const ply = fs.readFileSync(path.join(assetDir, "landmarks.ply")).toString("base64");
-  await page.evaluate(async (b64) => {
-    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
-    const dt = new DataTransfer();
-    dt.items.add(new File([bytes], "landmarks.ply", { type: "application/octet-stream" }));
-    const canvas = document.getElementById("fitslam_canvas");
-    const r = canvas.getBoundingClientRect();
-    const at = { clientX: r.left + r.width / 2, clientY: r.top + r.height / 2 };
-    for (const type of ["dragenter", "dragover", "drop"]) {
-      canvas.dispatchEvent(new DragEvent(type, { dataTransfer: dt, bubbles: true, cancelable: true, ...at }));
-    }
-  }, ply);
+  await dropFile(path.join(assetDir, "landmarks.ply"), "landmarks.ply");
   s = await waitFor("dropped cloud asks what it is", (s) => s.stats.cloud_question === "landmarks.ply" && rect(s, "cloud_landmarks"));
   if (s) {
     // The question window lays itself out over its first frames: click where it settled (one
@@ -299,6 +367,12 @@ try {
   fs.writeFileSync(path.join(outDir, "timing.json"), JSON.stringify(timing, null, 2));
   check("re-ranking timed in the browser", times.length >= 10, `median ${median?.toFixed(2)} ms, max ${max?.toFixed(2)} ms over ${times.length} decisions on ${s.stats.map} ${JSON.stringify(s.stats.map_cells)}`);
   notBlank("final screenshot", await shot("05-final.png"));
+
+  // 5d. A recorded mission: the native CLI records a short paper-world mission as a rosbag2
+  // MCAP bag; the studio opens it through the picker (at its first decision instant), steps to
+  // the next decision, and re-ranks each instant as `fitslam select --bag --at` does; then the
+  // same bag dropped on the canvas opens too.
+  await recordedMission();
 
   // 6. A fresh start without any query shows the default built-in scene with a decision.
   await page.goto(base);
