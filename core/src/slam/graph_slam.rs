@@ -223,6 +223,14 @@ enum Solver {
 }
 
 impl Solver {
+    /// The id the next variable added gets.
+    fn next_id(&self) -> VarId {
+        match self {
+            Solver::Batch(b) => VarId(b.values.len()),
+            Solver::Incremental(i) => VarId(i.isam.len() + i.new_variables.len()),
+        }
+    }
+
     fn add_variable(&mut self, v: Variable) -> VarId {
         match self {
             Solver::Batch(b) => b.values.push(v),
@@ -311,7 +319,8 @@ impl GraphSlam {
         slam.keyframes.push(first);
         // New landmarks start at their observation: nothing to optimise yet (the incremental
         // solver takes them in now).
-        slam.observe(0, observations)?;
+        let noises = observation_noises(observations)?;
+        slam.observe(0, observations, noises)?;
         slam.commit()?;
         Ok(slam)
     }
@@ -416,16 +425,13 @@ impl GraphSlam {
         self.landmarks.contains_key(&landmark_id)
     }
 
-    /// Adds the observation factors of keyframe `k`; returns the landmarks that closed a loop.
-    fn observe(&mut self, k: usize, observations: &[LandmarkObservation]) -> Result<Vec<u64>, SlamError> {
+    /// Adds the observation factors of keyframe `k` (`noises` from [`observation_noises`]);
+    /// returns the landmarks that closed a loop.
+    fn observe(&mut self, k: usize, observations: &[LandmarkObservation], noises: Vec<GaussianNoise>) -> Result<Vec<u64>, SlamError> {
         let pose_var = self.keyframes[k];
         let world_from_robot = self.solver.se3(pose_var).unwrap_or_default();
         let mut closures = Vec::new();
-        for obs in observations {
-            if !obs.point_in_robot.iter().all(|v| v.is_finite()) {
-                return Err(SlamError::NonFinite);
-            }
-            let noise = GaussianNoise::from_covariance(&obs.covariance)?;
+        for (obs, noise) in observations.iter().zip(noises) {
             let var = match self.landmarks.get_mut(&obs.landmark_id) {
                 Some(state) => {
                     if k.saturating_sub(state.last_seen_keyframe) >= self.params.loop_closure_gap_keyframes {
@@ -481,6 +487,19 @@ impl GraphSlam {
     }
 }
 
+/// The noise model of every observation, after checking that its point is finite.
+fn observation_noises(observations: &[LandmarkObservation]) -> Result<Vec<GaussianNoise>, SlamError> {
+    observations
+        .iter()
+        .map(|obs| {
+            if !obs.point_in_robot.iter().all(|v| v.is_finite()) {
+                return Err(SlamError::NonFinite);
+            }
+            Ok(GaussianNoise::from_covariance(&obs.covariance)?)
+        })
+        .collect()
+}
+
 impl Batch {
     fn run(&mut self) -> Result<Summary, SlamError> {
         match self.optimizer.optimize(&self.graph, &mut self.values) {
@@ -497,25 +516,29 @@ impl SlamBackend for GraphSlam {
         if !odometry.previous_from_current.is_finite() {
             return Err(SlamError::NonFinite);
         }
+        // Every input is checked before the map changes, so a rejected keyframe leaves it as it
+        // was (adding a factor checks only its keys, distinct by construction here).
         let noise = GaussianNoise::from_covariance(&odometry.covariance)?;
+        let var = self.solver.next_id();
         let gravity = match odometry.gravity {
             Some(g) => {
                 let noise = GaussianNoise::isotropic(2, g.sigma_rad)?;
-                Some((g.up_in_body, noise))
+                Some(GravitySe3::new(var, g.up_in_body, noise).map_err(|_| SlamError::NonFinite)?)
             }
             None => None,
         };
+        let noises = observation_noises(observations)?;
         let prev = *self.keyframes.last().unwrap_or(&VarId(0));
         let world_from_prev = self.solver.se3(prev).unwrap_or_default();
-        let var = self.solver.add_variable(Variable::Se3(world_from_prev * odometry.previous_from_current));
+        let added = self.solver.add_variable(Variable::Se3(world_from_prev * odometry.previous_from_current));
+        debug_assert_eq!(added, var);
         self.keyframes.push(var);
         self.solver.add_factor(BetweenSe3::new(prev, var, odometry.previous_from_current, noise))?;
-        if let Some((up_in_body, noise)) = gravity {
-            let factor = GravitySe3::new(var, up_in_body, noise).map_err(|_| SlamError::NonFinite)?;
+        if let Some(factor) = gravity {
             self.solver.add_factor(factor)?;
         }
         let k = self.keyframes.len() - 1;
-        let loop_closures = self.observe(k, observations)?;
+        let loop_closures = self.observe(k, observations, noises)?;
         let cooling = self.last_full_keyframe.is_some_and(|f| k < f + self.params.full_cooldown_keyframes);
         let full = !loop_closures.is_empty() && !cooling;
         if full {
@@ -758,6 +781,43 @@ mod tests {
         eprintln!("mean Mahalanobis²: pose {mean_pose:.2} (6 dof), landmarks {mean_lm:.2} (3 dof)");
         assert!((3.0..9.0).contains(&mean_pose), "mean pose Mahalanobis² {mean_pose}");
         assert!((2.4..3.6).contains(&mean_lm), "mean landmark Mahalanobis² {mean_lm}");
+    }
+
+    /// A keyframe with one bad input (a NaN point, a covariance that is not positive definite,
+    /// a zero gravity direction, a NaN odometry) is rejected before the map changes: the run
+    /// goes on, and ends where the same run without the rejected keyframes ends, bit for bit.
+    #[test]
+    fn a_rejected_keyframe_leaves_the_map_as_it_was() {
+        for params in [GraphSlamParams::default(), batch()] {
+            let n = 12;
+            let w = world(n);
+            let run = |reject: bool| {
+                let mut rng = ChaCha8Rng::seed_from_u64(5);
+                let mut slam = GraphSlam::new(params.clone(), w.truth[0], &observations(&w, 0, &mut rng)).unwrap();
+                for k in 1..n {
+                    let rel = odometry(&w.truth[k - 1], &w.truth[k], &mut rng);
+                    let obs = observations(&w, k, &mut rng);
+                    if reject && k % 3 == 0 && !obs.is_empty() {
+                        let mut nan_point = obs.clone();
+                        nan_point[obs.len() / 2].point_in_robot.y = f64::NAN;
+                        let mut not_pd = obs.clone();
+                        not_pd[obs.len() - 1].covariance[(2, 2)] = -1.0;
+                        let zero_up = Odometry { gravity: Some(Gravity { up_in_body: Vector3::zeros(), sigma_rad: 0.01 }), ..rel.clone() };
+                        let mut nan_odometry = rel.clone();
+                        nan_odometry.previous_from_current = Se3::new(so3_exp(&Vector3::zeros()), Vector3::new(f64::NAN, 0.0, 0.0));
+                        assert!(slam.add_keyframe(&rel, &nan_point).is_err());
+                        assert!(slam.add_keyframe(&rel, &not_pd).is_err());
+                        assert!(slam.add_keyframe(&zero_up, &obs).is_err());
+                        assert!(slam.add_keyframe(&nan_odometry, &obs).is_err());
+                    }
+                    slam.add_keyframe(&rel, &obs).unwrap();
+                }
+                (slam.keyframe_poses(), slam.landmark_positions(), slam.current_pose_covariance().unwrap())
+            };
+            let (clean, rejected) = (run(false), run(true));
+            assert_eq!(clean.0.len(), n);
+            assert_eq!(clean, rejected, "{:?}", params.solver);
+        }
     }
 
     fn batch() -> GraphSlamParams {
