@@ -1,6 +1,9 @@
 //! `fitslam compare`: the paper's experiment (notes §8). Every strategy × seed runs as one
 //! `explore` mission, in parallel (rayon, `--jobs` threads), each writing explore's files into
-//! `DIR/<strategy>/seed_<s>/`. Then:
+//! `DIR/<strategy>/seed_<s>/`. With `--world-seeds A..B` every strategy × seed runs in each
+//! member of the world file's family (terrain, rocks, landmarks, texture and start drawn per
+//! world seed, `fitslam explore --world-seed`), into `DIR/world_<w>/<strategy>/seed_<s>/`, and
+//! runs pair by world and seed. Then:
 //! - `DIR/unexplored.{png,svg}` and `DIR/cov_trace.{png,svg}` (the paper's Figs. 5–6): per
 //!   strategy, the mean over seeds and a band from the 25th to the 75th percentile, on a common
 //!   time grid of [`GRID_POINTS`] points from 0 to the longest run's end. A run that ended earlier
@@ -15,7 +18,7 @@
 //!   advance (docs/experiments.md), is the mean tr(cov) at matched coverage 25–90 %.
 
 use crate::load;
-use crate::mission_run::{MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
+use crate::mission_run::{MissionArgs, RunOutput, Setup, create_out_dir, end_reason, progress_bar, run_and_write};
 use crate::plot::{self, Curve};
 use crate::stats::{Spread, bootstrap_mean_ci, holm, percentile, wilcoxon_signed_rank};
 use anyhow::{Context, Result, bail};
@@ -37,7 +40,7 @@ pub const GRID_POINTS: usize = 400;
 pub struct CompareArgs {
     #[command(flatten)]
     pub mission: MissionArgs,
-    /// Comma-separated strategies: fit, greedy, random, u1.
+    /// Comma-separated strategies: fit, greedy, random, u1, matched (random at fit's path length).
     #[arg(long, default_value = "fit,greedy,random")]
     pub strategies: String,
     /// Number of seeds per strategy (seeds seed_start ..= seed_start + N − 1).
@@ -46,6 +49,10 @@ pub struct CompareArgs {
     /// First seed.
     #[arg(long, default_value_t = 1)]
     pub seed_start: u64,
+    /// World seeds A..B (inclusive) or one N: every run in each member of the world file's
+    /// family (as `explore --world-seed`); default: the file's world as written.
+    #[arg(long)]
+    pub world_seeds: Option<String>,
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
@@ -62,6 +69,8 @@ const MAX_JOBS: usize = 1024;
 #[derive(Clone, Debug)]
 struct RunFigures {
     strategy: Strategy,
+    /// The world seed, with `--world-seeds`.
+    world_seed: Option<u64>,
     seed: u64,
     summary: Summary,
     mean_cov_trace: f64,
@@ -74,12 +83,12 @@ struct RunFigures {
 }
 
 impl RunFigures {
-    fn new(strategy: Strategy, seed: u64, summary: Summary, rows: Vec<MetricsRow>) -> Self {
+    fn new(strategy: Strategy, world_seed: Option<u64>, seed: u64, summary: Summary, rows: Vec<MetricsRow>) -> Self {
         let mean_cov_trace = if rows.is_empty() { 0.0 } else { rows.iter().map(|r| r.cov_trace).sum::<f64>() / rows.len() as f64 };
         let matched = |get: fn(&MetricsRow) -> f64| mean_at_matched_coverage(&rows, MATCHED_COVERAGE_PCT, get).unwrap_or(f64::NAN);
         let (matched_cov_trace, matched_ate_m) = (matched(|r| r.cov_trace), matched(|r| r.ate_m));
         let milestones = MILESTONES_PCT.map(|level| milestone(&rows, level));
-        Self { strategy, seed, summary, mean_cov_trace, matched_cov_trace, matched_ate_m, milestones, rows }
+        Self { strategy, world_seed, seed, summary, mean_cov_trace, matched_cov_trace, matched_ate_m, milestones, rows }
     }
 
     /// Time to 90 % coverage, NaN if never reached.
@@ -114,14 +123,35 @@ const METRICS: [Metric; 12] = [
     Metric { csv: "loop_closures", header: "loop closures", get: |r| r.summary.loop_closures as f64 },
 ];
 
+/// Most world seeds in one comparison (each holds a built world in memory).
+const MAX_WORLD_SEEDS: u64 = 1000;
+
+/// Parses `A..B` (inclusive, A ≤ B) or `N`.
+fn parse_world_seeds(text: &str) -> Result<Vec<u64>> {
+    let bad = || anyhow::anyhow!("--world-seeds {text:?}: expected A..B (inclusive, A ≤ B) or one seed N");
+    let (a, b) = match text.split_once("..") {
+        Some((a, b)) => (a.trim().parse::<u64>().map_err(|_| bad())?, b.trim().parse::<u64>().map_err(|_| bad())?),
+        None => {
+            let n = text.trim().parse::<u64>().map_err(|_| bad())?;
+            (n, n)
+        }
+    };
+    if a > b {
+        return Err(bad());
+    }
+    if b - a >= MAX_WORLD_SEEDS {
+        bail!("--world-seeds {text:?}: at most {MAX_WORLD_SEEDS} worlds");
+    }
+    Ok((a..=b).collect())
+}
+
 /// Parses `fit,greedy,…` (no duplicates, at least one).
 fn parse_strategies(text: &str) -> Result<Vec<Strategy>> {
     let mut out = Vec::new();
     for part in text.split(',').map(str::trim) {
-        let s = part
-            .to_ascii_lowercase()
-            .parse::<Strategy>()
-            .map_err(|_| anyhow::anyhow!("--strategies {text:?}: unknown strategy {part:?} (expected fit, greedy, random or u1)"))?;
+        let s = part.to_ascii_lowercase().parse::<Strategy>().map_err(|_| {
+            anyhow::anyhow!("--strategies {text:?}: unknown strategy {part:?} (expected fit, greedy, random, u1 or matched)")
+        })?;
         if out.contains(&s) {
             bail!("--strategies {text:?}: {part:?} is listed twice");
         }
@@ -145,22 +175,31 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         None => std::thread::available_parallelism().map(usize::from).unwrap_or(1),
     };
     let localisation = args.mission.localisation;
-    let setup = args.mission.load()?;
+    let world_seeds: Vec<Option<u64>> = match &args.world_seeds {
+        Some(text) => parse_world_seeds(text)?.into_iter().map(Some).collect(),
+        None => vec![None],
+    };
     create_out_dir(&args.out)?;
-    let runs: Vec<(Strategy, u64)> = strategies.iter().flat_map(|&s| (args.seed_start..=seed_end).map(move |seed| (s, seed))).collect();
+    let runs: Vec<(Strategy, usize, u64)> = strategies
+        .iter()
+        .flat_map(|&s| (0..world_seeds.len()).flat_map(move |w| (args.seed_start..=seed_end).map(move |seed| (s, w, seed))))
+        .collect();
     let jobs = jobs.min(runs.len());
     let pool = rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("cannot start the thread pool")?;
+    let setups: Vec<Setup> = pool.install(|| world_seeds.par_iter().map(|&w| args.mission.load(w)).collect::<Result<_>>())?;
     let bar = progress_bar(runs.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
     let wall = std::time::Instant::now();
     let results: Vec<Result<(RunFigures, f64)>> = pool.install(|| {
         runs.par_iter()
-            .map(|&(strategy, seed)| {
-                let dir = args.out.join(strategy.name()).join(format!("seed_{seed}"));
+            .map(|&(strategy, w, seed)| {
+                let world_seed = world_seeds[w];
+                let base = world_seed.map_or_else(|| args.out.clone(), |ws| args.out.join(format!("world_{ws}")));
+                let dir = base.join(strategy.name()).join(format!("seed_{seed}"));
                 let RunOutput { summary, rows, wall_s } =
-                    run_and_write(&setup, strategy, seed, localisation, &dir, &ProgressBar::hidden(), None)?;
+                    run_and_write(&setups[w], strategy, seed, localisation, &dir, &ProgressBar::hidden(), None)?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", strategy.name()));
-                Ok((RunFigures::new(strategy, seed, summary, rows), wall_s))
+                Ok((RunFigures::new(strategy, world_seed, seed, summary, rows), wall_s))
             })
             .collect()
     });
@@ -175,14 +214,16 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     }
 
     load::write(&args.out.join("summary.csv"), summary_csv(&figures).as_bytes())?;
-    write_figures(&args.out, &setup.world.spec.name, &strategies, &figures)?;
-    let md = summary_md(&setup.world.spec.name, &strategies, &figures, &command_line(), localisation);
+    let world_name = &setups[0].world.spec.name;
+    write_figures(&args.out, world_name, &strategies, &figures)?;
+    let md = summary_md(world_name, &strategies, &figures, &command_line(), localisation);
     load::write(&args.out.join("summary.md"), md.as_bytes())?;
     outln!(
-        "{}: {} runs ({} strategies × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png",
+        "{}: {} runs ({} strategies × {} worlds × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png",
         args.out.display(),
         figures.len(),
         strategies.len(),
+        world_seeds.len(),
         args.seeds,
         wall_s,
         run_wall_s
@@ -200,9 +241,11 @@ fn command_line() -> String {
     s
 }
 
-/// One row per run, strategy order then seed order.
+/// One row per run, strategy order, then world seed order, then seed order (the `world_seed`
+/// column only with world seeds).
 fn summary_csv(figures: &[RunFigures]) -> String {
-    let mut s = String::from("strategy,seed,end_reason");
+    let worlds = figures.iter().any(|f| f.world_seed.is_some());
+    let mut s = String::from(if worlds { "strategy,world_seed,seed,end_reason" } else { "strategy,seed,end_reason" });
     for m in &METRICS {
         s.push(',');
         s.push_str(m.csv);
@@ -212,7 +255,11 @@ fn summary_csv(figures: &[RunFigures]) -> String {
     }
     s.push_str(",goals_reached,goals_failed,decisions,trap_recoveries\n");
     for f in figures {
-        let _ = write!(s, "{},{},{}", f.strategy.name(), f.seed, end_reason(f.summary.end_reason));
+        let _ = write!(s, "{},", f.strategy.name());
+        if let Some(w) = f.world_seed {
+            let _ = write!(s, "{w},");
+        }
+        let _ = write!(s, "{},{}", f.seed, end_reason(f.summary.end_reason));
         for m in &METRICS {
             let _ = write!(s, ",{:.6e}", (m.get)(f));
         }
@@ -308,7 +355,14 @@ fn spread_cell(md: &mut String, values: &[f64]) {
 fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], command: &str, localisation: Localisation) -> String {
     let values = |s: Strategy, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
     let mut md = format!("# fitslam compare — {world}\n\n`{command}`\n\n");
-    let seeds: Vec<u64> = figures.iter().filter(|f| f.strategy == strategies[0]).map(|f| f.seed).collect();
+    let first: Vec<&RunFigures> = figures.iter().filter(|f| f.strategy == strategies[0]).collect();
+    let mut seeds: Vec<u64> = first.iter().map(|f| f.seed).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    let worlds: Vec<u64> = first.iter().filter_map(|f| f.world_seed).collect::<std::collections::BTreeSet<_>>().into_iter().collect();
+    if let (Some(a), Some(b)) = (worlds.first(), worlds.last()) {
+        let _ = write!(md, "{} world seeds ({a}–{b}, each a member of the world file's family) × ", worlds.len());
+    }
     let _ = writeln!(
         md,
         "{} strategies × {} seeds ({}–{}), localisation `{}`. Each cell: **median** [25–75 %] (min–max) over the seeds \
@@ -381,15 +435,18 @@ struct PairedCell {
 
 /// Each baseline against `reference`, paired by seed.
 fn paired_md(md: &mut String, reference: Strategy, baselines: &[Strategy], figures: &[RunFigures]) {
+    let worlds = figures.iter().any(|f| f.world_seed.is_some());
     let _ = writeln!(
         md,
-        "\n## Each baseline against `{r}`, paired by seed\n\nRuns with the same seed share the world and the sensor noise, so \
-         they are compared in pairs: d = `{r}` − baseline per seed (pairs where both have the figure). Each cell: the mean of d \
+        "\n## Each baseline against `{r}`, paired by {by}\n\nRuns with the same {by} share the world and the sensor noise, so \
+         they are compared in pairs: d = `{r}` − baseline per {per} (pairs where both have the figure). Each cell: the mean of d \
          [95 % percentile-bootstrap interval, {BOOTSTRAP_RESAMPLES} resamples], the two-sided Wilcoxon signed-rank p-value \
          (normal approximation, tie and continuity corrections, zero differences dropped), and in bold Holm's adjusted p over \
          the {m} metrics of the row. Negative d: `{r}` lower.\n",
         r = reference.name(),
-        m = METRICS.len()
+        m = METRICS.len(),
+        by = if worlds { "world seed and seed" } else { "seed" },
+        per = if worlds { "pair" } else { "seed" },
     );
     md.push_str("| baseline |");
     for m in &METRICS {
@@ -428,13 +485,14 @@ fn paired_md(md: &mut String, reference: Strategy, baselines: &[Strategy], figur
     }
 }
 
-/// `reference − baseline` per seed, over the seeds where both runs have a finite figure.
+/// `reference − baseline` per (world seed, seed), over the pairs where both runs have a finite
+/// figure.
 fn paired_differences(figures: &[RunFigures], reference: Strategy, baseline: Strategy, get: fn(&RunFigures) -> f64) -> Vec<f64> {
     figures
         .iter()
         .filter(|f| f.strategy == reference)
         .filter_map(|r| {
-            let b = figures.iter().find(|f| f.strategy == baseline && f.seed == r.seed)?;
+            let b = figures.iter().find(|f| f.strategy == baseline && f.world_seed == r.world_seed && f.seed == r.seed)?;
             let (x, y) = (get(r), get(b));
             (x.is_finite() && y.is_finite()).then_some(x - y)
         })
@@ -473,6 +531,17 @@ mod tests {
         assert!(parse_strategies("fit,best").unwrap_err().to_string().contains("\"best\""));
         assert!(parse_strategies("fit,fit").is_err());
         assert!(parse_strategies("").is_err());
+    }
+
+    #[test]
+    fn world_seeds_parse_as_inclusive_ranges() {
+        assert_eq!(parse_world_seeds("1..10").unwrap(), (1..=10).collect::<Vec<u64>>());
+        assert_eq!(parse_world_seeds(" 7 ").unwrap(), vec![7]);
+        assert_eq!(parse_world_seeds("3..3").unwrap(), vec![3]);
+        for bad in ["4..3", "..3", "1..", "x", "1..2..3", "0..1000"] {
+            assert!(parse_world_seeds(bad).unwrap_err().to_string().contains("--world-seeds"), "{bad}");
+        }
+        assert_eq!(parse_world_seeds("0..999").unwrap().len(), 1000);
     }
 
     #[test]

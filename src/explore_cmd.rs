@@ -17,6 +17,10 @@ pub struct ExploreArgs {
     /// Seed of the sensors' noise and of the random strategy.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Member N of the world file's family: terrain, rocks, landmarks, texture and start drawn
+    /// from N (as `compare --world-seeds` draws them); default: the file's world as written.
+    #[arg(long)]
+    pub world_seed: Option<u64>,
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
@@ -27,7 +31,7 @@ pub struct ExploreArgs {
 }
 
 pub fn run(args: &ExploreArgs) -> Result<()> {
-    let setup = args.mission.load()?;
+    let setup = args.mission.load(args.world_seed)?;
     create_out_dir(&args.out)?;
     let strategy = args.strategy;
     let progress = progress_bar(setup.time_limit_s().ceil() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} s simulated");

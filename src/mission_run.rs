@@ -41,9 +41,11 @@ pub struct MissionArgs {
 }
 
 impl MissionArgs {
-    /// Reads and builds the world and the parameters.
-    pub fn load(&self) -> Result<Setup> {
-        load_setup(&self.world, self.params.as_deref(), self.sim_params.as_deref(), self.time_limit_s)
+    /// Reads and builds the world and the parameters; with a world seed, the member of the world
+    /// file's family drawn for it (`WorldSpec::with_world_seed`) with a start drawn on it
+    /// (`World::draw_start`).
+    pub fn load(&self, world_seed: Option<u64>) -> Result<Setup> {
+        load_setup(&self.world, self.params.as_deref(), self.sim_params.as_deref(), self.time_limit_s, world_seed)
     }
 }
 
@@ -93,7 +95,13 @@ impl Setup {
 
 /// Reads and builds a world with the planner (`params`, default: the paper's) and simulator
 /// (`sim_params`, default: built-in) parameters; `time_limit_s` overrides the world's.
-pub fn load_setup(world: &Path, params: Option<&Path>, sim_params: Option<&Path>, time_limit_s: Option<f64>) -> Result<Setup> {
+pub fn load_setup(
+    world: &Path,
+    params: Option<&Path>,
+    sim_params: Option<&Path>,
+    time_limit_s: Option<f64>,
+    world_seed: Option<u64>,
+) -> Result<Setup> {
     let params = load::params(params)?;
     let mut mission_params = match sim_params {
         None => MissionParams::default(),
@@ -112,10 +120,23 @@ pub fn load_setup(world: &Path, params: Option<&Path>, sim_params: Option<&Path>
     let text = String::from_utf8(load::read(world)?).with_context(|| format!("{world_name}: not UTF-8"))?;
     let spec = WorldSpec::from_toml(&text, &world_name)?;
     let dir = world.parent().map(Path::to_path_buf).unwrap_or_default();
-    let world = World::build(&spec, &params.traversability, params.traversability.tau, |name| {
-        std::fs::read(dir.join(name)).map_err(|e| format!("cannot read {}: {e}", dir.join(name).display()))
-    })
-    .with_context(|| world_name.clone())?;
+    let build = |spec: &WorldSpec, name: &str| {
+        World::build(spec, &params.traversability, params.traversability.tau, |file| {
+            std::fs::read(dir.join(file)).map_err(|e| format!("cannot read {}: {e}", dir.join(file).display()))
+        })
+        .with_context(|| name.to_string())
+    };
+    let (world, world_name) = match world_seed {
+        None => (build(&spec, &world_name)?, world_name),
+        Some(w) => {
+            let name = format!("{world_name} (world seed {w})");
+            let mut member = spec.with_world_seed(w);
+            member.start = build(&member, &name)?
+                .draw_start(w, params.robot.radius_m)
+                .with_context(|| format!("{name}: no cell where the robot fits to start from"))?;
+            (build(&member, &name)?, name)
+        }
+    };
     world.check_start(params.robot.radius_m).with_context(|| world_name.clone())?;
     Ok(Setup { world_name, world, params, mission_params })
 }

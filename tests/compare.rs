@@ -84,9 +84,49 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     }
 }
 
+/// `--world-seeds`: every run in each member of the world's family, paired by world and seed;
+/// still independent of the thread count, and each run is `explore --world-seed`'s.
+#[test]
+fn compare_across_world_seeds_pairs_by_world_and_seed() {
+    let (a, b) = (scratch("w1"), scratch("w2"));
+    let args = ["--strategies", "fit,random", "--seeds", "1", "--world-seeds", "3..4"];
+    let o = compare(&a, &[&args[..], &["--jobs", "1"]].concat());
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(a.join("summary.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert!(lines[0].starts_with("strategy,world_seed,seed,end_reason,"), "{}", lines[0]);
+    let keys: Vec<String> = lines[1..].iter().map(|l| l.split(',').take(3).collect::<Vec<_>>().join(",")).collect();
+    assert_eq!(keys, ["fit,3,1", "fit,4,1", "random,3,1", "random,4,1"]);
+    let metrics = |dir: &PathBuf, w: u64, s: &str| std::fs::read(dir.join(format!("world_{w}/{s}/seed_1/metrics.csv"))).unwrap();
+    assert_ne!(metrics(&a, 3, "fit"), metrics(&a, 4, "fit"), "two world seeds, two worlds");
+    let md = std::fs::read_to_string(a.join("summary.md")).unwrap();
+    assert!(md.contains("2 world seeds (3–4,") && md.contains("paired by world seed and seed"), "{md}");
+    assert!(md.lines().any(|l| l.starts_with("| random |") && l.contains("(n = 2)")), "two pairs: {md}");
+
+    let o = compare(&b, &[&args[..], &["--jobs", "2"]].concat());
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(csv.as_bytes(), std::fs::read(b.join("summary.csv")).unwrap().as_slice(), "jobs 1 vs 2");
+
+    let one = scratch("w-explore");
+    let world = world();
+    let o = Command::new(BIN)
+        .args(["explore", "--world", &world, "--time-limit-s", "30", "--strategy", "random", "--seed", "1", "--world-seed", "4", "--out"])
+        .arg(&one)
+        .output()
+        .expect("run fitslam");
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(one.join("metrics.csv")).unwrap(), metrics(&a, 4, "random"), "explore --world-seed 4 is the same run");
+    for d in [a, b, one] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
 #[test]
 fn compare_rejects_bad_input_with_one_line() {
     let out = scratch("bad");
+    for bad in ["5..2", "a..3", "1..x", "", "0..5000"] {
+        assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "1", "--world-seeds", bad]), "--world-seeds");
+    }
     assert_clear_error(&compare(&out, &["--strategies", "fit,best", "--seeds", "1"]), "best");
     assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "0"]), "--seeds");
     assert_clear_error(&compare(&out, &["--strategies", "fit", "--seeds", "1", "--jobs", "0"]), "--jobs");

@@ -233,11 +233,14 @@ pub enum Strategy {
     Random,
     /// Ablation: u1 only (β = 1).
     U1,
+    /// Control: uniform (seeded) among the candidates whose path length is within ±20 % of the
+    /// goal FIT-SLAM would choose ([`crate::select::matched`]).
+    Matched,
 }
 
 impl Strategy {
     /// Every variant, in declaration order.
-    pub const ALL: [Strategy; 4] = [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1];
+    pub const ALL: [Strategy; 5] = [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1, Strategy::Matched];
 
     /// The name used in files, on the command line and in the studio (`fit`, `greedy`, …).
     pub fn name(self) -> &'static str {
@@ -246,6 +249,7 @@ impl Strategy {
             Strategy::Greedy => "greedy",
             Strategy::Random => "random",
             Strategy::U1 => "u1",
+            Strategy::Matched => "matched",
         }
     }
 }

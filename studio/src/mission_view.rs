@@ -48,6 +48,7 @@ pub fn strategy_color(s: Strategy) -> Color32 {
         Strategy::Greedy => Color32::from_rgb(80, 200, 255),
         Strategy::Random => Color32::from_rgb(255, 120, 200),
         Strategy::U1 => Color32::from_rgb(140, 255, 140),
+        Strategy::Matched => Color32::from_rgb(190, 150, 255),
     }
 }
 
@@ -226,7 +227,8 @@ fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_core::Param
     rects.push(("mission_world", world.response.rect));
     ui.label("strategies:");
     ui.horizontal_wrapped(|ui| {
-        const NAMES: [&str; 4] = ["strategy_fit", "strategy_greedy", "strategy_random", "strategy_u1"];
+        const NAMES: [&str; Strategy::ALL.len()] =
+            ["strategy_fit", "strategy_greedy", "strategy_random", "strategy_u1", "strategy_matched"];
         for (k, s) in Strategy::ALL.into_iter().enumerate() {
             let mut on = m.config.strategies.contains(&s);
             let r = ui.checkbox(&mut on, s.name());
@@ -485,8 +487,9 @@ fn lanes(ui: &mut egui::Ui, m: &mut MissionView, widget_rects: &mut WidgetRects,
 
 /// One lane: header and map. Returns whether "open in planner" was clicked.
 fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'static str, Rect)>) -> bool {
-    const NAMES: [&str; 4] = ["mission_lane0", "mission_lane1", "mission_lane2", "mission_lane3"];
-    const OPEN: [&str; 4] = ["mission_open0", "mission_open1", "mission_open2", "mission_open3"];
+    // One name per lane: a lane per strategy at most.
+    const NAMES: [&str; Strategy::ALL.len()] = ["mission_lane0", "mission_lane1", "mission_lane2", "mission_lane3", "mission_lane4"];
+    const OPEN: [&str; Strategy::ALL.len()] = ["mission_open0", "mission_open1", "mission_open2", "mission_open3", "mission_open4"];
     let tex = lane_texture(ui, m, i);
     let Some(r) = &m.runner else { return false };
     let Some(lane) = r.lanes.get(i) else { return false };

@@ -39,12 +39,12 @@ pub fn params_panel(ui: &mut egui::Ui, p: &mut Params, widget_rects: &mut Widget
 
     ui.label(egui::RichText::new("Strategy").strong());
     let strat = egui::ComboBox::from_label("strategy").selected_text(strategy_name(p.selector.strategy)).show_ui(ui, |ui| {
-        for s in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {
+        for s in Strategy::ALL {
             ui.selectable_value(&mut p.selector.strategy, s, strategy_name(s));
         }
     });
     rects.push(("strategy", strat.response.rect));
-    if p.selector.strategy == Strategy::Random {
+    if matches!(p.selector.strategy, Strategy::Random | Strategy::Matched) {
         ui.horizontal(|ui| {
             let l = ui.label("seed");
             ui.add(egui::DragValue::new(&mut p.selector.seed)).labelled_by(l.id);
@@ -155,6 +155,7 @@ pub fn strategy_name(s: Strategy) -> &'static str {
         Strategy::Greedy => "greedy (nearest)",
         Strategy::Random => "random",
         Strategy::U1 => "u1 only",
+        Strategy::Matched => "random at FIT-SLAM's distance",
     }
 }
 
@@ -299,7 +300,7 @@ pub fn candidate_table(
         d.candidates.len(),
         strategy_name(d.strategy),
         match d.strategy {
-            Strategy::Fit => "u2",
+            Strategy::Fit | Strategy::Matched => "u2",
             Strategy::Greedy => "ρ",
             Strategy::U1 | Strategy::Random => "u1",
         }

@@ -1,5 +1,6 @@
-//! Goal selectors (notes §5–7): FIT-SLAM, greedy, random and u1-only, behind one trait, all on
-//! the same pipeline ([`candidates`]) and all returning the whole ranking ([`Decision`]).
+//! Goal selectors (notes §5–7): FIT-SLAM, greedy, random, u1-only and length-matched random,
+//! behind one trait, all on the same pipeline ([`candidates`]) and all returning the whole
+//! ranking ([`Decision`]).
 //!
 //! | file | what |
 //! |---|---|
@@ -9,6 +10,7 @@
 //! | [`greedy`] | smallest ρ |
 //! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
 //! | [`u1_only`] | ablation: u1 alone |
+//! | [`matched`] | control: random among the candidates at FIT-SLAM's path length |
 //!
 //! ```
 //! use fitslam_core::fixtures::corridor_two_frontiers;
@@ -32,12 +34,14 @@
 pub mod candidates;
 pub mod fit;
 pub mod greedy;
+pub mod matched;
 pub mod random;
 pub mod report;
 pub mod u1_only;
 
 pub use fit::FitSlam;
 pub use greedy::Greedy;
+pub use matched::LengthMatched;
 pub use random::RandomSelector;
 pub use report::{CandidateReport, Decision, DropReason};
 pub use u1_only::U1Only;
@@ -125,6 +129,7 @@ pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
         Strategy::Greedy => Box::new(Greedy::default()),
         Strategy::Random => Box::new(RandomSelector::new(params.seed)),
         Strategy::U1 => Box::new(U1Only::default()),
+        Strategy::Matched => Box::new(LengthMatched::new(params.seed)),
     }
 }
 

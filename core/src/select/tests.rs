@@ -172,6 +172,45 @@ fn random_is_reproducible_per_seed() {
     assert!(d.candidates[a[0]].is_scored());
 }
 
+/// The corridor's ends are 7.5 m (west) and 8.0 m (east) away and FIT-SLAM goes east: both lie
+/// within ±20 % of 8.0 m ([6.4, 9.6] m), so the length-matched draw takes either, by its seed.
+/// With the band at 5 % ([7.6, 8.4] m) only the east end would qualify.
+#[test]
+fn length_matched_random_draws_among_candidates_at_fit_slams_distance() {
+    assert_eq!(super::matched::LENGTH_TOLERANCE, 0.2);
+    let w = corridor_two_frontiers(true);
+    let p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(p.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let mut s = LengthMatched::new(3);
+    let draws: Vec<usize> = (0..40).map(|_| s.select(&input, &p).unwrap().chosen.unwrap()).collect();
+    let d = LengthMatched::new(3).select(&input, &p).unwrap();
+    let (west, east) = ends(&d);
+    assert!(draws.contains(&west) && draws.contains(&east), "{draws:?}");
+    assert_eq!(d.chosen, Some(draws[0]), "same seed, same draw");
+    assert_eq!(d.candidates.iter().filter(|c| c.rank.is_some()).count(), 1);
+    assert!(d.candidates.iter().all(|c| c.u2.is_some()), "u2 stays reported");
+
+    // On a bigger world: every draw at FIT-SLAM's distance, not always FIT-SLAM's goal.
+    let w = synthetic_world(&SyntheticWorldSpec::small(11));
+    let lv = voxels(&w, &p);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let fit = FitSlam::default().select(&input, &p).unwrap();
+    let rho_fit = fit.chosen_candidate().unwrap().rho_m.unwrap();
+    let mut s = make_selector(&SelectorParams { strategy: Strategy::Matched, seed: 9 });
+    assert_eq!(s.strategy(), Strategy::Matched);
+    let mut others = 0;
+    for _ in 0..30 {
+        let d = s.select(&input, &p).unwrap();
+        let rho = d.chosen_candidate().unwrap().rho_m.unwrap();
+        assert!((rho - rho_fit).abs() <= 0.2 * rho_fit + 1e-12, "{rho} vs FIT-SLAM's {rho_fit}");
+        others += usize::from(d.chosen != fit.chosen);
+    }
+    let pool = fit.candidates.iter().filter(|c| c.rho_m.is_some_and(|r| (r - rho_fit).abs() <= 0.2 * rho_fit)).count();
+    assert!(pool >= 2 && others > 0, "{pool} candidates in the band, {others} draws not FIT-SLAM's");
+}
+
 #[test]
 fn ranks_are_complete_and_deterministic_on_a_bigger_world() {
     let w = synthetic_world(&SyntheticWorldSpec::small(2));

@@ -897,3 +897,43 @@ fn a_map_server_image_is_found_next_to_its_yaml() {
     assert_eq!(super::world::relative_to("allfree.yaml", "allfree.pgm"), "allfree.pgm");
     assert_eq!(super::world::relative_to("a/b/m.yaml", "../i.pgm"), "a/b/../i.pgm");
 }
+
+/// A world file is a family: world seeds give other terrains, rocks and landmarks (the same one
+/// for the same seed), and a drawn start where the robot fits, in the largest free region.
+#[test]
+fn world_seeds_draw_family_members_and_starts_the_robot_fits() {
+    let params = Params::default();
+    let spec = WorldSpec::from_toml(TINY, "tiny.toml").unwrap();
+    let build = |s: &WorldSpec| World::build(s, &params.traversability, params.traversability.tau, files).unwrap();
+    let (a, a_again, b) = (build(&spec.with_world_seed(1)), build(&spec.with_world_seed(1)), build(&spec.with_world_seed(2)));
+    assert_eq!(a.landmarks, a_again.landmarks);
+    assert_eq!(a.field.heights_m, a_again.field.heights_m);
+    assert_ne!(a.landmarks, b.landmarks, "another world seed, other landmarks");
+    assert_ne!(a.rocks.len() + a.landmarks.len(), 0);
+    let r = params.robot.radius_m;
+    let mut starts = Vec::new();
+    for w in [1, 2, 3, 4] {
+        let mut member = spec.with_world_seed(w);
+        let world = build(&member);
+        let start = world.draw_start(w, r).expect("a start");
+        assert_eq!(world.draw_start(w, r), Some(start), "a pure function of the seed");
+        assert!((-std::f64::consts::PI..std::f64::consts::PI).contains(&start[2]));
+        member.start = start;
+        let world = build(&member);
+        assert_eq!(world.check_start(r), Ok(()), "world seed {w}: {start:?}");
+        assert!(
+            world
+                .nearest_gt_lethal_m(start[0], start[1], r + super::world::START_CLEARANCE_M - 0.5 * world.field.geometry.resolution_m)
+                .is_none()
+        );
+        assert!(
+            world.explorable_count > world.explorable.len() / 10,
+            "the start is in a large free region: {} of {}",
+            world.explorable_count,
+            world.explorable.len()
+        );
+        starts.push(start);
+    }
+    starts.dedup();
+    assert!(starts.len() >= 3, "{starts:?}");
+}

@@ -61,6 +61,10 @@ pub struct World {
     pub explorable_count: usize,
 }
 
+/// Clearance beyond the robot radius around a drawn start ([`World::draw_start`]), metres: room
+/// to turn in place before the first decision.
+pub const START_CLEARANCE_M: f64 = 0.25;
+
 impl World {
     /// Builds a world; `load(name)` returns the bytes of a file the spec names.
     pub fn build(
@@ -184,6 +188,55 @@ impl World {
             explorable,
             explorable_count,
         })
+    }
+
+    /// A start for world seed `world_seed`: the centre of a cell drawn uniformly among those
+    /// where a robot of `robot_radius_m` plus [`START_CLEARANCE_M`] stands on ground-truth
+    /// traversable ground inside the boundary, in the largest 8-connected region of such cells
+    /// (so that the mission does not start in a pocket), with a uniform yaw in [−π, π). `None`
+    /// when no cell qualifies. A pure function of the world and the seed; O(cells · disc).
+    pub fn draw_start(&self, world_seed: u64, robot_radius_m: f64) -> Option<[f64; 3]> {
+        let clear = crate::grid::inflate_lethal(&self.gt_occupancy, robot_radius_m + START_CLEARANCE_M);
+        let g = clear.geometry;
+        let ok = |i: usize| {
+            let (x, y) = g.center_of(g.cell_at(i));
+            clear.data[i] == FREE && self.boundary.contains(x, y)
+        };
+        // The largest 8-connected region of qualifying cells (the first found on a tie).
+        let mut region = vec![u32::MAX; g.len()];
+        let (mut best, mut best_size, mut label) = (u32::MAX, 0usize, 0u32);
+        for i0 in 0..g.len() {
+            if region[i0] != u32::MAX || !ok(i0) {
+                continue;
+            }
+            let (mut stack, mut size) = (vec![i0], 0usize);
+            region[i0] = label;
+            while let Some(i) = stack.pop() {
+                size += 1;
+                let c = g.cell_at(i);
+                for (dc, dr) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+                    if let Some(j) = g.index(Cell::new(c.col + dc, c.row + dr))
+                        && region[j] == u32::MAX
+                        && ok(j)
+                    {
+                        region[j] = label;
+                        stack.push(j);
+                    }
+                }
+            }
+            if size > best_size {
+                (best, best_size) = (label, size);
+            }
+            label += 1;
+        }
+        if best_size == 0 {
+            return None;
+        }
+        let pick = (super::hash_unit(0, 0, world_seed) * best_size as f64) as usize;
+        let i = region.iter().enumerate().filter(|&(_, &r)| r == best).map(|(i, _)| i).nth(pick.min(best_size - 1))?;
+        let (x, y) = g.center_of(g.cell_at(i));
+        let yaw = (2.0 * super::hash_unit(1, 0, world_seed) - 1.0) * std::f64::consts::PI;
+        Some([x, y, yaw])
     }
 
     /// Distance from (x, y) to the nearest centre of a ground-truth untraversable cell within

@@ -235,7 +235,30 @@ impl LandmarkSpec {
     }
 }
 
+/// SplitMix64's finaliser of `a` and `b`: a member seed of a family, well spread for any two
+/// inputs (consecutive world seeds give unrelated terrains).
+fn mix_seed(a: u64, b: u64) -> u64 {
+    let mut z = a ^ b.wrapping_add(0x9E37_79B9_7F4A_7C15).wrapping_mul(0xD6E8_FEB8_6659_FD93);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
 impl WorldSpec {
+    /// Member `world_seed` of the family this file describes: the same terrain kind and
+    /// parameters, the seeds of the procedural terrain, the rocks, the landmarks and their
+    /// texture drawn from the file's seeds and `world_seed`. (A DEM or a map_server plan keeps
+    /// its ground; its rocks, landmarks and texture change.) The start stays the file's:
+    /// [`super::World::draw_start`] draws one per world seed on the built world.
+    pub fn with_world_seed(&self, world_seed: u64) -> Self {
+        let mut spec = self.clone();
+        spec.seed = mix_seed(self.seed, world_seed);
+        if let TerrainSpec::Procedural { seed, .. } = &mut spec.terrain {
+            *seed = mix_seed(*seed, world_seed);
+        }
+        spec
+    }
+
     /// Parses a world file; `name` is quoted in errors.
     pub fn from_toml(text: &str, name: &str) -> Result<Self, WorldError> {
         let text = crate::io::without_bom_str(text);

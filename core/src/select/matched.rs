@@ -1,0 +1,64 @@
+//! Control "random at FIT-SLAM's distance": it separates an informed choice from going far. Each
+//! decision ranks the candidates as FIT-SLAM does (u1, u2 over the N best), takes the path
+//! length ρ* of the goal FIT-SLAM would choose, and draws uniformly (seeded ChaCha8, one draw per
+//! decision, as [`super::random`]) among the reachable, non-blacklisted candidates whose ρ lies
+//! within ±[`LENGTH_TOLERANCE`] · ρ* (FIT-SLAM's own goal always does). Over a mission its path
+//! lengths follow FIT-SLAM's; what its paths see does not. The drawn candidate gets rank 1, the
+//! others none; u1, I_p and u2 stay reported.
+
+use super::candidates::{PlanBuffers, choose, plan, rank_and_choose, score_u2};
+use super::{Decision, DecisionInput, GoalSelector, SelectError};
+use crate::params::{Params, Strategy};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Half-width of the path-length band the draw is made in, relative to FIT-SLAM's ρ*: wide
+/// enough to hold several candidates on a typical map, narrow enough that a mission's distances
+/// stay FIT-SLAM's.
+pub const LENGTH_TOLERANCE: f64 = 0.2;
+
+/// Uniform among the candidates at FIT-SLAM's path length.
+#[derive(Clone, Debug)]
+pub struct LengthMatched {
+    rng: ChaCha8Rng,
+    buffers: PlanBuffers,
+}
+
+impl LengthMatched {
+    /// A selector whose draws are determined by `seed`.
+    pub fn new(seed: u64) -> Self {
+        Self { rng: ChaCha8Rng::seed_from_u64(seed), buffers: PlanBuffers::default() }
+    }
+}
+
+impl GoalSelector for LengthMatched {
+    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
+        let mut d = plan(input, params, Strategy::Matched, &mut self.buffers)?;
+        let reachable: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
+        score_u2(&mut d, input, params);
+        let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
+        rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
+        let Some(rho_fit) = d.chosen.and_then(|i| d.candidates[i].rho_m) else {
+            return Ok(d);
+        };
+        let pool: Vec<usize> = reachable
+            .into_iter()
+            .filter(|&i| d.candidates[i].rho_m.is_some_and(|rho| (rho - rho_fit).abs() <= LENGTH_TOLERANCE * rho_fit))
+            .collect();
+        for c in d.candidates.iter_mut() {
+            c.rank = None;
+        }
+        let chosen = (!pool.is_empty()).then(|| pool[self.rng.random_range(0..pool.len())]);
+        if let Some(i) = chosen {
+            let c = &mut d.candidates[i];
+            c.rank = Some(1);
+            c.dropped = None;
+        }
+        choose(&mut d, chosen);
+        Ok(d)
+    }
+
+    fn strategy(&self) -> Strategy {
+        Strategy::Matched
+    }
+}
