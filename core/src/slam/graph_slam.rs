@@ -802,8 +802,8 @@ mod tests {
                         nan_point[obs.len() / 2].point_in_robot.y = f64::NAN;
                         let mut not_pd = obs.clone();
                         not_pd[obs.len() - 1].covariance[(2, 2)] = -1.0;
-                        let zero_up = Odometry { gravity: Some(Gravity { up_in_body: Vector3::zeros(), sigma_rad: 0.01 }), ..rel.clone() };
-                        let mut nan_odometry = rel.clone();
+                        let zero_up = Odometry { gravity: Some(Gravity { up_in_body: Vector3::zeros(), sigma_rad: 0.01 }), ..rel };
+                        let mut nan_odometry = rel;
                         nan_odometry.previous_from_current = Se3::new(so3_exp(&Vector3::zeros()), Vector3::new(f64::NAN, 0.0, 0.0));
                         assert!(slam.add_keyframe(&rel, &nan_point).is_err());
                         assert!(slam.add_keyframe(&rel, &not_pd).is_err());
