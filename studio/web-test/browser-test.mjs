@@ -6,10 +6,10 @@
 //   3. drops a landmark set (landmarks.ply) on the canvas and answers "Landmarks" in the dialog;
 //   4. drags the α slider to its end and checks that the ranking changed;
 //   5. clicks the best candidate, drags the robot, and times re-ranking over many slider moves;
-//   5d. records a short mission as a rosbag2 bag with the native CLI, opens it through the picker
+//   6. reloads without a query: the default built-in scene shows with a decision made; then
+//      records a short mission as a rosbag2 bag with the native CLI, opens it through the picker
 //      and by drop, steps to the next decision, and checks each instant's re-ranking against
 //      `fitslam select --bag --at` (target/debug/fitslam);
-//   6. reloads without a query: the default built-in scene shows with a decision made;
 //   7. opens the Mission mode, plays fit / greedy / random side by side on the paper world until
 //      time advances and every lane explores, then measures the simulated seconds per real second
 //      as fast as the frame budget allows (three lanes, then one): mission_speed.json. On the way
@@ -246,7 +246,7 @@ async function recordedMission() {
   check("the robot's choice is recorded", Array.isArray(r.robot_goal), JSON.stringify(r.robot_goal));
   s = await waitFor("re-ranked at the first decision as `fitslam select --bag --at` does", (s) => sameChoice(s, 0), 10000);
   if (s) check("first decision: the studio and the CLI choose the same goal", true, `${JSON.stringify(native.chosen[0])}, ${s.stats.recording.goal_gap_m} m from the robot's`);
-  notBlank("recording screenshot", await shot("05b-recording.png"));
+  notBlank("recording screenshot", await shot("06b-recording.png"));
 
   s = await settledState();
   await page.mouse.click(...center(rect(s, "bag_next")));
@@ -368,17 +368,17 @@ try {
   check("re-ranking timed in the browser", times.length >= 10, `median ${median?.toFixed(2)} ms, max ${max?.toFixed(2)} ms over ${times.length} decisions on ${s.stats.map} ${JSON.stringify(s.stats.map_cells)}`);
   notBlank("final screenshot", await shot("05-final.png"));
 
-  // 5d. A recorded mission: the native CLI records a short paper-world mission as a rosbag2
-  // MCAP bag; the studio opens it through the picker (at its first decision instant), steps to
-  // the next decision, and re-ranks each instant as `fitslam select --bag --at` does; then the
-  // same bag dropped on the canvas opens too.
-  await recordedMission();
-
   // 6. A fresh start without any query shows the default built-in scene with a decision.
   await page.goto(base);
   s = await waitFor("default scene decided", (s) => s.ranking !== "null" && s.title.startsWith("fitslam: chosen="));
   if (s) check("the default scene is jacksboro", s.stats.map === "jacksboro", `${s.stats.map}: ${s.title}`);
   notBlank("default-start screenshot", await shot("06-default.png"));
+
+  // 6b. A recorded mission (on the fresh page: default parameters, as the CLI's): the native CLI
+  // records a short paper-world mission as a rosbag2 MCAP bag; the studio opens it through the
+  // picker (at its first decision instant), steps to the next decision, and re-ranks each
+  // instant as `fitslam select --bag --at` does; then the same bag dropped on the canvas opens.
+  await recordedMission();
 
   // 7. Mission mode: play simulated missions (paper world, fit / greedy / random side by side).
   s = await state();
