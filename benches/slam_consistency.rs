@@ -7,9 +7,10 @@
 //!
 //! `cargo bench --bench slam_consistency -- [WORLD.toml] [--seeds N] [--time-s T]
 //! [--gravity-sigma-rad S] [--tilt-gyro-sigma S] [--marginal-every K] [--window K]
-//! [--max-observations N]` (defaults:
-//! the paper world, 3 seeds, 400 s, the simulator's `SlamParams`; `--window 100000` makes every
-//! update a full optimisation, `--max-observations 0` drops the landmark factors).
+//! [--feature-budget N] [--outlier-rate R] [--detection-probability P]` (defaults: the paper
+//! world, 3 seeds, 400 s, the simulator's `SlamParams` and `VisionParams`; `--window 100000`
+//! makes every update a full optimisation, `--detection-probability 0` drops the landmark
+//! factors).
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a bench: a failure should stop it
 
@@ -40,8 +41,14 @@ fn main() {
     if let Some(k) = value("--window") {
         mp.slam.graph.window_keyframes = k as usize;
     }
-    if let Some(k) = value("--max-observations") {
-        mp.slam.max_observations_per_keyframe = k as usize;
+    if let Some(k) = value("--feature-budget") {
+        mp.vision.feature_budget = k as usize;
+    }
+    if let Some(r) = value("--outlier-rate") {
+        mp.vision.outlier_rate = r;
+    }
+    if let Some(p) = value("--detection-probability") {
+        mp.vision.detection_probability = p;
     }
 
     // Blocks of ξ = (δt, δφ): whole, position, roll/pitch, yaw.

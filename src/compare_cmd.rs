@@ -104,7 +104,7 @@ struct Metric {
     get: fn(&RunFigures) -> f64,
 }
 
-const METRICS: [Metric; 12] = [
+const METRICS: [Metric; 14] = [
     // The primary metric (docs/experiments.md): u2's purpose is a better-localised robot at the
     // same stage of exploration.
     Metric { csv: "matched_cov_trace", header: "tr(cov) at 25–90 % coverage", get: |r| r.matched_cov_trace },
@@ -121,6 +121,9 @@ const METRICS: [Metric; 12] = [
     // cell: while it never fires, the run is the one without it, so 0 violations is the robot's.
     Metric { csv: "safety_stops", header: "safety stops", get: |r| r.summary.safety_stops as f64 },
     Metric { csv: "loop_closures", header: "loop closures", get: |r| r.summary.loop_closures as f64 },
+    // The visual front end's failures (SLAM only, `sim::vision`): where localisation broke down.
+    Metric { csv: "tracking_losses", header: "tracking losses", get: |r| r.summary.tracking_losses as f64 },
+    Metric { csv: "lost_s", header: "time lost (s)", get: |r| r.summary.lost_s },
 ];
 
 /// Most world seeds in one comparison (each holds a built world in memory).

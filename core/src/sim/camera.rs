@@ -68,6 +68,13 @@ impl LandmarkIndex {
     }
 }
 
+/// Whether `v` (camera-centred, body axes, x forward) is inside the frustum; `th`, `tv` are the
+/// tangents of the half fields of view.
+pub fn in_frustum(v: &Vector3<f64>, params: &CameraParams, th: f64, tv: f64) -> bool {
+    let depth = v.x;
+    depth >= params.min_depth_m && depth <= params.max_depth_m && v.y.abs() <= th * depth && v.z.abs() <= tv * depth
+}
+
 /// The landmarks seen from a camera at `camera_m` with `world_from_body` rotation (the camera
 /// looks along the body's +x), in increasing id order. `out` is cleared first.
 #[allow(clippy::too_many_arguments)]
@@ -93,8 +100,7 @@ pub fn observe_landmarks(
     for i in ids {
         let lw = landmarks[i];
         let v = body_from_world * (lw - camera_m); // camera-centred, body axes
-        let depth = v.x;
-        if depth < params.min_depth_m || depth > params.max_depth_m || v.y.abs() > th * depth || v.z.abs() > tv * depth {
+        if !in_frustum(&v, params, th, tv) {
             continue;
         }
         if !line_of_sight(field, camera_m, lw + Vector3::new(0.0, 0.0, 0.02), step) {

@@ -82,6 +82,14 @@ pub struct Summary {
     pub reregistrations: u64,
     /// Keyframe updates whose optimisation or covariance failed (the keyframe was kept).
     pub slam_errors: u64,
+    /// Visual tracking losses, recoveries by relocalisation and by a new map segment, and the
+    /// time spent lost, seconds (SLAM only; [`super::localisation::VisualTracking`]).
+    pub tracking_losses: u64,
+    pub relocalisations: u64,
+    pub new_maps: u64,
+    pub lost_s: f64,
+    /// Features matched to the wrong landmark (SLAM only; [`super::vision`]).
+    pub wrong_associations: u64,
     pub total_plan_ms: f64,
 }
 

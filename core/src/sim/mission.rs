@@ -529,6 +529,11 @@ impl Mission {
             keyframes: l.keyframes,
             reregistrations: l.reregistrations,
             slam_errors: l.slam_errors,
+            tracking_losses: l.tracking.losses,
+            relocalisations: l.tracking.relocalisations,
+            new_maps: l.tracking.new_maps,
+            lost_s: l.tracking.lost_s,
+            wrong_associations: l.wrong_associations,
             total_plan_ms: e.total_plan_ms,
         }
     }

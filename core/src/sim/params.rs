@@ -5,6 +5,7 @@ use super::camera::CameraNoise;
 use super::lidar::LidarParams;
 use super::odometry::OdometryNoise;
 use super::robot::DriveParams;
+use super::vision::VisionParams;
 use crate::explore::{EXPLORE_KEYS, ExploreParams};
 use crate::params::{InvalidParam, Num, ParamsError, check_non_negative as nonneg, check_positive as pos};
 use crate::slam::keyframes::SlamParams;
@@ -22,6 +23,9 @@ pub struct MissionParams {
     pub drive: DriveParams,
     pub lidar: LidarParams,
     pub camera_noise: CameraNoise,
+    /// The visual front end between the camera and the SLAM ([`super::Localisation::Slam`]
+    /// only).
+    pub vision: VisionParams,
     pub odometry: OdometryNoise,
     /// Scan when the robot has moved this far since the last scan, metres, > 0. Default 0.25.
     pub scan_every_m: f64,
@@ -74,6 +78,7 @@ impl Default for MissionParams {
             drive: DriveParams::default(),
             lidar: LidarParams::default(),
             camera_noise: CameraNoise::default(),
+            vision: VisionParams::default(),
             odometry: OdometryNoise::default(),
             scan_every_m: 0.25,
             scan_every_rad: 0.5,
@@ -182,6 +187,7 @@ impl MissionParams {
             pos("time_limit_s", t)?;
         }
         self.explore.validate("explore.")?;
+        self.vision.validate()?;
         self.slam.validate()
     }
 }

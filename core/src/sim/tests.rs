@@ -21,7 +21,15 @@ fn files(name: &str) -> Result<Vec<u8>, String> {
 #[test]
 fn every_shipped_world_parses_and_the_small_ones_build() {
     let params = Params::default();
-    for name in ["paper_unstructured_20m.toml", "dem_jacksboro_16m.toml", "indoor_rooms.toml", "tiny_test.toml"] {
+    let shipped = [
+        "paper_unstructured_20m.toml",
+        "patchy_unstructured_20m.toml",
+        "patchy_unstructured_40m.toml",
+        "dem_jacksboro_16m.toml",
+        "indoor_rooms.toml",
+        "tiny_test.toml",
+    ];
+    for name in shipped {
         let text = String::from_utf8(files(name).unwrap()).unwrap();
         let spec = WorldSpec::from_toml(&text, name).unwrap();
         assert!(spec.time_limit_s > 0.0, "{name}");

@@ -11,10 +11,12 @@
 //! frustum's buckets).
 
 use super::World;
-use super::camera::{CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
+use super::camera::{CameraObservation, LandmarkIndex, depth_ground_hits, in_frustum, observe_landmarks};
 use super::lidar::{RayCaster, gaussian, scan};
 use super::params::MissionParams;
 use super::robot::{Twist, body_on_terrain, footprint_points, integrate};
+use super::vision::{FrameCounts, FrameView, landmark_normals, select_features};
+use crate::math;
 use crate::params::{CameraParams, Params};
 use crate::pose::{Pose2, wrap_pi};
 use crate::slam::Se3;
@@ -48,6 +50,10 @@ pub struct WorldSim {
     reach_m: f64,
     caster: RayCaster,
     landmark_index: LandmarkIndex,
+    /// Surface normal under each landmark ([`landmark_normals`]).
+    landmark_normals: Vec<Option<Vector3<f64>>>,
+    /// Landmark ids in the frustum, a buffer of [`Self::observe_features`].
+    frustum: Vec<usize>,
     rng: ChaCha8Rng,
     gt: Pose2,
     /// True `world_from_body` at the previous wheel-and-gyro measurement.
@@ -70,6 +76,8 @@ impl WorldSim {
         Self {
             caster: RayCaster::new(&world.field),
             landmark_index: LandmarkIndex::new(&world.landmarks, g.bounds_m(), 1.0),
+            landmark_normals: landmark_normals(&world.field, &world.landmarks),
+            frustum: Vec::new(),
             rng: ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_51A1),
             sensors: mission.clone(),
             camera: params.camera.clone(),
@@ -223,6 +231,38 @@ impl WorldSim {
             &mut self.observations,
         );
         &self.observations
+    }
+
+    pub fn vision_params(&self) -> &super::vision::VisionParams {
+        &self.sensors.vision
+    }
+
+    /// What the visual front end reports from the true pose ([`super::vision`]): the landmarks
+    /// in view ([`Self::observe_landmarks`]) detected, cut to the budget, some matched to the
+    /// wrong landmark ([`Self::last_observations`] after the call).
+    pub fn observe_features(&mut self) -> FrameCounts {
+        self.observe_landmarks();
+        let (gp, gr) = self.body_pose();
+        let cam_in_body = Vector3::new(0.0, 0.0, self.camera_height_m);
+        let cam = gp + gr * cam_in_body;
+        let (th, tv) = (math::tan(self.camera.hfov_rad / 2.0), math::tan(self.camera.vfov_rad / 2.0));
+        let body_from_world = gr.inverse();
+        self.frustum.clear();
+        let (landmarks, frustum, camera) = (&self.world.landmarks, &mut self.frustum, &self.camera);
+        self.landmark_index.for_each_near(cam.x, cam.y, camera.max_depth_m, |i| {
+            if in_frustum(&(body_from_world * (landmarks[i] - cam)), camera, th, tv) {
+                frustum.push(i);
+            }
+        });
+        self.frustum.sort_unstable();
+        let view = FrameView {
+            landmarks: &self.world.landmarks,
+            normals: &self.landmark_normals,
+            camera_m: cam,
+            camera: &self.camera,
+            camera_in_body: cam_in_body,
+        };
+        select_features(&mut self.observations, &self.frustum, &view, &self.sensors.vision, &mut self.rng)
     }
 
     /// The LiDAR sweep, the depth camera's ground points (depth noise ∝ d²) and the ground under

@@ -250,11 +250,11 @@ impl LinearSystem {
             let e = f.linearize(values, &mut jac)?;
             let noise = f.noise();
             let d = noise.dim();
-            let r = noise.whiten(&e);
-            chi2 += r.norm_squared();
+            let (r, row_scale, cost) = noise.linearized(&e);
+            chi2 += cost;
             let keys = f.keys();
             for k in 0..keys.len() {
-                wj[k] = noise.sqrt_information() * jac[k];
+                wj[k] = noise.sqrt_information() * jac[k] * row_scale;
             }
             for (p, kp) in keys.iter().enumerate() {
                 let ca = self.col_of_var[kp.0];

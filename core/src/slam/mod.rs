@@ -56,7 +56,7 @@ mod real_data_tests;
 pub mod values;
 pub mod victoria;
 
-pub use factors::{Factor, FactorError, GaussianNoise, Se2Residual};
+pub use factors::{Factor, FactorError, GaussianNoise, RobustKernel, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
 pub use graph_slam::{
     ANCHOR_SIGMA, CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry,

@@ -1,13 +1,16 @@
 //! Keyframe graph SLAM as the simulated robot's localisation ([`crate::slam::keyframes`]):
-//! odometry + IMU attitude lifted to SE(3), camera landmarks at keyframes, an iSAM2 update per
+//! odometry + IMU attitude lifted to SE(3), the visual front end's features at keyframes
+//! ([`crate::sim::vision`]) while visual tracking holds ([`VisualTracking`]), an iSAM2 update per
 //! keyframe (or the batch solver's window / full optimisation), 6×6 pose covariance, the traversability map re-registered from
 //! the keyframe clouds when a loop closure moves the keyframes, the planner's landmark map with
 //! SLAM covariances.
 
+use super::tracking::VisualTracking;
 use super::{Localisation, LocalisationStats, Localiser, PoseCovariance};
 use crate::PointCloud;
 use crate::math;
 use crate::pose::Pose2;
+use crate::sim::camera::CameraObservation;
 use crate::sim::world_sim::{BodyPose, Motion, WorldSim};
 use crate::slam::keyframes::{SlamFrontend, SlamParams};
 use crate::slam::{CovarianceTraces, Se3, SlamError};
@@ -24,6 +27,10 @@ pub struct KeyframeSlamLocaliser {
     /// Its (x, y, yaw) block on world axes.
     xy_yaw: Matrix3<f64>,
     slam_errors: u64,
+    tracking: VisualTracking,
+    /// Features matched to the wrong landmark by the front end so far.
+    wrong_associations: u64,
+    features: Vec<CameraObservation>,
     /// Buffers for registering a scan.
     body_points: Vec<Vector3<f64>>,
     registered: Vec<(Point3<f64>, f64)>,
@@ -34,10 +41,14 @@ impl KeyframeSlamLocaliser {
     /// Fails on a start pose the SLAM cannot take (not finite).
     pub fn new(sim: &mut WorldSim, params: SlamParams) -> Result<Self, SlamError> {
         let (gp, gr) = sim.body_pose();
-        let observations = sim.observe_landmarks().to_vec();
+        let counts = sim.observe_features();
+        let observations = sim.last_observations().to_vec();
         let start = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
         let frontend = SlamFrontend::new(params.clone(), start, &observations)?;
         Ok(Self {
+            tracking: VisualTracking::new(sim.vision_params()),
+            wrong_associations: counts.wrong as u64,
+            features: Vec::new(),
             est: sim.pose(),
             frontend,
             params,
@@ -71,20 +82,26 @@ impl Localiser for KeyframeSlamLocaliser {
 
     fn propagate(&mut self, sim: &mut WorldSim, _motion: &Motion, dt_s: f64) {
         let step = sim.body_increment(dt_s, &self.params);
+        self.tracking.tick(dt_s);
         self.frontend.odometry_step(&step);
         self.est = pose2_of(&self.frontend.estimate());
         self.update_covariance();
     }
 
-    /// A keyframe when due: the camera observes from the true pose, the accelerometer measures
-    /// up; after a loop closure that moved the keyframes the map is rebuilt from their clouds.
+    /// A keyframe when due: the front end reports features from the true pose, tracking keeps
+    /// those the SLAM may use, the accelerometer measures up; after a loop closure that moved
+    /// the keyframes the map is rebuilt from their clouds.
     fn keyframe(&mut self, sim: &mut WorldSim, map: &mut TraversabilityMap) {
         if !self.frontend.keyframe_due() {
             return;
         }
-        sim.observe_landmarks();
+        self.wrong_associations += sim.observe_features().wrong as u64;
+        self.features.clear();
+        self.features.extend_from_slice(sim.last_observations());
+        let backend = self.frontend.backend();
+        self.tracking.at_keyframe(&mut self.features, |id| backend.has_landmark(id));
         let up = sim.gravity_up(self.params.gravity_sigma_rad);
-        let outcome = self.frontend.add_keyframe(sim.last_observations(), Some(up));
+        let outcome = self.frontend.add_keyframe(&self.features, Some(up));
         self.est = pose2_of(&self.frontend.estimate());
         match outcome {
             Ok(o) if o.reregister => {
@@ -142,6 +159,8 @@ impl Localiser for KeyframeSlamLocaliser {
             reregistrations: self.frontend.reregistrations(),
             slam_errors: self.slam_errors,
             landmarks_mapped: b.landmark_count(),
+            tracking: self.tracking.stats(),
+            wrong_associations: self.wrong_associations,
         }
     }
 

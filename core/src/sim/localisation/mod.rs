@@ -11,10 +11,12 @@
 mod dead_reckoning;
 mod ground_truth;
 mod keyframe_slam;
+mod tracking;
 
 pub use dead_reckoning::DeadReckoning;
 pub use ground_truth::GroundTruth;
 pub use keyframe_slam::KeyframeSlamLocaliser;
+pub use tracking::{TrackingStats, VisualTracking};
 
 use super::world_sim::{BodyPose, Motion, WorldSim};
 use crate::PointCloud;
@@ -91,6 +93,10 @@ pub struct LocalisationStats {
     /// Keyframe updates whose optimisation or covariance failed (the keyframe was kept).
     pub slam_errors: u64,
     pub landmarks_mapped: usize,
+    /// Visual tracking losses and recoveries ([`VisualTracking`]).
+    pub tracking: TrackingStats,
+    /// Features the front end matched to the wrong landmark ([`crate::sim::vision`]).
+    pub wrong_associations: u64,
 }
 
 /// A localisation of the simulated robot. The mission calls, per control tick, [`Self::propagate`]

@@ -18,7 +18,7 @@ pub mod prior;
 pub use bearing_range::BearingRange2;
 pub use between::{BetweenSe2, BetweenSe3};
 pub use gravity::GravitySe3;
-pub use noise::{GaussianNoise, NoiseError};
+pub use noise::{GaussianNoise, NoiseError, RobustKernel};
 
 pub use point_observation::{PointObservation2, PointObservation3};
 pub use prior::{PriorSe2, PriorSe3};

@@ -1,7 +1,12 @@
 //! Gaussian noise models: the square-root information `R` (Ω = RᵀR) that whitens a residual,
 //! `r = R e`, so that χ² = ‖r‖² = eᵀ Ω e. Construction is a d×d Cholesky, O(d³), d ≤ 6.
+//!
+//! A model may carry a robust kernel (an M-estimator on s = ‖r‖, [`RobustKernel`]): the cost is
+//! then 2ρ(s) instead of s², and a linearisation scales the whitened residual and Jacobians by
+//! √w(s), w = ρ′(s)/s (iteratively reweighted least squares, as GTSAM's `noiseModel::Robust`).
 
 use nalgebra::{Matrix6, SMatrix, Vector6};
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::MAX_RESIDUAL_DIM;
@@ -18,12 +23,66 @@ pub enum NoiseError {
     NotPositiveDefinite(usize),
 }
 
-/// A Gaussian noise model of dimension `dim` ≤ 6.
+/// An M-estimator on the whitened residual's norm s (Zhang 1997; GTSAM's `mEstimator`), with
+/// its threshold k in units of σ. Cost ρ(s) and weight w(s) = ρ′(s)/s:
+/// - Huber: ρ = s²/2 for s ≤ k, k s − k²/2 beyond; w = min(1, k/s) (bounded influence);
+/// - Cauchy: ρ = k²/2 · ln(1 + s²/k²); w = 1 / (1 + s²/k²) (influence falls to 0).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RobustKernel {
+    /// Least squares: ρ = s²/2.
+    #[default]
+    None,
+    Huber {
+        k: f64,
+    },
+    Cauchy {
+        k: f64,
+    },
+}
+
+impl RobustKernel {
+    /// 2ρ(s): the factor's share of χ² (s² without a kernel).
+    pub fn cost(self, s: f64) -> f64 {
+        match self {
+            RobustKernel::None => s * s,
+            RobustKernel::Huber { k } if s <= k => s * s,
+            RobustKernel::Huber { k } => 2.0 * k * s - k * k,
+            RobustKernel::Cauchy { k } => k * k * (s * s / (k * k)).ln_1p(),
+        }
+    }
+
+    /// The IRLS weight w(s) = ρ′(s)/s, in (0, 1].
+    pub fn weight(self, s: f64) -> f64 {
+        match self {
+            RobustKernel::None => 1.0,
+            RobustKernel::Huber { k } => {
+                if s <= k {
+                    1.0
+                } else {
+                    k / s
+                }
+            }
+            RobustKernel::Cauchy { k } => 1.0 / (1.0 + s * s / (k * k)),
+        }
+    }
+
+    /// The threshold, when there is one.
+    pub fn threshold(self) -> Option<f64> {
+        match self {
+            RobustKernel::None => None,
+            RobustKernel::Huber { k } | RobustKernel::Cauchy { k } => Some(k),
+        }
+    }
+}
+
+/// A Gaussian noise model of dimension `dim` ≤ 6, optionally robust.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GaussianNoise {
     dim: usize,
     /// Top-left `dim × dim` block used; Ω = RᵀR.
     sqrt_info: Matrix6<f64>,
+    kernel: RobustKernel,
 }
 
 /// Lower Cholesky factor of the top-left d×d block of `m`: `m = L Lᵀ`.
@@ -79,7 +138,7 @@ impl GaussianNoise {
         let m = checked_copy(information)?;
         let l = cholesky_lower(&m, D)?;
         // Ω = L Lᵀ → R = Lᵀ.
-        Ok(Self { dim: D, sqrt_info: l.transpose() })
+        Ok(Self { dim: D, sqrt_info: l.transpose(), kernel: RobustKernel::None })
     }
 
     /// From a covariance Σ: Σ = L Lᵀ → Ω = L⁻ᵀ L⁻¹ → R = L⁻¹.
@@ -97,7 +156,7 @@ impl GaussianNoise {
                 inv[(i, c)] = s / l[(i, i)];
             }
         }
-        Ok(Self { dim: D, sqrt_info: inv })
+        Ok(Self { dim: D, sqrt_info: inv, kernel: RobustKernel::None })
     }
 
     /// Independent components with standard deviations `sigmas` (1 to 6 of them, all > 0).
@@ -116,7 +175,7 @@ impl GaussianNoise {
             }
             r[(i, i)] = 1.0 / s;
         }
-        Ok(Self { dim: d, sqrt_info: r })
+        Ok(Self { dim: d, sqrt_info: r, kernel: RobustKernel::None })
     }
 
     /// `dim` independent components with standard deviation `sigma`.
@@ -141,14 +200,36 @@ impl GaussianNoise {
         self.sqrt_info.transpose() * self.sqrt_info
     }
 
-    /// Whitened residual `R e`.
+    /// The same model with the robust kernel `kernel`.
+    pub fn with_kernel(self, kernel: RobustKernel) -> Self {
+        Self { kernel, ..self }
+    }
+
+    pub fn kernel(&self) -> RobustKernel {
+        self.kernel
+    }
+
+    /// Whitened residual `R e` (without the kernel's weight).
     pub fn whiten(&self, error: &Vector6<f64>) -> Vector6<f64> {
         self.sqrt_info * error
     }
 
-    /// eᵀ Ω e.
+    /// The factor's share of χ²: eᵀ Ω e, or 2ρ(‖R e‖) with a kernel.
     pub fn chi2(&self, error: &Vector6<f64>) -> f64 {
-        self.whiten(error).norm_squared()
+        self.kernel.cost(self.whiten(error).norm())
+    }
+
+    /// For a linearisation at `error`: the weighted whitened residual √w R e, the row scale √w
+    /// for the whitened Jacobians R J, and the factor's χ² share (as [`Self::chi2`]).
+    pub fn linearized(&self, error: &Vector6<f64>) -> (Vector6<f64>, f64, f64) {
+        let r = self.whiten(error);
+        if self.kernel == RobustKernel::None {
+            let c = r.norm_squared();
+            return (r, 1.0, c);
+        }
+        let s = r.norm();
+        let sw = self.kernel.weight(s).sqrt();
+        (r * sw, sw, self.kernel.cost(s))
     }
 }
 
@@ -175,6 +256,39 @@ mod tests {
         // σ = (2, 0.5): e = (1, 1) → χ² = 1/4 + 4.
         let n = GaussianNoise::from_sigmas(&[2.0, 0.5]).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(n.chi2(&Vector6::new(1.0, 1.0, 0.0, 0.0, 0.0, 0.0)), 4.25);
+    }
+
+    #[test]
+    fn robust_costs_and_weights_hand_values() {
+        let huber = RobustKernel::Huber { k: 2.0 };
+        // Inside: s². Outside, s = 4: 2·2·4 − 4 = 12; w = 2/4.
+        assert_eq!((huber.cost(1.5), huber.weight(1.5)), (2.25, 1.0));
+        assert_eq!((huber.cost(4.0), huber.weight(4.0)), (12.0, 0.5));
+        // Cauchy, k = 1, s = 1: ln 2; w = 1/2.
+        let cauchy = RobustKernel::Cauchy { k: 1.0 };
+        assert!((cauchy.cost(1.0) - std::f64::consts::LN_2).abs() < 1e-15);
+        assert_eq!(cauchy.weight(1.0), 0.5);
+        // A noise model applies it to the whitened norm: σ = 0.5, e = (3, 0) → s = 6.
+        let n = GaussianNoise::from_sigmas(&[0.5, 0.5]).unwrap_or_else(|e| panic!("{e}")).with_kernel(huber);
+        let e = Vector6::new(3.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        assert_eq!(n.chi2(&e), 2.0 * 2.0 * 6.0 - 4.0);
+        let (r, sw, c) = n.linearized(&e);
+        assert_eq!((sw * sw, c), (2.0 / 6.0, 20.0));
+        assert!((r[0] - 6.0 * (2.0f64 / 6.0).sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn robust_cost_is_continuous_and_its_weight_is_its_slope() {
+        // ρ′(s) = w(s)·s, checked by central differences of ρ = cost/2 at s across both kernels.
+        for kernel in [RobustKernel::Huber { k: 1.345 }, RobustKernel::Cauchy { k: 2.3849 }] {
+            for i in 1..60 {
+                let s = 0.1 * f64::from(i);
+                let h = 1e-6;
+                let slope = (kernel.cost(s + h) - kernel.cost(s - h)) / (4.0 * h);
+                assert!((slope - kernel.weight(s) * s).abs() < 1e-6, "{kernel:?} at {s}: {slope}");
+                assert!(kernel.cost(s) <= s * s + 1e-12, "a kernel never costs more than least squares");
+            }
+        }
     }
 
     #[test]

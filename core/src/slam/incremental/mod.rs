@@ -507,10 +507,10 @@ impl Isam2 {
             let e = f.linearize(&self.theta, &mut jac)?;
             let noise = f.noise();
             let rows = noise.dim();
-            let r = noise.whiten(&e);
+            let (r, row_scale, _) = noise.linearized(&e);
             let keys = f.keys();
             for k in 0..keys.len() {
-                wj[k] = noise.sqrt_information() * jac[k];
+                wj[k] = noise.sqrt_information() * jac[k] * row_scale;
             }
             for (p, kp) in keys.iter().enumerate() {
                 let (op, dp) = (self.scratch[kp.0], self.dim[kp.0]);

@@ -55,7 +55,7 @@ impl SlamFrontend {
     /// observations.
     pub fn new(params: SlamParams, world_from_start: Se3, observations: &[CameraObservation]) -> Result<Self, SlamError> {
         let mut scratch = Vec::new();
-        select_observations(observations, |_| false, params.max_observations_per_keyframe, &mut scratch);
+        to_landmark_observations(observations, &mut scratch);
         let slam = GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?;
         let mut clouds = KeyframeClouds::new(params.cloud_voxel_m);
         clouds.start_keyframe(0.0);
@@ -144,8 +144,7 @@ impl SlamFrontend {
         let odometry = Odometry { previous_from_current: rel, covariance: with_floor(&self.relative_cov), gravity };
         let compounded = self.covariance();
         let mut scratch = std::mem::take(&mut self.scratch);
-        let slam = &self.slam;
-        select_observations(observations, |id| slam.has_landmark(id), self.params.max_observations_per_keyframe, &mut scratch);
+        to_landmark_observations(observations, &mut scratch);
         let update = self.slam.add_keyframe(&odometry, &scratch);
         let update = match update {
             Ok(u) => u,
@@ -254,25 +253,13 @@ impl SlamFrontend {
     }
 }
 
-/// The observations to use: landmarks already mapped first (by id), then new ones nearest first,
-/// at most `cap`, returned by increasing id.
-fn select_observations(observations: &[CameraObservation], known: impl Fn(u64) -> bool, cap: usize, out: &mut Vec<LandmarkObservation>) {
+/// The observations in the back end's form, by increasing id.
+fn to_landmark_observations(observations: &[CameraObservation], out: &mut Vec<LandmarkObservation>) {
     out.clear();
-    let mut order: Vec<(bool, u64, usize)> = observations
-        .iter()
-        .enumerate()
-        .map(|(i, o)| {
-            let k = known(o.landmark_id);
-            // Known: by id; new: by squared distance (as integer micrometres², ties by id).
-            let key = if k { o.landmark_id } else { (o.point_in_robot.norm_squared() * 1e6) as u64 };
-            (!k, key, i)
-        })
-        .collect();
-    order.sort_unstable();
-    order.truncate(cap);
-    order.sort_unstable_by_key(|&(_, _, i)| observations[i].landmark_id);
-    out.extend(order.iter().map(|&(_, _, i)| {
-        let o = &observations[i];
-        LandmarkObservation { landmark_id: o.landmark_id, point_in_robot: o.point_in_robot, covariance: o.covariance }
+    out.extend(observations.iter().map(|o| LandmarkObservation {
+        landmark_id: o.landmark_id,
+        point_in_robot: o.point_in_robot,
+        covariance: o.covariance,
     }));
+    out.sort_by_key(|o| o.landmark_id);
 }

@@ -27,9 +27,10 @@
 //!
 //! **Landmark factors.** At each keyframe the camera observes; each observation is the landmark
 //! in the robot frame with the camera model's covariance (bearing σ_b across the line of
-//! sight, σ_d = k d² along it; `crate::sim::camera`). Correspondences are the landmark ids (known
-//! data association). At most `max_observations_per_keyframe` are used: landmarks already in the
-//! map first (they link keyframes and close loops), then new ones nearest first.
+//! sight, σ_d = k d² along it; `crate::sim::camera`). Correspondences are the landmark ids the
+//! front end matched (in the simulator `crate::sim::vision`: a budget of detected features, a
+//! share of them matched wrongly, which the back end's robust kernel absorbs); every observation
+//! given is used.
 //!
 //! **Between keyframes** the estimate is `T = T_k ⊕ (T_o(k)⁻¹ T_o(now))` and its covariance the
 //! keyframe's marginal compounded with the odometry since: `Σ = Ad(T_rel⁻¹) Σ_k Ad(T_rel⁻¹)ᵀ +

@@ -22,8 +22,6 @@ pub struct SlamParams {
     /// The IMU accelerometer's absolute tilt noise σ, radians, for a gravity factor at every
     /// keyframe; 0 disables it. Default 0.003 (≈ 0.17°, a calibrated MEMS IMU at rover speeds).
     pub gravity_sigma_rad: f64,
-    /// Landmark observations used per keyframe. Default 30.
-    pub max_observations_per_keyframe: usize,
     /// Batch solver: exact pose marginal every this many keyframes (and at every loop closure;
     /// compounded from odometry in between). The incremental solver gives the exact one at
     /// every keyframe. Default 20.
@@ -49,7 +47,6 @@ impl Default for SlamParams {
             tilt_gyro_sigma_per_sqrt_s: 2e-4,
             z_sigma_per_sqrt_m: 0.01,
             gravity_sigma_rad: 0.003,
-            max_observations_per_keyframe: 30,
             marginal_every_keyframes: 20,
             landmark_refresh_keyframes: 20,
             cloud_voxel_m: 0.05,
@@ -85,6 +82,9 @@ impl SlamParams {
         at_least_one("graph.window_keyframes", self.graph.window_keyframes)?;
         nonneg("graph.isam2.relinearize_threshold", self.graph.isam2.relinearize_threshold)?;
         nonneg("graph.isam2.wildfire_threshold", self.graph.isam2.wildfire_threshold)?;
+        if let Some(k) = self.graph.observation_kernel.threshold() {
+            pos("graph.observation_kernel.k", k)?;
+        }
         // The back end's optimiser has no check of its own: a NaN tolerance never stops it, a
         // λ₀ of 0 (absolute in the GTSAM schedule) never grows, an infinite λ_max never gives up.
         let o = &self.graph.optimizer;
