@@ -285,6 +285,18 @@ impl UnknownName {
     }
 }
 
+/// The heading a baseline (`greedy`, `random`, `matched`) sets its goal with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BaselineHeading {
+    /// The path's heading where it ends: the robot stops as it arrives (the paper's baselines
+    /// have no Θ*, which is u1's).
+    #[default]
+    Arrival,
+    /// u1's best view Θ*, as `fit` and `u1`.
+    ThetaStar,
+}
+
 /// Selector choice.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -293,11 +305,13 @@ pub struct SelectorParams {
     pub strategy: Strategy,
     /// Seed for the random selector.
     pub seed: u64,
+    /// The baselines' goal heading. Default `arrival`.
+    pub baseline_heading: BaselineHeading,
 }
 
 impl Default for SelectorParams {
     fn default() -> Self {
-        Self { strategy: Strategy::Fit, seed: 0 }
+        Self { strategy: Strategy::Fit, seed: 0, baseline_heading: BaselineHeading::Arrival }
     }
 }
 

@@ -25,8 +25,9 @@ use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
 use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
 use crate::grid::{Cell, CellClass, OccupancyGrid, free_traversed, inflate_lethal_into};
-use crate::params::{Params, Strategy, check_radius_cells, check_waypoint_spacing};
+use crate::params::{BaselineHeading, Params, Strategy, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
+use crate::utility::u2::arrival_heading_rad;
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
@@ -260,6 +261,18 @@ pub fn choose(decision: &mut Decision, chosen: Option<usize>) {
         let c = &decision.candidates[i];
         crate::pose::Pose2::new(c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0))
     });
+}
+
+/// A baseline's goal heading ([`BaselineHeading`]): with `arrival`, the chosen path's heading at
+/// its end instead of Θ* (unchanged for a path of no length).
+pub fn set_baseline_heading(decision: &mut Decision, params: &Params) {
+    if params.selector.baseline_heading != BaselineHeading::Arrival {
+        return;
+    }
+    let Some(yaw) = decision.chosen_candidate().and_then(|c| arrival_heading_rad(&c.path_m)) else { return };
+    if let Some(goal) = decision.goal.as_mut() {
+        goal.yaw_rad = yaw;
+    }
 }
 
 /// `indices` sorted by increasing key, ties (and NaN keys, last) by index.

@@ -6,7 +6,7 @@
 //! lengths follow FIT-SLAM's; what its paths see does not. The drawn candidate gets rank 1, the
 //! others none; u1, I_p and u2 stay reported.
 
-use super::candidates::{PlanBuffers, choose, plan, rank_and_choose, score_u2};
+use super::candidates::{PlanBuffers, choose, plan, rank_and_choose, score_u2, set_baseline_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy};
 use rand::{RngExt, SeedableRng};
@@ -55,6 +55,7 @@ impl GoalSelector for LengthMatched {
             c.dropped = None;
         }
         choose(&mut d, chosen);
+        set_baseline_heading(&mut d, params);
         Ok(d)
     }
 

@@ -73,6 +73,28 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
 }
 
 #[test]
+fn baselines_arrive_as_they_drive_unless_told_to_turn_to_theta_star() {
+    // The corridor runs east–west: greedy's path to the west end arrives heading west (π).
+    let w = corridor_two_frontiers(true);
+    let mut p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(p.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let g = Greedy::default().select(&input, &p).unwrap();
+    assert!(wrap_pi(g.goal.unwrap().yaw_rad - PI).abs() < 1e-9, "{:?}", g.goal);
+    let r = RandomSelector::new(3).select(&input, &p).unwrap();
+    let c = r.chosen_candidate().unwrap();
+    let heading = if c.x_m < w.robot.x_m { PI } else { 0.0 };
+    assert!(wrap_pi(r.goal.unwrap().yaw_rad - heading).abs() < 1e-9, "{:?}", r.goal);
+    // With `theta_star` they take u1's best view, as FIT-SLAM does.
+    p.selector.baseline_heading = crate::params::BaselineHeading::ThetaStar;
+    let g = Greedy::default().select(&input, &p).unwrap();
+    assert_eq!(g.goal.unwrap().yaw_rad, g.chosen_candidate().unwrap().theta_star_rad.unwrap());
+    let f = FitSlam::default().select(&input, &params()).unwrap();
+    assert_eq!(f.goal.unwrap().yaw_rad, f.chosen_candidate().unwrap().theta_star_rad.unwrap());
+}
+
+#[test]
 fn u1_only_and_top_n() {
     let w = corridor_two_frontiers(true);
     let mut p = params();
@@ -164,7 +186,7 @@ fn random_is_reproducible_per_seed() {
     assert_eq!(a, draw(5));
     assert_ne!(a, draw(6));
     // Each draw is a scored candidate ranked 1, and nothing else is ranked.
-    let mut s = make_selector(&SelectorParams { strategy: Strategy::Random, seed: 5 });
+    let mut s = make_selector(&SelectorParams { strategy: Strategy::Random, seed: 5, ..SelectorParams::default() });
     assert_eq!(s.strategy(), Strategy::Random);
     let d = s.select(&input, &p).unwrap();
     assert_eq!(d.chosen, Some(a[0]));
@@ -198,7 +220,7 @@ fn length_matched_random_draws_among_candidates_at_fit_slams_distance() {
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
     let fit = FitSlam::default().select(&input, &p).unwrap();
     let rho_fit = fit.chosen_candidate().unwrap().rho_m.unwrap();
-    let mut s = make_selector(&SelectorParams { strategy: Strategy::Matched, seed: 9 });
+    let mut s = make_selector(&SelectorParams { strategy: Strategy::Matched, seed: 9, ..SelectorParams::default() });
     assert_eq!(s.strategy(), Strategy::Matched);
     let mut others = 0;
     for _ in 0..30 {

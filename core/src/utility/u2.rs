@@ -104,6 +104,24 @@ pub fn waypoints_along(path_m: &[[f64; 2]], spacing_m: f64, goal_yaw_rad: f64, o
     out.push(Waypoint { x_m: goal[0], y_m: goal[1], yaw_rad: goal_yaw_rad, arc_length_m: total, is_goal: true });
 }
 
+/// The heading at the end of `path_m`: the chord to its end from the last vertex at least
+/// [`TANGENT_HALF_WINDOW_M`] of arc length before it (the first vertex when the path is shorter);
+/// `None` for a path of no length.
+pub fn arrival_heading_rad(path_m: &[[f64; 2]]) -> Option<f64> {
+    let &end = path_m.last()?;
+    let mut from = end;
+    let mut s = 0.0;
+    for w in path_m.windows(2).rev() {
+        from = w[0];
+        s += math::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]);
+        if s >= TANGENT_HALF_WINDOW_M {
+            break;
+        }
+    }
+    let (dx, dy) = (end[0] - from[0], end[1] - from[1]);
+    (dx != 0.0 || dy != 0.0).then(|| math::atan2(dy, dx))
+}
+
 /// `world_from_camera` (optical frame: z forward, x right, y down) for a camera at
 /// (`x_m`, `y_m`, `z_m`) with body yaw `yaw_rad`, pitch and roll 0.
 pub fn camera_pose(x_m: f64, y_m: f64, z_m: f64, yaw_rad: f64) -> Isometry3<f64> {
@@ -286,6 +304,18 @@ mod tests {
         // At s = 2.25 (spacing 2.25) the chord is s = 1.75 → 2.75: (1.75, 0)→(2, 0.75): yaw atan2(0.75, 0.25).
         waypoints_along(&path, 2.25, 0.0, &mut w);
         assert!((w[0].yaw_rad - 0.75f64.atan2(0.25)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn arrival_heading_is_the_last_half_metre() {
+        // East 2 m, then north 0.3 m: the last vertex ≥ 0.5 m back along the path is (1, 0), so
+        // the chord runs from (1, 0) to (2, 0.3).
+        let path = [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [2.0, 0.1], [2.0, 0.2], [2.0, 0.3]];
+        let yaw = arrival_heading_rad(&path).unwrap();
+        assert!((yaw - math::atan2(0.3, 1.0)).abs() < 1e-12, "{yaw}");
+        assert_eq!(arrival_heading_rad(&[[1.0, 1.0]]), None);
+        assert_eq!(arrival_heading_rad(&[]), None);
+        assert!((arrival_heading_rad(&[[0.0, 0.0], [0.0, -0.2]]).unwrap() + std::f64::consts::FRAC_PI_2).abs() < 1e-15);
     }
 
     #[test]

@@ -48,7 +48,7 @@ impl RobustKernel {
             RobustKernel::None => s * s,
             RobustKernel::Huber { k } if s <= k => s * s,
             RobustKernel::Huber { k } => 2.0 * k * s - k * k,
-            RobustKernel::Cauchy { k } => k * k * (s * s / (k * k)).ln_1p(),
+            RobustKernel::Cauchy { k } => k * k * crate::math::ln_1p(s * s / (k * k)),
         }
     }
 
