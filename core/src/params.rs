@@ -204,6 +204,11 @@ pub struct U2Params {
     pub sigma_landmark_m: f64,
     /// Normalisation of I_p. Default `max` (paper).
     pub normalisation: InfoNormalisation,
+    /// Stand each waypoint's camera on the map's known ground, tilted with it (notes §6); false:
+    /// flat ground at the robot's height, level (the paper). Default true.
+    pub follow_terrain: bool,
+    /// Known ground hides the voxels behind it (not in the paper). Default false.
+    pub occlusion: bool,
 }
 
 impl Default for U2Params {
@@ -216,6 +221,8 @@ impl Default for U2Params {
             sigma_bearing_rad: 0.01,
             sigma_landmark_m: 0.05,
             normalisation: InfoNormalisation::Max,
+            follow_terrain: true,
+            occlusion: false,
         }
     }
 }

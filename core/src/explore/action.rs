@@ -18,6 +18,8 @@ pub struct Situation<'a> {
     /// Height of the ground under the robot, map frame, metres (u2 puts the camera
     /// `camera_height_m` above it).
     pub ground_z_m: f64,
+    /// The map's known ground for u2's terrain-following cameras; `None`: flat at `ground_z_m`.
+    pub ground: Option<crate::traversability::GroundModel<'a>>,
     /// σx² + σy² of the position estimate, m² (the set-back of paths; 0 without a covariance).
     pub position_var_m2: f64,
     /// Periodic replanning while a goal is pursued: the current goal is kept while it is still a

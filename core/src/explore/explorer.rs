@@ -176,6 +176,7 @@ impl Explorer {
                 boundary: s.boundary,
                 blacklist: &self.blacklist,
                 ground_z_m: s.ground_z_m,
+                ground: s.ground,
                 traversed: if use_trail { self.trail.cells(&g) } else { &[] },
             };
             let result = self.selector.select(&input, params);

@@ -10,7 +10,16 @@ use crate::pose::Pose2;
 use crate::utility::LandmarkVoxels;
 
 fn situation(landmarks: &LandmarkVoxels, robot: Pose2) -> Situation<'_> {
-    Situation { landmarks, robot, boundary: None, ground_z_m: 0.0, position_var_m2: 0.0, replanning: false, can_forget_map: true }
+    Situation {
+        landmarks,
+        robot,
+        boundary: None,
+        ground_z_m: 0.0,
+        ground: None,
+        position_var_m2: 0.0,
+        replanning: false,
+        can_forget_map: true,
+    }
 }
 
 fn greedy() -> Params {

@@ -27,7 +27,7 @@ use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_
 use crate::grid::{Cell, CellClass, OccupancyGrid, free_traversed, inflate_lethal_into};
 use crate::params::{BaselineHeading, Params, Strategy, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
-use crate::utility::u2::arrival_heading_rad;
+use crate::utility::u2::{CameraGround, arrival_heading_rad};
 use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
@@ -209,6 +209,11 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
             c.dropped = Some(DropReason::NotInTopN);
         }
     }
+    let ground = CameraGround {
+        flat_z_m: input.ground_z_m,
+        known: input.ground.filter(|_| params.u2.follow_terrain),
+        occlusion: params.u2.occlusion,
+    };
     let mut raw = Vec::with_capacity(top.len());
     for &i in &top {
         let c = &mut decision.candidates[i];
@@ -219,7 +224,7 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
             params.waypoint_spacing_m(),
             &params.camera,
             params.robot.camera_height_m,
-            input.ground_z_m,
+            &ground,
             params.u2.sigma_bearing_rad,
             &mut c.waypoints,
         );

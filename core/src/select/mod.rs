@@ -67,9 +67,12 @@ pub struct DecisionInput<'a> {
     pub boundary: Option<&'a Boundary>,
     /// Blacklisted goals.
     pub blacklist: &'a Blacklist,
-    /// Height of the (flat) ground in the map frame, metres; cameras sit `camera_height_m` above
-    /// it. Default 0.
+    /// Height of the ground under the robot in the map frame, metres: u2's cameras sit
+    /// `camera_height_m` above it where `ground` does not know better. Default 0.
     pub ground_z_m: f64,
+    /// The map's known ground (height and slope per cell) for u2's terrain-following cameras
+    /// ([`crate::params::U2Params::follow_terrain`]). Default `None`: flat.
+    pub ground: Option<crate::traversability::GroundModel<'a>>,
     /// Cells (flat indices into `grid`) the robot's centre has driven on: each one free in `grid`
     /// stays free after inflation ([`crate::grid::free_traversed`]), so the robot can go back the
     /// way it came. Default empty.
@@ -79,7 +82,7 @@ pub struct DecisionInput<'a> {
 impl<'a> DecisionInput<'a> {
     /// An input with no boundary and the ground at z = 0.
     pub fn new(grid: &'a OccupancyGrid, landmarks: &'a LandmarkVoxels, robot: Pose2, blacklist: &'a Blacklist) -> Self {
-        Self { grid, landmarks, robot, boundary: None, blacklist, ground_z_m: 0.0, traversed: &[] }
+        Self { grid, landmarks, robot, boundary: None, blacklist, ground_z_m: 0.0, ground: None, traversed: &[] }
     }
 
     /// The same input with an exploration boundary.

@@ -310,8 +310,10 @@ impl Mission {
             landmarks: &voxels,
             robot: est,
             boundary: Some(&self.sim.world().boundary),
-            // The camera's ground for u2: the estimated body's height.
+            // The camera's ground for u2: the estimated body's height, and the map's ground
+            // (its layers were brought up to date by `occupancy` above).
             ground_z_m: self.localiser.body_pose(&self.sim).0.z,
+            ground: Some(self.layers.ground()),
             position_var_m2: cov[(0, 0)] + cov[(1, 1)],
             replanning,
             can_forget_map: true,

@@ -57,6 +57,11 @@ pub struct TraversabilityLayers {
     pub cell_points: Grid<u32>,
     /// Points in the cell's disc (saturating).
     pub disc_points: Grid<u32>,
+    /// Height of the disc's fitted plane above the cell's centre, map frame, metres (NaN where
+    /// unknown or the plane is vertical): the ground a camera stands on (u2, notes §6).
+    pub ground_z_m: Grid<f32>,
+    /// The plane's gradient (∂z/∂x, ∂z/∂y) there: its normal is (−∂z/∂x, −∂z/∂y, 1) normalised.
+    pub ground_gradient: Grid<[f32; 2]>,
     /// Parameters these layers were computed with (an update with others recomputes all).
     computed_with: TraversabilityParams,
 }
@@ -69,9 +74,11 @@ impl TraversabilityLayers {
             step_m: nan.clone(),
             roughness_m: nan.clone(),
             hazard: nan.clone(),
-            score: nan,
+            score: nan.clone(),
             cell_points: Grid::filled(geometry, 0),
             disc_points: Grid::filled(geometry, 0),
+            ground_z_m: nan,
+            ground_gradient: Grid::filled(geometry, [f32::NAN; 2]),
             computed_with: params.clone(),
         }
     }
@@ -96,7 +103,15 @@ impl TraversabilityLayers {
         to_occupancy(&self.score, tau)
     }
 
-    fn write(&mut self, i: usize, cell_points: u64, e: &CellEstimate) {
+    /// The ground model of u2's terrain-following camera ([`GroundModel`]).
+    pub fn ground(&self) -> GroundModel<'_> {
+        GroundModel { z_m: &self.ground_z_m, gradient: &self.ground_gradient }
+    }
+
+    /// Writes cell `i`'s estimate; `z_origin_m` is the map's local origin height.
+    fn write(&mut self, i: usize, cell_points: u64, e: &CellEstimate, z_origin_m: f64) {
+        self.ground_z_m.data[i] = (z_origin_m + e.ground_z_local_m) as f32;
+        self.ground_gradient.data[i] = [e.gradient[0] as f32, e.gradient[1] as f32];
         self.slope_rad.data[i] = e.slope_rad as f32;
         self.step_m.data[i] = e.step_m as f32;
         self.roughness_m.data[i] = e.roughness_m as f32;
@@ -126,8 +141,37 @@ pub fn to_occupancy(score: &Grid<f32>, tau: f64) -> OccupancyGrid {
     Grid { geometry: score.geometry, data }
 }
 
+/// The known ground under the map's cells: the fitted plane's height and gradient per cell
+/// ([`TraversabilityLayers::ground_z_m`], [`TraversabilityLayers::ground_gradient`]).
+#[derive(Clone, Copy, Debug)]
+pub struct GroundModel<'a> {
+    pub z_m: &'a Grid<f32>,
+    pub gradient: &'a Grid<[f32; 2]>,
+}
+
+impl GroundModel<'_> {
+    /// (height, gradient) of the ground under (x, y), where the map knows it: the plane of the
+    /// cell holding (x, y), evaluated at (x, y).
+    pub fn at(&self, x_m: f64, y_m: f64) -> Option<(f64, [f64; 2])> {
+        let g = self.z_m.geometry;
+        let cell = g.cell_of(x_m, y_m)?;
+        let i = g.index(cell)?;
+        let (z, [gx, gy]) = (self.z_m.data[i], self.gradient.data[i]);
+        if !(z.is_finite() && gx.is_finite() && gy.is_finite()) {
+            return None;
+        }
+        let (cx, cy) = g.center_of(cell);
+        let (gx, gy) = (f64::from(gx), f64::from(gy));
+        Some((f64::from(z) + gx * (x_m - cx) + gy * (y_m - cy), [gx, gy]))
+    }
+}
+
 /// One cell's result (NaN fields when unknown).
 pub(super) struct CellEstimate {
+    /// Plane height above the cell's centre relative to the map's local origin, metres.
+    pub(super) ground_z_local_m: f64,
+    /// Plane gradient (∂z/∂x, ∂z/∂y).
+    pub(super) gradient: [f64; 2],
     pub(super) slope_rad: f64,
     pub(super) step_m: f64,
     pub(super) roughness_m: f64,
@@ -184,6 +228,8 @@ pub(super) fn estimate_cell(
     p: &TraversabilityParams,
 ) -> CellEstimate {
     let unknown = |disc_points: u64| CellEstimate {
+        ground_z_local_m: f64::NAN,
+        gradient: [f64::NAN; 2],
         slope_rad: f64::NAN,
         step_m: f64::NAN,
         roughness_m: f64::NAN,
@@ -235,7 +281,14 @@ pub(super) fn estimate_cell(
     }
     let hazard =
         ratio(plane.slope_rad, p.max_slope_rad).max(ratio(step_h, p.max_step_m)).max(ratio(roughness_h, p.max_roughness_m)).clamp(0.0, 1.0);
+    let [nx, ny, nz] = plane.normal;
+    let (ground_z_local_m, gradient) = match plane.height_at(0.0, 0.0) {
+        Some(h) => (z_ref + h, [-nx / nz, -ny / nz]),
+        None => (f64::NAN, [f64::NAN; 2]),
+    };
     CellEstimate {
+        ground_z_local_m,
+        gradient,
         slope_rad: plane.slope_rad,
         step_m,
         roughness_m: plane.roughness_m,
@@ -261,7 +314,7 @@ impl TraversabilityMap {
         let mut layers = TraversabilityLayers::unknown(g, params);
         for i in 0..g.len() {
             let e = estimate_cell(sums, &self.moments, &g, i, params);
-            layers.write(i, self.moments[i].count, &e);
+            layers.write(i, self.moments[i].count, &e, self.z_origin_m.unwrap_or(0.0));
         }
         layers
     }
@@ -294,7 +347,7 @@ impl TraversabilityMap {
         };
         self.stale_estimate.drain_in_order(ahead, |j| {
             let e = estimate_cell(sums, &self.moments, &g, j, params);
-            layers.write(j, self.moments[j].count, &e);
+            layers.write(j, self.moments[j].count, &e, self.z_origin_m.unwrap_or(0.0));
             n += 1;
         });
         n
@@ -322,7 +375,7 @@ impl TraversabilityMap {
         for index in indices {
             if index < g.len() && std::mem::take(&mut flag[index]) {
                 let e = estimate_cell(sums, &self.moments, &g, index, params);
-                layers.write(index, self.moments[index].count, &e);
+                layers.write(index, self.moments[index].count, &e, self.z_origin_m.unwrap_or(0.0));
             }
         }
     }

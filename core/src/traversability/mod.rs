@@ -44,7 +44,7 @@ mod tests;
 
 pub use crate::grid::MAX_CELLS;
 pub use disc_sums::disc_offsets;
-pub use estimate::{TraversabilityLayers, to_occupancy};
+pub use estimate::{GroundModel, TraversabilityLayers, to_occupancy};
 pub use map::{InsertStats, TraversabilityMap};
 pub use moments::CellMoments;
 pub use plane::{PlaneFit, fit_plane};

@@ -48,10 +48,13 @@ fn assert_same(a: &TraversabilityLayers, b: &TraversabilityLayers) {
         (&a.roughness_m, &b.roughness_m),
         (&a.hazard, &b.hazard),
         (&a.score, &b.score),
+        (&a.ground_z_m, &b.ground_z_m),
     ] {
         assert_eq!(x.geometry, y.geometry);
         assert!(x.data.iter().zip(&y.data).all(|(u, v)| u.to_bits() == v.to_bits()));
     }
+    let bits = |g: &[f32; 2]| [g[0].to_bits(), g[1].to_bits()];
+    assert!(a.ground_gradient.data.iter().zip(&b.ground_gradient.data).all(|(u, v)| bits(u) == bits(v)));
     assert_eq!(a.cell_points, b.cell_points);
     assert_eq!(a.disc_points, b.disc_points);
     assert_eq!(a.params(), b.params());
@@ -96,6 +99,25 @@ fn fifteen_degree_ramp_has_its_slope_and_is_free() {
     for c in interior() {
         assert!((at(&layers.step_m, c) - 0.34 * t).abs() < 1e-6, "{}", at(&layers.step_m, c));
     }
+}
+
+#[test]
+fn the_ground_layers_hold_the_fitted_plane() {
+    // z = 3 + 0.2 x − 0.1 y: every interior cell's ground is the plane at its centre, with
+    // gradient (0.2, −0.1); the ground model evaluates the plane between centres too.
+    let plane = |x: f64, y: f64| 3.0 + 0.2 * x - 0.1 * y;
+    let layers = layers_of(&surface(plane), &TraversabilityParams::default());
+    let g = geometry();
+    for c in interior() {
+        let (x, y) = g.center_of(c);
+        assert!((at(&layers.ground_z_m, c) - plane(x, y)).abs() < 1e-5, "{c:?}");
+        let [gx, gy] = layers.ground_gradient.data[g.index(c).unwrap()];
+        assert!((f64::from(gx) - 0.2).abs() < 1e-5 && (f64::from(gy) + 0.1).abs() < 1e-5, "{c:?}");
+    }
+    let (z, _) = layers.ground().at(1.0, 1.01).unwrap();
+    assert!((z - plane(1.0, 1.01)).abs() < 1e-5);
+    // Unknown ground (outside the points' discs) is unknown.
+    assert_eq!(layers.ground().at(-1.0, 0.5), None);
 }
 
 #[test]

@@ -4,15 +4,20 @@
 //!    `d_max` of arc length (`Params::waypoint_spacing_m`, by default the camera's max depth),
 //!    starting at `d_max` (the robot already sees what it sees from where it is), plus the goal.
 //!    A waypoint closer than 1 mm to the goal is merged with it.
-//! 2. Camera pose at a waypoint: position at `ground_z_m + camera_height_m`; yaw along the path
-//!    tangent, pitch and roll 0. A grid path is a chain of 8-connected cells whose segment
+//! 2. Camera pose at a waypoint ([`CameraGround`]): where the map knows the ground under the
+//!    waypoint (the fitted plane's height and gradient, [`GroundModel`]), the body stands on that
+//!    plane, its z axis along the plane's normal, and the camera sits `camera_height_m` up that
+//!    axis (pitch and roll from the local plane, as the simulated robot's); elsewhere, or with
+//!    `follow_terrain` off (the paper), at `ground_z_m + camera_height_m`, level. Yaw along the
+//!    path tangent. A grid path is a chain of 8-connected cells whose segment
 //!    directions are quantised to 45°, so the tangent is taken as the chord over
 //!    ±[`TANGENT_HALF_WINDOW_M`] of arc length (clamped to the path). At the goal the yaw is Θ*.
 //!    Body frame REP-103 (x forward, y left, z up) → camera optical frame (z forward, x right,
 //!    y down).
 //! 3. Frustum: a voxel centroid `p_c` in the optical frame is seen when
 //!    `min_depth ≤ z ≤ max_depth`, `|x| ≤ z·tan(Φ/2)`, `|y| ≤ z·tan(Φ_v/2)` (depth along the optical
-//!    axis, as a depth camera reports it). Occlusion is not modelled (paper; optional in notes).
+//!    axis, as a depth camera reports it). With `occlusion` on, a voxel whose line of sight dips
+//!    below the known ground is hidden (not in the paper; optional in the notes).
 //! 4. `I_{w_k} = Σ_{voxels seen from w_k} tr(I_i)` (T-optimality, [`super::fim`]);
 //!    `I_{p_i} = Σ_k I_{w_k}`; normalised over the N candidates by the max (paper eq. 12) or the
 //!    mean; `u2 = β · u1 + (1 − β) · I_p,normalised`.
@@ -24,12 +29,51 @@ use super::fim::{trace_information, trace_information_general};
 use super::voxels::LandmarkVoxels;
 use crate::math;
 use crate::params::{CameraParams, InfoNormalisation};
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+pub use crate::traversability::GroundModel;
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Half-length of the chord that estimates a path's tangent, metres.
 pub const TANGENT_HALF_WINDOW_M: f64 = 0.5;
 const MERGE_WITH_GOAL_M: f64 = 1e-3;
+/// An occluding ground must rise this far above the line of sight, metres (a landmark on the
+/// ground is not hidden by the ground it lies on).
+const OCCLUSION_TOLERANCE_M: f64 = 0.02;
+/// The line of sight is checked up to this short of the voxel, metres.
+const OCCLUSION_MARGIN_M: f64 = 0.1;
+
+/// Where u2's cameras stand (module doc, step 2).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraGround<'a> {
+    /// Height of the flat ground assumed where the map does not know it, map frame, metres.
+    pub flat_z_m: f64,
+    /// The map's known ground; `None`: flat ground everywhere (the paper).
+    pub known: Option<GroundModel<'a>>,
+    /// Whether the known ground hides the voxels behind it.
+    pub occlusion: bool,
+}
+
+impl CameraGround<'_> {
+    /// Flat ground at `flat_z_m`, no occlusion (the paper).
+    pub fn flat(flat_z_m: f64) -> Self {
+        Self { flat_z_m, known: None, occlusion: false }
+    }
+
+    /// The body at (`x_m`, `y_m`) heading `yaw_rad`: its origin on the ground and
+    /// `world_from_body` (z along the ground's normal, x the heading projected onto the ground).
+    pub fn body_at(&self, x_m: f64, y_m: f64, yaw_rad: f64) -> (Point3<f64>, Rotation3<f64>) {
+        let level = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad);
+        let Some((z, [gx, gy])) = self.known.and_then(|g| g.at(x_m, y_m)) else {
+            return (Point3::new(x_m, y_m, self.flat_z_m), level);
+        };
+        let n = Vector3::new(-gx, -gy, 1.0).normalize();
+        let (sin, cos) = math::sin_cos(yaw_rad);
+        let f = Vector3::new(cos, sin, 0.0);
+        let x = (f - n * f.dot(&n)).normalize();
+        let y = n.cross(&x);
+        (Point3::new(x_m, y_m, z), Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, n])))
+    }
+}
 
 /// A waypoint on a path (map frame).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -125,10 +169,15 @@ pub fn arrival_heading_rad(path_m: &[[f64; 2]]) -> Option<f64> {
 /// `world_from_camera` (optical frame: z forward, x right, y down) for a camera at
 /// (`x_m`, `y_m`, `z_m`) with body yaw `yaw_rad`, pitch and roll 0.
 pub fn camera_pose(x_m: f64, y_m: f64, z_m: f64, yaw_rad: f64) -> Isometry3<f64> {
-    // Columns: the optical axes in the body frame (x_opt = −y_body, y_opt = −z_body, z_opt = x_body).
-    let body_from_optical = Rotation3::from_matrix_unchecked(Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0));
     let world_from_body = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad);
-    Isometry3::from_parts(Translation3::new(x_m, y_m, z_m), UnitQuaternion::from_rotation_matrix(&(world_from_body * body_from_optical)))
+    Isometry3::from_parts(Translation3::new(x_m, y_m, z_m), UnitQuaternion::from_rotation_matrix(&optical_rotation(&world_from_body)))
+}
+
+/// `world_from_optical` of a camera looking along the body's x: the optical axes in the body
+/// frame are x_opt = −y_body, y_opt = −z_body, z_opt = x_body.
+pub fn optical_rotation(world_from_body: &Rotation3<f64>) -> Rotation3<f64> {
+    let body_from_optical = Rotation3::from_matrix_unchecked(Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0));
+    world_from_body * body_from_optical
 }
 
 /// The camera frustum in the optical frame.
@@ -159,44 +208,51 @@ impl Frustum {
     }
 }
 
-/// What a camera at (x, y, z, yaw) sees: (voxels in the frustum, `I_w = Σ tr(I_i)`).
+/// What a camera at `camera_m` on a body with `world_from_body` (the camera looks along the body's
+/// x) sees: (voxels in the frustum and, with `occluder`, in line of sight over its ground;
+/// `I_w = Σ tr(I_i)`).
 pub fn waypoint_information(
     voxels: &LandmarkVoxels,
     camera_m: [f64; 3],
-    yaw_rad: f64,
+    world_from_body: &Rotation3<f64>,
     frustum: &Frustum,
     sigma_bearing_rad: f64,
+    occluder: Option<&GroundModel>,
 ) -> (usize, f64) {
-    let (s, c) = math::sin_cos(yaw_rad);
-    let (fwd, right) = ([c, s], [s, -c]);
-    // x–y footprint: the trapezoid between min and max depth, or everything if unbounded.
+    let m = world_from_body.matrix();
+    let (xb, yb, zb) = (m.column(0).into_owned(), m.column(1).into_owned(), m.column(2).into_owned());
+    let cam = Vector3::from(camera_m);
+    // x–y footprint: the box around the frustum's eight corners, or everything if unbounded.
     let (mut x0, mut y0, mut x1, mut y1) = (f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-    if frustum.tan_half_hfov.is_finite() {
+    if frustum.tan_half_hfov.is_finite() && frustum.tan_half_vfov.is_finite() {
         for depth in [frustum.min_depth_m, frustum.max_depth_m] {
-            for side in [-1.0, 1.0] {
-                let lateral = side * depth * frustum.tan_half_hfov;
-                let px = camera_m[0] + depth * fwd[0] + lateral * right[0];
-                let py = camera_m[1] + depth * fwd[1] + lateral * right[1];
-                x0 = x0.min(px);
-                x1 = x1.max(px);
-                y0 = y0.min(py);
-                y1 = y1.max(py);
+            for sx in [-1.0, 1.0] {
+                for sy in [-1.0, 1.0] {
+                    // Optical (x, y, z) → world: z along x_b, x along −y_b, y along −z_b.
+                    let (ox, oy) = (sx * depth * frustum.tan_half_hfov, sy * depth * frustum.tan_half_vfov);
+                    let p = cam + xb * depth - yb * ox - zb * oy;
+                    x0 = x0.min(p.x);
+                    x1 = x1.max(p.x);
+                    y0 = y0.min(p.y);
+                    y1 = y1.max(p.y);
+                }
             }
         }
     } else {
         (x0, y0, x1, y1) = (f64::MIN, f64::MIN, f64::MAX, f64::MAX);
     }
-    let camera_from_world_rotation = camera_pose(0.0, 0.0, 0.0, yaw_rad).rotation.inverse().to_rotation_matrix().into_inner();
+    let camera_from_world_rotation = optical_rotation(world_from_body).inverse().into_inner();
     let sigma_b = sigma_bearing_rad;
     let mut seen = 0;
     let mut info = 0.0;
     voxels.for_each_in_box(x0, y0, x1, y1, |i| {
         let p = voxels.centroid_m(i);
-        let (dx, dy, dz) = (p[0] - camera_m[0], p[1] - camera_m[1], p[2] - camera_m[2]);
-        let z = c * dx + s * dy;
-        let x = s * dx - c * dy;
-        let y = -dz;
+        let d = Vector3::new(p[0] - camera_m[0], p[1] - camera_m[1], p[2] - camera_m[2]);
+        let (z, x, y) = (xb.dot(&d), -yb.dot(&d), -zb.dot(&d));
         if !frustum.contains(x, y, z) {
+            return;
+        }
+        if occluder.is_some_and(|g| hidden_by_ground(g, &cam, &d)) {
             return;
         }
         seen += 1;
@@ -209,9 +265,26 @@ pub fn waypoint_information(
     (seen, info)
 }
 
+/// Whether the segment from `cam` along `d` (up to [`OCCLUSION_MARGIN_M`] short of its end)
+/// passes more than [`OCCLUSION_TOLERANCE_M`] below the known ground, sampled every cell.
+fn hidden_by_ground(ground: &GroundModel, cam: &Vector3<f64>, d: &Vector3<f64>) -> bool {
+    let len = d.norm();
+    let step = ground.z_m.geometry.resolution_m;
+    let u = d / len.max(1e-12);
+    let mut t = step;
+    while t < len - OCCLUSION_MARGIN_M {
+        let q = cam + u * t;
+        if ground.at(q.x, q.y).is_some_and(|(z, _)| z > q.z + OCCLUSION_TOLERANCE_M) {
+            return true;
+        }
+        t += step;
+    }
+    false
+}
+
 /// `I_p = Σ_k I_{w_k}` along `path_m` (map frame, metres; from the robot's cell to the candidate),
-/// with the goal's yaw `goal_yaw_rad` (Θ*). Writes one report per waypoint into `out`
-/// (cleared) and returns `I_p`.
+/// with the goal's yaw `goal_yaw_rad` (Θ*), cameras `camera_height_m` above `ground`. Writes one
+/// report per waypoint into `out` (cleared) and returns `I_p`.
 #[allow(clippy::too_many_arguments)]
 pub fn path_information(
     path_m: &[[f64; 2]],
@@ -220,7 +293,7 @@ pub fn path_information(
     spacing_m: f64,
     camera: &CameraParams,
     camera_height_m: f64,
-    ground_z_m: f64,
+    ground: &CameraGround,
     sigma_bearing_rad: f64,
     out: &mut Vec<WaypointReport>,
 ) -> f64 {
@@ -228,15 +301,17 @@ pub fn path_information(
     let mut wps = Vec::new();
     waypoints_along(path_m, spacing_m, goal_yaw_rad, &mut wps);
     let frustum = Frustum::from_params(camera);
-    let z_m = ground_z_m + camera_height_m;
+    let occluder = ground.known.as_ref().filter(|_| ground.occlusion);
     let mut total = 0.0;
     for w in &wps {
-        let (voxels_seen, info) = waypoint_information(voxels, [w.x_m, w.y_m, z_m], w.yaw_rad, &frustum, sigma_bearing_rad);
+        let (body, world_from_body) = ground.body_at(w.x_m, w.y_m, w.yaw_rad);
+        let cam = body + world_from_body * Vector3::new(0.0, 0.0, camera_height_m);
+        let (voxels_seen, info) = waypoint_information(voxels, cam.coords.into(), &world_from_body, &frustum, sigma_bearing_rad, occluder);
         total += info;
         out.push(WaypointReport {
             x_m: w.x_m,
             y_m: w.y_m,
-            z_m,
+            z_m: cam.z,
             yaw_rad: w.yaw_rad,
             arc_length_m: w.arc_length_m,
             is_goal: w.is_goal,
@@ -269,8 +344,68 @@ pub fn u2_score(u1: f64, path_info_normalised: f64, beta: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::cloud::PointCloud;
-    use nalgebra::Point3;
+    use crate::grid::{Grid, GridGeometry};
     use std::f64::consts::{FRAC_PI_2, PI};
+
+    fn level(yaw_rad: f64) -> Rotation3<f64> {
+        Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad)
+    }
+
+    /// A ground of height `z(x, y)` and its gradient, on 5 cm cells over [−5, 15] × [−5, 5] m.
+    fn ground(z: impl Fn(f64, f64) -> f64, gradient: impl Fn(f64, f64) -> [f64; 2]) -> (Grid<f32>, Grid<[f32; 2]>) {
+        let g = GridGeometry::new(-5.0, -5.0, 0.05, 400, 200);
+        let at = |i: usize| g.center_of(g.cell_at(i));
+        let zs = (0..g.len()).map(at).map(|(x, y)| z(x, y) as f32).collect();
+        let gs = (0..g.len()).map(at).map(|(x, y)| gradient(x, y)).map(|[a, b]| [a as f32, b as f32]).collect();
+        (Grid { geometry: g, data: zs }, Grid { geometry: g, data: gs })
+    }
+
+    #[test]
+    fn a_camera_on_a_slope_looks_up_it() {
+        // Ground z = x tan 30°: the body at x = 1 stands on it (origin z = tan 30°), its x axis
+        // (cos 30°, 0, sin 30°) up the slope, its z axis the normal (−sin 30°, 0, cos 30°).
+        let t = math::tan(30f64.to_radians());
+        let (z, grad) = ground(|x, _| x * t, |_, _| [t, 0.0]);
+        let known = GroundModel { z_m: &z, gradient: &grad };
+        let g = CameraGround { flat_z_m: 0.0, known: Some(known), occlusion: false };
+        let (body, r) = g.body_at(1.0, 0.0, 0.0);
+        let (s30, c30) = (0.5, 0.75f64.sqrt());
+        assert!((body.coords - Vector3::new(1.0, 0.0, t)).norm() < 1e-6);
+        assert!((r * Vector3::x() - Vector3::new(c30, 0.0, s30)).norm() < 1e-6);
+        assert!((r * Vector3::z() - Vector3::new(-s30, 0.0, c30)).norm() < 1e-6);
+        // A landmark 2.5 m ahead on the optical axis of a camera 0.2 m up the normal: seen on
+        // the slope, with the closed-form tr(I) at d = 2.5; a level camera 0.2 m above z = 0 sees
+        // it 41° up, above its 29° half field of view.
+        let cam = body + r * Vector3::new(0.0, 0.0, 0.2);
+        let p = cam + r * Vector3::new(2.5, 0.0, 0.0);
+        let v = LandmarkVoxels::new(&PointCloud::from_points(vec![p]), 0.01, 0.05).unwrap();
+        let f = Frustum::from_params(&CameraParams::default());
+        let (n, info) = waypoint_information(&v, cam.coords.into(), &r, &f, 0.01, None);
+        let d: f64 = 2.5;
+        let expected = 2.0 * (1.0 + 1.0 / (d * d)) / (1e-4 + 0.0025 / (d * d));
+        assert_eq!(n, 1);
+        assert!((info - expected).abs() < 1e-6 * expected, "{info} vs {expected}");
+        assert_eq!(waypoint_information(&v, [1.0, 0.0, 0.2], &level(0.0), &f, 0.01, None).0, 0);
+        // Unknown ground under the waypoint: flat and level.
+        let (body, r) = g.body_at(20.0, 0.0, 0.3);
+        assert_eq!((body, r), (Point3::new(20.0, 0.0, 0.0), level(0.3)));
+    }
+
+    #[test]
+    fn a_ridge_hides_what_lies_behind_it_with_occlusion_on() {
+        // Flat ground with a 0.5 m ridge across x ∈ [1.4, 1.6]; a landmark on the ground at
+        // x = 2.5, 0.05 m up, seen from a camera 0.2 m up at x = 0 (5.7° down, inside the view).
+        let (z, grad) = ground(|x, _| if (1.4..=1.6).contains(&x) { 0.5 } else { 0.0 }, |_, _| [0.0, 0.0]);
+        let known = GroundModel { z_m: &z, gradient: &grad };
+        let v = LandmarkVoxels::new(&PointCloud::from_points(vec![Point3::new(2.5, 0.0, 0.05)]), 0.01, 0.05).unwrap();
+        let f = Frustum::from_params(&CameraParams::default());
+        assert_eq!(waypoint_information(&v, [0.0, 0.0, 0.2], &level(0.0), &f, 0.01, None).0, 1);
+        assert_eq!(waypoint_information(&v, [0.0, 0.0, 0.2], &level(0.0), &f, 0.01, Some(&known)).0, 0);
+        // Without the ridge, the ground it lies on does not hide it.
+        let (z0, grad0) = ground(|_, _| 0.0, |_, _| [0.0, 0.0]);
+        let flat = GroundModel { z_m: &z0, gradient: &grad0 };
+        assert_eq!(waypoint_information(&v, [0.0, 0.0, 0.2], &level(0.0), &f, 0.01, Some(&flat)).0, 1);
+    }
 
     #[test]
     fn waypoints_on_a_straight_path() {
@@ -351,13 +486,13 @@ mod tests {
         let cloud = PointCloud::from_points(vec![Point3::new(2.0, 0.0, 0.2), Point3::new(-2.0, 0.0, 0.2), Point3::new(2.0, 3.0, 0.2)]);
         let v = LandmarkVoxels::new(&cloud, 0.01, 0.05).unwrap();
         let f = Frustum::from_params(&CameraParams::default());
-        let (n, info) = waypoint_information(&v, [0.0, 0.0, 0.2], 0.0, &f, 0.01);
+        let (n, info) = waypoint_information(&v, [0.0, 0.0, 0.2], &level(0.0), &f, 0.01, None);
         assert_eq!(n, 1);
         let d = 2.0; // the voxel centroid is the point itself
         let expected = 2.0 * (1.0 + 1.0 / (d * d)) / (1e-4 + 0.0025 / (d * d));
         assert!((info - expected).abs() < 1e-9 * expected);
         // Turned round (yaw π), B is seen instead.
-        let (n, _) = waypoint_information(&v, [0.0, 0.0, 0.2], PI, &f, 0.01);
+        let (n, _) = waypoint_information(&v, [0.0, 0.0, 0.2], &level(PI), &f, 0.01, None);
         assert_eq!(n, 1);
     }
 
@@ -374,8 +509,8 @@ mod tests {
         assert!(general.isotropic_variance_m2(0).is_none());
         let iso = LandmarkVoxels::new(&PointCloud::from_points(cloud.points.clone()), 0.25, 0.05).unwrap();
         let f = Frustum::from_params(&CameraParams::default());
-        let (_, a) = waypoint_information(&general, [0.0, 0.0, 0.2], 0.1, &f, 0.01);
-        let (_, b) = waypoint_information(&iso, [0.0, 0.0, 0.2], 0.1, &f, 0.01);
+        let (_, a) = waypoint_information(&general, [0.0, 0.0, 0.2], &level(0.1), &f, 0.01, None);
+        let (_, b) = waypoint_information(&iso, [0.0, 0.0, 0.2], &level(0.1), &f, 0.01, None);
         assert!(a > 0.0 && (a - b).abs() < 1e-6 * b);
     }
 
@@ -386,7 +521,7 @@ mod tests {
         let path: Vec<[f64; 2]> = (0..=60).map(|k| [k as f64 * 0.1, 0.0]).collect();
         let mut rep = Vec::new();
         let cam = CameraParams::default();
-        let ip = path_information(&path, 0.0, &v, 3.0, &cam, 0.2, 0.0, 0.01, &mut rep);
+        let ip = path_information(&path, 0.0, &v, 3.0, &cam, 0.2, &CameraGround::flat(0.0), 0.01, &mut rep);
         assert_eq!(rep.len(), 2); // s = 3 and the goal at 6
         let sum: f64 = rep.iter().map(|r| r.info).sum();
         assert_eq!(ip, sum);

@@ -483,6 +483,8 @@ impl ExplorerNode {
             robot,
             boundary: self.boundary.as_ref(),
             ground_z_m: self.ground_z_m(),
+            // The ground the node maps itself from the clouds; with a map from elsewhere, flat.
+            ground: self.cloud_mapper.as_ref().map(|m| m.layers.ground()),
             position_var_m2: self.position_var_m2(),
             replanning: self.goal.is_some(),
             can_forget_map: self.cloud_mapper.is_some(),
