@@ -8,6 +8,9 @@
 //!   strategy, the mean over seeds and a band from the 25th to the 75th percentile, on a common
 //!   time grid of [`GRID_POINTS`] points from 0 to the longest run's end. A run that ended earlier
 //!   holds its last value (an explored map stays explored; its covariance stays where it was).
+//!   `DIR/coverage_distance.{png,svg}`: coverage over the distance driven, on the same kind of
+//!   grid; `DIR/cov_coverage.{png,svg}`: tr(cov) when each coverage level 0, 1, …, 100 % was
+//!   first reached, over the runs that reached it.
 //! - `DIR/summary.csv`: one row per run (strategy order as given, then seed order); byte-identical
 //!   whatever `--jobs` (no wall times in it).
 //! - `DIR/summary.md`: per strategy and metric the median, the interquartile range and min–max
@@ -25,7 +28,9 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use fitslam_core::explore::EndReason;
 use fitslam_core::params::Strategy;
-use fitslam_core::sim::coverage::{MATCHED_COVERAGE_PCT, MILESTONES_PCT, Milestone, mean_at_matched_coverage, milestone};
+use fitslam_core::sim::coverage::{
+    MATCHED_COVERAGE_PCT, MILESTONES_PCT, Milestone, at_coverage, coverage_pct, mean_at_matched_coverage, milestone,
+};
 use fitslam_core::sim::{Localisation, MetricsRow, Summary};
 use indicatif::ProgressBar;
 use rand::SeedableRng;
@@ -222,7 +227,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let md = summary_md(world_name, &strategies, &figures, &command_line(), localisation);
     load::write(&args.out.join("summary.md"), md.as_bytes())?;
     outln!(
-        "{}: {} runs ({} strategies × {} worlds × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png",
+        "{}: {} runs ({} strategies × {} worlds × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png",
         args.out.display(),
         figures.len(),
         strategies.len(),
@@ -276,12 +281,13 @@ fn summary_csv(figures: &[RunFigures]) -> String {
     s
 }
 
-/// `v` at each grid time: the last row at or before it (the first row before the first).
-fn resample(rows: &[MetricsRow], grid: &[f64], get: fn(&MetricsRow) -> f64) -> Vec<f64> {
+/// `get` at each grid value of the row's non-decreasing `x` (time or distance): the last row at
+/// or before it (the first row before the first).
+fn resample(rows: &[MetricsRow], grid: &[f64], x: fn(&MetricsRow) -> f64, get: fn(&MetricsRow) -> f64) -> Vec<f64> {
     let mut k = 0;
     grid.iter()
         .map(|&t| {
-            while k + 1 < rows.len() && rows[k + 1].time_s <= t {
+            while k + 1 < rows.len() && x(&rows[k + 1]) <= t {
                 k += 1;
             }
             rows.get(k).map(get).unwrap_or(f64::NAN)
@@ -289,14 +295,18 @@ fn resample(rows: &[MetricsRow], grid: &[f64], get: fn(&MetricsRow) -> f64) -> V
         .collect()
 }
 
-/// Mean and 25–75 % band per strategy over the common grid.
-fn curves(strategies: &[Strategy], figures: &[RunFigures], get: fn(&MetricsRow) -> f64) -> Vec<Curve> {
-    let t_end = figures.iter().filter_map(|f| f.rows.last()).map(|r| r.time_s).fold(0.0, f64::max);
-    let grid: Vec<f64> = (0..GRID_POINTS).map(|k| t_end * k as f64 / (GRID_POINTS - 1) as f64).collect();
+/// `n` evenly spaced values from 0 to `end`.
+fn grid_to(end: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|k| end * k as f64 / (n - 1) as f64).collect()
+}
+
+/// Mean and 25–75 % band per strategy of `sample(run)` (one value per `grid` point, NaN where a
+/// run has none) over the runs that have a value there.
+fn curves(strategies: &[Strategy], figures: &[RunFigures], grid: &[f64], sample: impl Fn(&RunFigures) -> Vec<f64>) -> Vec<Curve> {
     strategies
         .iter()
         .map(|&s| {
-            let runs: Vec<Vec<f64>> = figures.iter().filter(|f| f.strategy == s).map(|f| resample(&f.rows, &grid, get)).collect();
+            let runs: Vec<Vec<f64>> = figures.iter().filter(|f| f.strategy == s).map(&sample).collect();
             let column = |k: usize| -> Vec<f64> { runs.iter().map(|r| r[k]).filter(|v| v.is_finite()).collect() };
             let (mut mean, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
             for k in 0..grid.len() {
@@ -305,19 +315,26 @@ fn curves(strategies: &[Strategy], figures: &[RunFigures], get: fn(&MetricsRow) 
                 lo.push(percentile(&c, 0.25).unwrap_or(f64::NAN));
                 hi.push(percentile(&c, 0.75).unwrap_or(f64::NAN));
             }
-            Curve { label: format!("{} (n = {})", s.name(), runs.len()), t_s: grid.clone(), y: mean, band: Some((lo, hi)) }
+            Curve { label: format!("{} (n = {})", s.name(), runs.len()), x: grid.to_vec(), y: mean, band: Some((lo, hi)) }
         })
         .collect()
 }
 
+/// Over time: % unexplored and tr(cov) (the paper's Figs. 5–6); over distance: coverage; over
+/// coverage: tr(cov) when each level was first reached (a run that never reached it has none).
 fn write_figures(out: &std::path::Path, world: &str, strategies: &[Strategy], figures: &[RunFigures]) -> Result<()> {
     let subject = format!("{world} (mean over seeds, band 25–75 %)");
-    plot::write_mission_figures(
-        out,
-        &subject,
-        curves(strategies, figures, |r| r.unexplored_pct),
-        curves(strategies, figures, |r| r.cov_trace),
-    )
+    let last = |x: fn(&MetricsRow) -> f64| figures.iter().filter_map(|f| f.rows.last()).map(x).fold(0.0, f64::max);
+    let time = grid_to(last(|r| r.time_s), GRID_POINTS);
+    let by_time = |get| curves(strategies, figures, &time, |f| resample(&f.rows, &time, |r| r.time_s, get));
+    plot::write_mission_figures(out, &subject, by_time(|r| r.unexplored_pct), by_time(|r| r.cov_trace))?;
+    let distance = grid_to(last(|r| r.distance_m), GRID_POINTS);
+    let coverage_by_distance = curves(strategies, figures, &distance, |f| resample(&f.rows, &distance, |r| r.distance_m, coverage_pct));
+    let levels = grid_to(100.0, 101);
+    let cov_by_coverage = curves(strategies, figures, &levels, |f| {
+        levels.iter().map(|&l| at_coverage(&f.rows, l, |r| r.cov_trace).unwrap_or(f64::NAN)).collect()
+    });
+    plot::write_coverage_figures(out, &subject, coverage_by_distance, cov_by_coverage)
 }
 
 /// A number for a table: 3 significant digits, plain when 0.01 ≤ |v| < 10⁵.
@@ -524,8 +541,8 @@ mod tests {
     fn resample_holds_the_last_value() {
         let rows = [row(0.0, 100.0), row(10.0, 50.0), row(20.0, 30.0)];
         let grid = [0.0, 5.0, 10.0, 15.0, 25.0, 100.0];
-        assert_eq!(resample(&rows, &grid, |r| r.unexplored_pct), vec![100.0, 100.0, 50.0, 50.0, 30.0, 30.0]);
-        assert!(resample(&[], &grid, |r| r.unexplored_pct).iter().all(|v| v.is_nan()));
+        assert_eq!(resample(&rows, &grid, |r| r.time_s, |r| r.unexplored_pct), vec![100.0, 100.0, 50.0, 50.0, 30.0, 30.0]);
+        assert!(resample(&[], &grid, |r| r.time_s, |r| r.unexplored_pct).iter().all(|v| v.is_nan()));
     }
 
     #[test]

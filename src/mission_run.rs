@@ -200,7 +200,7 @@ pub fn run_and_write(
     let rows = mission.rows().to_vec();
     let label = format!("{strategy} seed {seed}");
     let t: Vec<f64> = rows.iter().map(|r| r.time_s).collect();
-    let curve = |y: Vec<f64>| Curve { label: label.clone(), t_s: t.clone(), y, band: None };
+    let curve = |y: Vec<f64>| Curve { label: label.clone(), x: t.clone(), y, band: None };
     let subject = format!("{} — {label}", setup.world.spec.name);
     let curves = |f: fn(&MetricsRow) -> f64| vec![curve(rows.iter().map(f).collect())];
     plot::write_mission_figures(out, &subject, curves(|r| r.unexplored_pct), curves(|r| r.cov_trace))?;

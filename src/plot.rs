@@ -30,16 +30,16 @@ const COLOURS: [RGBColor; 6] = [
     RGBColor(140, 86, 75),
 ];
 
-/// One curve: `y` over `t_s`; `band` = (lower, upper) at the same times, shaded.
+/// One curve: `y` over `x`; `band` = (lower, upper) at the same `x`, shaded.
 #[derive(Clone, Debug)]
 pub struct Curve {
     pub label: String,
-    pub t_s: Vec<f64>,
+    pub x: Vec<f64>,
     pub y: Vec<f64>,
     pub band: Option<(Vec<f64>, Vec<f64>)>,
 }
 
-/// A figure of curves over time.
+/// A figure of curves.
 #[derive(Clone, Debug)]
 pub struct Figure {
     pub title: String,
@@ -79,7 +79,7 @@ fn tick(v: &f64) -> String {
 
 impl Figure {
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
-        let (_, t_hi) = finite(self.curves.iter().flat_map(|c| c.t_s.iter().copied()));
+        let (_, t_hi) = finite(self.curves.iter().flat_map(|c| c.x.iter().copied()));
         let t = (0.0, if t_hi.is_finite() && t_hi > 0.0 { t_hi } else { 1.0 });
         let y = self.y_range.unwrap_or_else(|| {
             let all = self.curves.iter().flat_map(|c| {
@@ -125,11 +125,11 @@ impl Figure {
         for (k, c) in self.curves.iter().enumerate() {
             let colour = COLOURS[k % COLOURS.len()];
             if let Some((lo, hi)) = &c.band {
-                let mut ring: Vec<(f64, f64)> = c.t_s.iter().copied().zip(lo.iter().copied()).collect();
-                ring.extend(c.t_s.iter().copied().zip(hi.iter().copied()).rev());
+                let mut ring: Vec<(f64, f64)> = c.x.iter().copied().zip(lo.iter().copied()).collect();
+                ring.extend(c.x.iter().copied().zip(hi.iter().copied()).rev());
                 chart.draw_series(std::iter::once(Polygon::new(ring, colour.mix(0.18).filled()))).map_err(e)?;
             }
-            let points = c.t_s.iter().copied().zip(c.y.iter().copied()).filter(|(t, y)| t.is_finite() && y.is_finite());
+            let points = c.x.iter().copied().zip(c.y.iter().copied()).filter(|(t, y)| t.is_finite() && y.is_finite());
             chart
                 .draw_series(LineSeries::new(points, colour.stroke_width(2)))
                 .map_err(e)?
@@ -190,6 +190,27 @@ pub fn write_mission_figures(dir: &Path, subject: &str, unexplored: Vec<Curve>, 
     figure("Pose covariance trace", COV_TRACE_LABEL, None, cov_trace).write(dir, "cov_trace")
 }
 
+/// The two figures of a comparison over progress, `DIR/coverage_distance.{svg,png}` (coverage
+/// over the distance driven) and `DIR/cov_coverage.{svg,png}` (tr(cov) over coverage).
+pub fn write_coverage_figures(dir: &Path, subject: &str, coverage_by_distance: Vec<Curve>, cov_by_coverage: Vec<Curve>) -> Result<()> {
+    Figure {
+        title: format!("Coverage over distance — {subject}"),
+        x_label: "distance driven (m)".into(),
+        y_label: "coverage (% of explorable cells)".into(),
+        y_range: Some((0.0, 100.0)),
+        curves: coverage_by_distance,
+    }
+    .write(dir, "coverage_distance")?;
+    Figure {
+        title: format!("Pose covariance over coverage — {subject}"),
+        x_label: "coverage first reached (% of explorable cells)".into(),
+        y_label: COV_TRACE_LABEL.into(),
+        y_range: None,
+        curves: cov_by_coverage,
+    }
+    .write(dir, "cov_coverage")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -202,7 +223,7 @@ mod tests {
             y_range: None,
             curves: vec![Curve {
                 label: "fit".into(),
-                t_s: vec![0.0, 10.0, 20.0],
+                x: vec![0.0, 10.0, 20.0],
                 y: vec![100.0, 60.0, 20.0],
                 band: Some((vec![100.0, 50.0, 10.0], vec![100.0, 70.0, 30.0])),
             }],

@@ -39,8 +39,12 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     let b = scratch("j2");
     let o = compare(&a, &["--strategies", "fit,random", "--seeds", "2", "--jobs", "1"]);
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
-    for f in ["summary.csv", "summary.md", "unexplored.png", "unexplored.svg", "cov_trace.png", "cov_trace.svg"] {
-        assert!(a.join(f).is_file(), "missing {f}");
+    let figures = ["unexplored", "cov_trace", "coverage_distance", "cov_coverage"];
+    for f in ["summary.csv".to_string(), "summary.md".to_string()]
+        .into_iter()
+        .chain(figures.iter().flat_map(|f| [format!("{f}.png"), format!("{f}.svg")]))
+    {
+        assert!(a.join(&f).is_file(), "missing {f}");
     }
     for s in ["fit", "random"] {
         for seed in [1, 2] {
@@ -74,6 +78,10 @@ fn compare_writes_everything_and_does_not_depend_on_the_thread_count() {
     assert!(md.contains("p = "));
     let svg = std::fs::read_to_string(a.join("unexplored.svg")).unwrap();
     assert!(svg.contains("fit (n = 2)") && svg.contains("random (n = 2)") && svg.contains("time (s)"));
+    let svg = std::fs::read_to_string(a.join("cov_coverage.svg")).unwrap();
+    assert!(svg.contains("fit (n = 2)") && svg.contains("coverage first reached"));
+    let svg = std::fs::read_to_string(a.join("coverage_distance.svg")).unwrap();
+    assert!(svg.contains("random (n = 2)") && svg.contains("distance driven (m)"));
 
     let o = compare(&b, &["--strategies", "fit,random", "--seeds", "2", "--jobs", "2"]);
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));

@@ -32,6 +32,11 @@ pub fn milestone(rows: &[MetricsRow], level_pct: f64) -> Option<Milestone> {
     first_reaching(rows, level_pct).map(|r| Milestone { time_s: r.time_s, distance_m: r.distance_m })
 }
 
+/// `get` of the first row reaching `level_pct`; `None` if the run never did.
+pub fn at_coverage(rows: &[MetricsRow], level_pct: f64, get: fn(&MetricsRow) -> f64) -> Option<f64> {
+    first_reaching(rows, level_pct).map(get)
+}
+
 fn first_reaching(rows: &[MetricsRow], level_pct: f64) -> Option<&MetricsRow> {
     rows.iter().find(|r| coverage_pct(r) >= level_pct - 1e-9)
 }
