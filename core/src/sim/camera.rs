@@ -70,13 +70,14 @@ impl LandmarkIndex {
 
 /// Whether `v` (camera-centred, body axes, x forward) is inside the frustum; `th`, `tv` are the
 /// tangents of the half fields of view.
-pub fn in_frustum(v: &Vector3<f64>, params: &CameraParams, th: f64, tv: f64) -> bool {
+fn in_frustum(v: &Vector3<f64>, params: &CameraParams, th: f64, tv: f64) -> bool {
     let depth = v.x;
     depth >= params.min_depth_m && depth <= params.max_depth_m && v.y.abs() <= th * depth && v.z.abs() <= tv * depth
 }
 
 /// The landmarks seen from a camera at `camera_m` with `world_from_body` rotation (the camera
-/// looks along the body's +x), in increasing id order. `out` is cleared first.
+/// looks along the body's +x), in increasing id order, into `out`; the ids of every landmark in
+/// the frustum, in line of sight or not, into `in_frustum_out` (both cleared first).
 #[allow(clippy::too_many_arguments)]
 pub fn observe_landmarks(
     field: &Heightfield,
@@ -89,8 +90,10 @@ pub fn observe_landmarks(
     noise: &CameraNoise,
     rng: &mut ChaCha8Rng,
     out: &mut Vec<CameraObservation>,
+    in_frustum_out: &mut Vec<usize>,
 ) {
     out.clear();
+    in_frustum_out.clear();
     let (th, tv) = (math::tan(params.hfov_rad / 2.0), math::tan(params.vfov_rad / 2.0));
     let step = field.geometry.resolution_m * 0.5;
     let mut ids = Vec::new();
@@ -103,6 +106,7 @@ pub fn observe_landmarks(
         if !in_frustum(&v, params, th, tv) {
             continue;
         }
+        in_frustum_out.push(i);
         if !line_of_sight(field, camera_m, lw + Vector3::new(0.0, 0.0, 0.02), step) {
             continue;
         }
@@ -183,6 +187,7 @@ mod tests {
             &noise,
             &mut rng,
             &mut out,
+            &mut Vec::new(),
         );
         let ids: Vec<u64> = out.iter().map(|o| o.landmark_id).collect();
         assert_eq!(ids, vec![0, 4]);
@@ -213,6 +218,7 @@ mod tests {
                     &noise,
                     rng,
                     &mut out,
+                    &mut Vec::new(),
                 );
                 s2 += (out[0].point_in_robot.x - d).powi(2);
             }

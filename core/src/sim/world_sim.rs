@@ -11,12 +11,11 @@
 //! frustum's buckets).
 
 use super::World;
-use super::camera::{CameraObservation, LandmarkIndex, depth_ground_hits, in_frustum, observe_landmarks};
+use super::camera::{CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
 use super::lidar::{RayCaster, gaussian, scan};
 use super::params::MissionParams;
 use super::robot::{Twist, body_on_terrain, footprint_points, integrate};
 use super::vision::{FrameCounts, FrameView, landmark_normals, select_features};
-use crate::math;
 use crate::params::{CameraParams, Params};
 use crate::pose::{Pose2, wrap_pi};
 use crate::slam::Se3;
@@ -52,7 +51,7 @@ pub struct WorldSim {
     landmark_index: LandmarkIndex,
     /// Surface normal under each landmark ([`landmark_normals`]).
     landmark_normals: Vec<Option<Vector3<f64>>>,
-    /// Landmark ids in the frustum, a buffer of [`Self::observe_features`].
+    /// Landmark ids in the frustum at the last camera frame (a wrong match's candidates).
     frustum: Vec<usize>,
     rng: ChaCha8Rng,
     gt: Pose2,
@@ -229,6 +228,7 @@ impl WorldSim {
             &self.sensors.camera_noise,
             &mut self.rng,
             &mut self.observations,
+            &mut self.frustum,
         );
         &self.observations
     }
@@ -245,16 +245,6 @@ impl WorldSim {
         let (gp, gr) = self.body_pose();
         let cam_in_body = Vector3::new(0.0, 0.0, self.camera_height_m);
         let cam = gp + gr * cam_in_body;
-        let (th, tv) = (math::tan(self.camera.hfov_rad / 2.0), math::tan(self.camera.vfov_rad / 2.0));
-        let body_from_world = gr.inverse();
-        self.frustum.clear();
-        let (landmarks, frustum, camera) = (&self.world.landmarks, &mut self.frustum, &self.camera);
-        self.landmark_index.for_each_near(cam.x, cam.y, camera.max_depth_m, |i| {
-            if in_frustum(&(body_from_world * (landmarks[i] - cam)), camera, th, tv) {
-                frustum.push(i);
-            }
-        });
-        self.frustum.sort_unstable();
         let view = FrameView {
             landmarks: &self.world.landmarks,
             normals: &self.landmark_normals,
