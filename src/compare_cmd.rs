@@ -21,7 +21,7 @@
 //!   advance (docs/experiments.md), is the mean tr(cov) at matched coverage 25–90 %.
 
 use crate::load;
-use crate::mission_run::{MissionArgs, RunOutput, Setup, create_out_dir, end_reason, progress_bar, run_and_write};
+use crate::mission_run::{MissionArgs, RunOutput, Setup, create_out_dir, end_reason, progress_bar, read_world_spec, run_and_write};
 use crate::plot::{self, Curve};
 use crate::stats::{Spread, bootstrap_mean_ci, holm, percentile, wilcoxon_signed_rank};
 use anyhow::{Context, Result, bail};
@@ -31,7 +31,7 @@ use fitslam_core::params::Strategy;
 use fitslam_core::sim::coverage::{
     MATCHED_COVERAGE_PCT, MILESTONES_PCT, Milestone, at_coverage, coverage_pct, mean_at_matched_coverage, milestone,
 };
-use fitslam_core::sim::{Localisation, MetricsRow, Summary};
+use fitslam_core::sim::{Localisation, MAX_WORLD_SEEDS, MetricsRow, Summary};
 use indicatif::ProgressBar;
 use rand::SeedableRng;
 use rayon::prelude::*;
@@ -55,7 +55,8 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 1)]
     pub seed_start: u64,
     /// World seeds A..B (inclusive) or one N: every run in each member of the world file's
-    /// family (as `explore --world-seed`); default: the file's world as written.
+    /// family (as `explore --world-seed`); default: the file's `world_seeds` if it names them,
+    /// else the file's world as written.
     #[arg(long)]
     pub world_seeds: Option<String>,
     /// Output folder.
@@ -131,9 +132,6 @@ const METRICS: [Metric; 14] = [
     Metric { csv: "lost_s", header: "time lost (s)", get: |r| r.summary.lost_s },
 ];
 
-/// Most world seeds in one comparison (each holds a built world in memory).
-const MAX_WORLD_SEEDS: u64 = 1000;
-
 /// Parses `A..B` (inclusive, A ≤ B) or `N`.
 fn parse_world_seeds(text: &str) -> Result<Vec<u64>> {
     let bad = || anyhow::anyhow!("--world-seeds {text:?}: expected A..B (inclusive, A ≤ B) or one seed N");
@@ -183,9 +181,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         None => std::thread::available_parallelism().map(usize::from).unwrap_or(1),
     };
     let localisation = args.mission.localisation;
-    let world_seeds: Vec<Option<u64>> = match &args.world_seeds {
-        Some(text) => parse_world_seeds(text)?.into_iter().map(Some).collect(),
-        None => vec![None],
+    // `--world-seeds`, else the family the world file names, else the file's world as written.
+    let world_seeds: Vec<Option<u64>> = match (&args.world_seeds, read_world_spec(&args.mission.world)?.world_seeds) {
+        (Some(text), _) => parse_world_seeds(text)?.into_iter().map(Some).collect(),
+        (None, Some([first, last])) => (first..=last).map(Some).collect(),
+        (None, None) => vec![None],
     };
     create_out_dir(&args.out)?;
     let runs: Vec<(Strategy, usize, u64)> = strategies
@@ -227,11 +227,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let md = summary_md(world_name, &strategies, &figures, &command_line(), localisation);
     load::write(&args.out.join("summary.md"), md.as_bytes())?;
     outln!(
-        "{}: {} runs ({} strategies × {} worlds × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png",
+        "{}: {} runs ({} strategies × {} × {} seeds) in {:.1} s wall on {jobs} threads ({:.1} s of missions); summary.md, summary.csv, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png",
         args.out.display(),
         figures.len(),
         strategies.len(),
-        world_seeds.len(),
+        if world_seeds.len() == 1 { "1 world".to_string() } else { format!("{} worlds", world_seeds.len()) },
         args.seeds,
         wall_s,
         run_wall_s

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 #[derive(Args, Debug)]
 pub struct MissionArgs {
     /// World file (TOML, see assets/worlds/).
-    #[arg(long)]
+    #[arg(long, alias = "worlds")]
     pub world: PathBuf,
     /// Planner parameters (TOML or YAML); default: the paper's.
     #[arg(long)]
@@ -93,6 +93,13 @@ impl Setup {
     }
 }
 
+/// Reads and checks a world file (nothing built yet).
+pub fn read_world_spec(world: &Path) -> Result<WorldSpec> {
+    let name = world.display().to_string();
+    let text = String::from_utf8(load::read(world)?).with_context(|| format!("{name}: not UTF-8"))?;
+    Ok(WorldSpec::from_toml(&text, &name)?)
+}
+
 /// Reads and builds a world with the planner (`params`, default: the paper's) and simulator
 /// (`sim_params`, default: built-in) parameters; `time_limit_s` overrides the world's.
 pub fn load_setup(
@@ -117,8 +124,7 @@ pub fn load_setup(
         mission_params.time_limit_s = Some(t);
     }
     let world_name = world.display().to_string();
-    let text = String::from_utf8(load::read(world)?).with_context(|| format!("{world_name}: not UTF-8"))?;
-    let spec = WorldSpec::from_toml(&text, &world_name)?;
+    let spec = read_world_spec(world)?;
     let dir = world.parent().map(Path::to_path_buf).unwrap_or_default();
     let build = |spec: &WorldSpec, name: &str| {
         World::build(spec, &params.traversability, params.traversability.tau, |file| {

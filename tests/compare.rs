@@ -115,6 +115,23 @@ fn compare_across_world_seeds_pairs_by_world_and_seed() {
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(csv.as_bytes(), std::fs::read(b.join("summary.csv")).unwrap().as_slice(), "jobs 1 vs 2");
 
+    // A world file naming its family (`world_seeds`) runs it without the flag (`--worlds` is
+    // `--world`'s other spelling): the same runs.
+    let family = scratch("w-family");
+    std::fs::create_dir_all(&family).unwrap();
+    let tiny = std::fs::read_to_string(world()).unwrap();
+    let family_toml = family.join("tiny_family.toml");
+    std::fs::write(&family_toml, format!("world_seeds = [3, 4]\n{tiny}")).unwrap();
+    let o = Command::new(BIN)
+        .args(["compare", "--worlds"])
+        .arg(&family_toml)
+        .args(["--time-limit-s", "30", "--strategies", "fit,random", "--seeds", "1", "--out"])
+        .arg(family.join("out"))
+        .output()
+        .expect("run fitslam");
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(csv.as_bytes(), std::fs::read(family.join("out/summary.csv")).unwrap().as_slice(), "the file's world_seeds = --world-seeds");
+
     let one = scratch("w-explore");
     let world = world();
     let o = Command::new(BIN)
@@ -124,7 +141,7 @@ fn compare_across_world_seeds_pairs_by_world_and_seed() {
         .expect("run fitslam");
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(std::fs::read(one.join("metrics.csv")).unwrap(), metrics(&a, 4, "random"), "explore --world-seed 4 is the same run");
-    for d in [a, b, one] {
+    for d in [a, b, one, family] {
         let _ = std::fs::remove_dir_all(d);
     }
 }

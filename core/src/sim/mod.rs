@@ -36,7 +36,7 @@ pub use noise::{fractal_noise, hash_unit};
 pub use obstacles::{Rock, scatter_rocks};
 pub use params::MissionParams;
 pub use scan::{line_of_sight, visible_ground_points};
-pub use world::{StartError, World, WorldError, WorldSpec};
+pub use world::{MAX_WORLD_SEEDS, StartError, World, WorldError, WorldSpec};
 pub use world_sim::{BodyPose, Motion, WorldSim};
 #[cfg(test)]
 mod tests;

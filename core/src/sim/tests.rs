@@ -865,6 +865,22 @@ fn rocks_wider_than_the_world_are_refused() {
     assert!(build(&rocks("[0.1, 2.5]")).is_ok());
 }
 
+/// A family's `world_seeds` range is read as written and rejected, naming the key, when it is
+/// reversed or longer than a comparison may run.
+#[test]
+fn a_world_seed_range_is_checked() {
+    let with = |range: &str| TINY.replace("time_limit_s = 300.0", &format!("time_limit_s = 300.0\nworld_seeds = {range}"));
+    assert_eq!(WorldSpec::from_toml(&with("[3, 7]"), "w.toml").unwrap().world_seeds, Some([3, 7]));
+    assert_eq!(WorldSpec::from_toml(TINY, "w.toml").unwrap().world_seeds, None);
+    assert_eq!(WorldSpec::from_toml(&with("[0, 999]"), "w.toml").unwrap().world_seeds, Some([0, 999]));
+    for bad in ["[7, 3]", "[0, 1000]"] {
+        let e = WorldSpec::from_toml(&with(bad), "w.toml").unwrap_err().to_string();
+        assert!(e.starts_with("w.toml: world_seeds must be [first, last]"), "{bad}: {e}");
+    }
+    let e = WorldSpec::from_toml(&with("[-1, 3]"), "w.toml").unwrap_err().to_string();
+    assert!(e.starts_with("w.toml: invalid TOML"), "{e}");
+}
+
 /// An infinite time limit says it must be finite; a boundary off the start says so (not "not on
 /// traversable terrain").
 #[test]

@@ -26,7 +26,9 @@ use crate::traversability::TraversabilityMap;
 use nalgebra::Point3;
 use thiserror::Error;
 
-pub use super::world_spec::{BoxSpec, LandmarkSpec, MAX_SCATTER_SITES, RampSpec, RockSpec, TerrainSpec, WorldError, WorldSpec};
+pub use super::world_spec::{
+    BoxSpec, LandmarkSpec, MAX_SCATTER_SITES, MAX_WORLD_SEEDS, RampSpec, RockSpec, TerrainSpec, WorldError, WorldSpec,
+};
 
 /// Why a robot cannot start where a world puts it ([`World::check_start`]).
 #[derive(Clone, Debug, Error, PartialEq)]

@@ -71,7 +71,15 @@ pub struct WorldSpec {
     /// Mission time limit, seconds, finite and > 0. Default 5000.
     #[serde(default = "default_time_limit")]
     pub time_limit_s: f64,
+    /// The family's members [first, last] (inclusive, at most [`MAX_WORLD_SEEDS`]) that
+    /// `compare` runs when it is not given `--world-seeds` ([`Self::with_world_seed`]); default:
+    /// none, the file's world as written.
+    #[serde(default)]
+    pub world_seeds: Option<[u64; 2]>,
 }
+
+/// Most members of a family one comparison runs (each holds a built world in memory).
+pub const MAX_WORLD_SEEDS: u64 = 1000;
 
 fn one() -> u64 {
     1
@@ -313,6 +321,14 @@ impl WorldSpec {
             return bad("cell_m", format!("must be in (0, 1] (got {})", Num(self.cell_m)));
         }
         crate::params::check_positive("time_limit_s", self.time_limit_s).map_err(WorldError::Invalid)?;
+        if let Some([first, last]) = self.world_seeds {
+            if first > last || last - first >= MAX_WORLD_SEEDS {
+                return bad(
+                    "world_seeds",
+                    format!("must be [first, last] with first ≤ last and at most {MAX_WORLD_SEEDS} members (got [{first}, {last}])"),
+                );
+            }
+        }
         if !self.start.iter().all(|v| v.is_finite()) {
             return bad("start", format!("must be finite (got {:?})", self.start));
         }
