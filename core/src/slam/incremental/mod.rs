@@ -10,6 +10,8 @@
 //! 2. The cliques of the variables the new factors touch are marked; the marked cliques and
 //!    their paths to the root (the *top*) are removed. Their subtrees (*orphans*) stay, with the
 //!    marginal factors they pass up.
+//!    When the top holds at least [`BATCH_THRESHOLD`] of the variables, the whole tree is
+//!    removed (GTSAM's batch step), so the ordering is no longer constrained by old subtrees.
 //! 3. The top's factors are relinearised at θ, its variables re-ordered by constrained minimum
 //!    degree with the new factors' variables last ([`ordering`]), eliminated into new cliques
 //!    ([`clique`]), and the orphans re-attached (Alg. 5).
@@ -42,6 +44,10 @@ use super::graph::{FactorGraph, GraphError};
 use super::values::{Values, VarId, Variable};
 
 const NONE: usize = usize::MAX;
+
+/// A fraction of the variables; an update whose top holds at least this many re-orders and
+/// re-eliminates the whole graph (GTSAM's `kBatchThreshold` in `ISAM2::update`).
+const BATCH_THRESHOLD: f64 = 0.65;
 
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum IncrementalError {
@@ -301,6 +307,19 @@ impl Isam2 {
                 top_vars.extend(clique.frontals.iter().copied());
                 if let Some(p) = clique.parent {
                     marked.push(p);
+                }
+            }
+        }
+        // GTSAM's batch step: when the top holds most of the graph, the whole graph is
+        // re-ordered and re-eliminated (the kept subtrees' old ordering would constrain it).
+        if (top_vars.len() as f64) >= BATCH_THRESHOLD * n_all as f64 {
+            for (c, clique) in self.cliques.iter().enumerate() {
+                if !removed[c]
+                    && let Some(clique) = clique
+                {
+                    removed[c] = true;
+                    removed_list.push(c);
+                    top_vars.extend(clique.frontals.iter().copied());
                 }
             }
         }
