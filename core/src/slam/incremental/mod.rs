@@ -407,7 +407,8 @@ impl Isam2 {
                 edges.push(c.separator.iter().map(|k| self.scratch[k.0]).collect());
             }
         }
-        let elim = ordering::eliminate(top.len(), &edges, &group);
+        let dim: Vec<usize> = top.iter().map(|v| self.dim[v.0]).collect();
+        let elim = ordering::eliminate(top.len(), &edges, &group, &dim);
         for v in top {
             self.scratch[v.0] = NONE;
         }

@@ -22,9 +22,9 @@ pub(super) struct Elimination {
     pub separators: Vec<Vec<usize>>,
 }
 
-/// Eliminates local variables `0..n` connected by the hyperedges `edges` (each the local
-/// variables of one factor), group by increasing `group[v]`.
-pub(super) fn eliminate(n: usize, edges: &[Vec<usize>], group: &[u8]) -> Elimination {
+/// Eliminates local variables `0..n` of `dim[v]` scalars each, connected by the hyperedges
+/// `edges` (each the local variables of one factor), group by increasing `group[v]`.
+pub(super) fn eliminate(n: usize, edges: &[Vec<usize>], group: &[u8], dim: &[usize]) -> Elimination {
     let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
     for e in edges {
         for &a in e {
@@ -35,7 +35,7 @@ pub(super) fn eliminate(n: usize, edges: &[Vec<usize>], group: &[u8]) -> Elimina
         a.sort_unstable();
         a.dedup();
     }
-    let order = minimum_degree(&adj, group);
+    let order = minimum_degree(&adj, group, dim);
     let mut position = vec![0; n];
     for (p, &v) in order.iter().enumerate() {
         position[v] = p;
@@ -70,18 +70,21 @@ pub(super) fn eliminate(n: usize, edges: &[Vec<usize>], group: &[u8]) -> Elimina
 }
 
 /// Exact minimum-degree order of the graph `adj` (sorted neighbour lists, no self loops) with
-/// explicit fill, group by increasing `group`, within a group by degree, ties by the smaller
-/// index (the older variable). Sorted-vector adjacency: an
-/// elimination costs O(Σ_{u ∈ adj(v)} (|adj(u)| + |adj(v)|)).
-fn minimum_degree(adj: &[Vec<usize>], group: &[u8]) -> Vec<usize> {
+/// explicit fill, group by increasing `group`, within a group by the scalar degree
+/// `Σ_{u ∈ adj(v)} dim[u]` (the rows a variable's elimination adds to its clique: a pose of six
+/// scalars weighs twice a landmark of three), ties by the smaller index (the older variable).
+/// Sorted-vector adjacency: an elimination costs O(Σ_{u ∈ adj(v)} (|adj(u)| + |adj(v)|)).
+fn minimum_degree(adj: &[Vec<usize>], group: &[u8], dim: &[usize]) -> Vec<usize> {
     let n = adj.len();
     let mut adj: Vec<Vec<usize>> = adj.to_vec();
-    let mut heap: BinaryHeap<Reverse<(u8, usize, usize)>> = (0..n).map(|v| Reverse((group[v], adj[v].len(), v))).collect();
+    let degree = |a: &[usize]| a.iter().map(|&u| dim[u]).sum::<usize>();
+    let mut deg: Vec<usize> = adj.iter().map(|a| degree(a)).collect();
+    let mut heap: BinaryHeap<Reverse<(u8, usize, usize)>> = (0..n).map(|v| Reverse((group[v], deg[v], v))).collect();
     let mut done = vec![false; n];
     let mut order = Vec::with_capacity(n);
     let mut merged = Vec::new();
-    while let Some(Reverse((_, deg, v))) = heap.pop() {
-        if done[v] || deg != adj[v].len() {
+    while let Some(Reverse((_, d, v))) = heap.pop() {
+        if done[v] || d != deg[v] {
             continue; // eliminated, or a stale degree
         }
         done[v] = true;
@@ -118,7 +121,8 @@ fn minimum_degree(adj: &[Vec<usize>], group: &[u8]) -> Vec<usize> {
                 }
             }
             std::mem::swap(&mut adj[u], &mut merged);
-            heap.push(Reverse((group[u], adj[u].len(), u)));
+            deg[u] = degree(&adj[u]);
+            heap.push(Reverse((group[u], deg[u], u)));
         }
     }
     order
@@ -134,7 +138,7 @@ mod tests {
         let edges: Vec<Vec<usize>> = (0..4).map(|i| vec![i, i + 1]).collect();
         let mut group = vec![0; 5];
         group[2] = 1;
-        let e = eliminate(5, &edges, &group);
+        let e = eliminate(5, &edges, &group, &[1; 5]);
         let mut position = [0; 5];
         for (p, &v) in e.order.iter().enumerate() {
             position[v] = p;
@@ -164,7 +168,7 @@ mod tests {
             edges.push(e);
         }
         let group: Vec<u8> = (0..n).map(|v| [0, 1, 0, 0, 2, 0, 0][v % 7]).collect();
-        let e = eliminate(n, &edges, &group);
+        let e = eliminate(n, &edges, &group, &vec![2; n]);
         let mut sorted = e.order.clone();
         sorted.sort_unstable();
         assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "a permutation");
@@ -191,7 +195,7 @@ mod tests {
     fn fill_joins_the_neighbours_of_an_eliminated_variable() {
         // A star around 0 with 0 first (leaves constrained): the leaves become a clique.
         let edges = vec![vec![0, 1], vec![0, 2], vec![0, 3]];
-        let e = eliminate(4, &edges, &[0, 1, 1, 1]);
+        let e = eliminate(4, &edges, &[0, 1, 1, 1], &[3; 4]);
         assert_eq!(e.order[0], 0);
         assert_eq!(e.separators[0].len(), 3);
         assert_eq!(e.separators[e.order[1]].len(), 2);
