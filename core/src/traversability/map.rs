@@ -18,7 +18,7 @@
 use nalgebra::Point3;
 
 use super::TraversabilityError;
-use super::disc_sums::{DiscSums, prefetch};
+use super::disc_sums::{DiscSum, DiscSums, prefetch};
 use super::moments::CellMoments;
 use crate::cloud::PointCloud;
 use crate::grid::{GridGeometry, MAX_CELLS};
@@ -51,6 +51,8 @@ pub struct TraversabilityMap {
     /// Per-cell disc sums for one disc radius; `None` until the first estimate and after
     /// [`TraversabilityMap::clear`] (then built from `moments`).
     pub(super) discs: Option<DiscSums>,
+    /// The allocation of the disc sums last dropped, reused by the next build (empty otherwise).
+    disc_buffer: Vec<DiscSum>,
     /// Cells whose disc changed since their last estimate.
     pub(super) stale_estimate: StaleCells,
     /// Cells whose disc changed since their last known-check, and the known flags.
@@ -148,6 +150,7 @@ impl TraversabilityMap {
             z_origin_m: None,
             moments: vec![CellMoments::EMPTY; cells],
             discs: None,
+            disc_buffer: Vec::new(),
             stale_estimate: StaleCells::new(cells),
             stale_known: StaleCells::new(cells),
             known: vec![false; cells],
@@ -315,7 +318,9 @@ impl TraversabilityMap {
     /// Drops the disc sums after points were removed (they are rebuilt from the moments at the
     /// next estimate) and makes every cell stale.
     fn drop_discs(&mut self) {
-        self.discs = None;
+        if let Some(d) = self.discs.take() {
+            self.disc_buffer = d.sums;
+        }
         self.stale_estimate.mark_all();
         self.stale_known.mark_all();
     }
@@ -326,7 +331,11 @@ impl TraversabilityMap {
         if self.discs.as_ref().is_some_and(|d| d.radius_m.to_bits() == radius_m.to_bits()) {
             return;
         }
-        self.discs = Some(DiscSums::from_moments(radius_m, &self.geometry, &self.moments));
+        let buffer = match self.discs.take() {
+            Some(d) => d.sums,
+            None => std::mem::take(&mut self.disc_buffer),
+        };
+        self.discs = Some(DiscSums::from_moments_in(radius_m, &self.geometry, &self.moments, buffer));
         self.stale_estimate.mark_all();
         self.stale_known.mark_all();
     }
