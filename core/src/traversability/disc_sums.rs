@@ -156,14 +156,13 @@ impl DiscSums {
         Self::from_moments_in(radius_m, g, moments, Vec::new())
     }
 
-    /// [`DiscSums::from_moments`] written into `buffer` (its contents are overwritten): a map
+    /// [`DiscSums::from_moments`] written into `sums` (its contents are overwritten): a map
     /// rebuilt after every re-registration reuses one allocation instead of faulting in a fresh
     /// one (96 bytes per cell) each time.
-    pub(super) fn from_moments_in(radius_m: f64, g: &GridGeometry, moments: &[CellMoments], mut buffer: Vec<DiscSum>) -> Self {
+    pub(super) fn from_moments_in(radius_m: f64, g: &GridGeometry, moments: &[CellMoments], mut sums: Vec<DiscSum>) -> Self {
         let disc = Disc::new(radius_m, g);
-        buffer.clear();
-        buffer.resize(g.len(), DiscSum::default());
-        let mut sums = buffer;
+        sums.clear();
+        sums.resize(g.len(), DiscSum::default());
         for (c, sum) in sums.iter_mut().enumerate() {
             let (x_c, y_c) = centre_local(g, c);
             disc.for_each(g, c, |k, _, _| {
