@@ -21,7 +21,9 @@
 //!   advance (docs/experiments.md), is the mean tr(cov) at matched coverage 25–90 %.
 
 use crate::load;
-use crate::mission_run::{MissionArgs, RunOutput, Setup, create_out_dir, end_reason, progress_bar, read_world_spec, run_and_write};
+use crate::mission_run::{
+    ExtraOutputs, MissionArgs, RunOutput, Setup, create_out_dir, end_reason, progress_bar, read_world_spec, run_and_write,
+};
 use crate::plot::{self, Curve};
 use crate::stats::{Spread, bootstrap_mean_ci, holm, percentile, wilcoxon_signed_rank};
 use anyhow::{Context, Result, bail};
@@ -204,7 +206,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
                 let base = world_seed.map_or_else(|| args.out.clone(), |ws| args.out.join(format!("world_{ws}")));
                 let dir = base.join(strategy.name()).join(format!("seed_{seed}"));
                 let RunOutput { summary, rows, wall_s } =
-                    run_and_write(&setups[w], strategy, seed, localisation, &dir, &ProgressBar::hidden(), None)?;
+                    run_and_write(&setups[w], strategy, seed, localisation, &dir, &ProgressBar::hidden(), ExtraOutputs::default())?;
                 bar.inc(1);
                 bar.set_message(format!("(last: {} seed {seed})", strategy.name()));
                 Ok((RunFigures::new(strategy, world_seed, seed, summary, rows), wall_s))

@@ -1,7 +1,7 @@
 //! `fitslam explore`: one whole headless mission in a world file (notes §8), its files written
 //! by [`crate::mission_run::run_and_write`]. A progress bar (simulated time) shows on a terminal.
 
-use crate::mission_run::{MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
+use crate::mission_run::{ExtraOutputs, MissionArgs, RunOutput, create_out_dir, end_reason, progress_bar, run_and_write};
 use anyhow::Result;
 use clap::Args;
 use fitslam_core::params::Strategy;
@@ -28,6 +28,12 @@ pub struct ExploreArgs {
     /// /cloud_map, /fitslam/status), which `select --bag` and `bag-info` read.
     #[arg(long)]
     pub bag: Option<PathBuf>,
+    /// Also write the SLAM's factor graph at the end as g2o, in replay order (per keyframe its
+    /// new landmarks, then its pose), so that `optimize --incremental --g2o` and
+    /// `scripts/compare_isam2.py` replay the mission's updates. The anchor, the gravity factors
+    /// and the robust kernel have no g2o form and are left out.
+    #[arg(long)]
+    pub slam_g2o: Option<PathBuf>,
 }
 
 pub fn run(args: &ExploreArgs) -> Result<()> {
@@ -35,7 +41,8 @@ pub fn run(args: &ExploreArgs) -> Result<()> {
     create_out_dir(&args.out)?;
     let strategy = args.strategy;
     let progress = progress_bar(setup.time_limit_s().ceil() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} s simulated");
-    let run = run_and_write(&setup, strategy, args.seed, args.mission.localisation, &args.out, &progress, args.bag.as_deref());
+    let extra = ExtraOutputs { bag: args.bag.as_deref(), slam_g2o: args.slam_g2o.as_deref() };
+    let run = run_and_write(&setup, strategy, args.seed, args.mission.localisation, &args.out, &progress, extra);
     progress.finish_and_clear();
     let RunOutput { summary, wall_s, .. } = run?;
     outln!(

@@ -156,6 +156,15 @@ pub struct RunOutput {
     pub wall_s: f64,
 }
 
+/// Files a mission writes besides those in its output folder.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ExtraOutputs<'a> {
+    /// A rosbag2 MCAP bag of the mission.
+    pub bag: Option<&'a Path>,
+    /// The SLAM's factor graph at the end, as g2o in replay order (`GraphSlam::to_g2o`).
+    pub slam_g2o: Option<&'a Path>,
+}
+
 /// Runs one mission of `setup` and writes every output file into `out`; `progress` follows the
 /// simulated time in seconds.
 pub fn run_and_write(
@@ -165,8 +174,12 @@ pub fn run_and_write(
     localisation: Localisation,
     out: &Path,
     progress: &ProgressBar,
-    bag: Option<&Path>,
+    extra: ExtraOutputs,
 ) -> Result<RunOutput> {
+    if extra.slam_g2o.is_some() && localisation != Localisation::Slam {
+        anyhow::bail!("--slam-g2o needs --localisation slam (this mission has no factor graph)");
+    }
+    let bag = extra.bag;
     let world_name = &setup.world_name;
     let mut mission = Mission::new(setup.world.clone(), setup.params.clone(), setup.mission_params.clone(), strategy, seed, localisation)
         .map_err(|e| anyhow::anyhow!("{world_name}: {e}"))?;
@@ -189,6 +202,16 @@ pub fn run_and_write(
 
     if let (Some(path), Some(r)) = (bag, recorder) {
         load::write(path, &r.finish())?;
+    }
+    if let (Some(path), Some(fe)) = (extra.slam_g2o, mission.slam_frontend()) {
+        let (file, left_out) = fe.backend().to_g2o();
+        load::write(path, fitslam_core::slam::g2o::write_g2o(&file).as_bytes())?;
+        eprintln!(
+            "{}: {} vertices, {} edges ({left_out} factors without a g2o form left out)",
+            path.display(),
+            file.vertices.len(),
+            file.edges.len()
+        );
     }
     load::write(&out.join("metrics.csv"), metrics_csv(mission.rows()).as_bytes())?;
     load::write(&out.join("timing.csv"), timing_csv(mission.rows()).as_bytes())?;

@@ -94,6 +94,10 @@ pub struct OptimizeArgs {
     /// iSAM2: stop back-substitution below cliques whose step moved by at most this.
     #[arg(long, default_value_t = 0.001)]
     pub wildfire_threshold: f64,
+    /// iSAM2: a Cauchy kernel of this scale (on the whitened residual's norm) on every landmark
+    /// edge, as the simulator's SLAM has (4) on the graph `explore --slam-g2o` writes.
+    #[arg(long)]
+    pub landmark_cauchy_k: Option<f64>,
 }
 
 enum Input {
@@ -113,6 +117,9 @@ pub fn run(args: &OptimizeArgs) -> Result<()> {
     };
     if args.incremental {
         return incremental::run(args, residual);
+    }
+    if args.landmark_cauchy_k.is_some() {
+        anyhow::bail!("--landmark-cauchy-k needs --incremental");
     }
     let first_tag = fitslam_core::io::without_bom(&bytes)
         .split(|b| b.is_ascii_whitespace())

@@ -62,3 +62,43 @@ fn explore_writes_everything_and_is_reproducible() {
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
+/// `--slam-g2o` writes the mission's factor graph in replay order: `optimize --incremental`
+/// replays it as one update per keyframe (the summary's count). Without SLAM there is no graph:
+/// one clear error before the mission runs.
+#[test]
+fn the_slam_graph_replays_as_one_update_per_keyframe() {
+    let out = std::env::temp_dir().join(format!("fitslam-explore-{}-g2o", std::process::id()));
+    let g2o = out.join("slam.g2o");
+    let o = Command::new(BIN)
+        .args(["explore", "--world", &world(), "--seed", "2", "--time-limit-s", "60", "--out"])
+        .arg(&out)
+        .arg("--slam-g2o")
+        .arg(&g2o)
+        .output()
+        .expect("run fitslam");
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let keyframes = summary["keyframes"].as_u64().expect("summary.keyframes");
+    assert!(keyframes > 5, "a 60 s mission takes keyframes: {keyframes}");
+    let r = Command::new(BIN)
+        .args(["optimize", "--incremental", "--json", "--landmark-cauchy-k", "4", "--g2o"])
+        .arg(&g2o)
+        .output()
+        .expect("run fitslam");
+    assert!(r.status.success(), "stderr: {}", String::from_utf8_lossy(&r.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert_eq!(j["steps"].as_u64(), Some(keyframes));
+    assert!(j["final_chi2"].as_f64().unwrap().is_finite());
+
+    let gt = Command::new(BIN)
+        .args(["explore", "--world", &world(), "--localisation", "ground-truth", "--time-limit-s", "10", "--out"])
+        .arg(out.join("gt"))
+        .arg("--slam-g2o")
+        .arg(out.join("gt.g2o"))
+        .output()
+        .expect("run fitslam");
+    let stderr = String::from_utf8_lossy(&gt.stderr);
+    assert!(!gt.status.success() && stderr.contains("--slam-g2o needs --localisation slam"), "stderr: {stderr}");
+    assert!(!out.join("gt").join("metrics.csv").exists(), "the mission should not run");
+}

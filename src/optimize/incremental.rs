@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use fitslam_core::slam::g2o::read_g2o;
-use fitslam_core::slam::{G2oReplay, Isam2, Isam2Params, Se2Residual};
+use fitslam_core::slam::{G2oReplay, Isam2, Isam2Params, RobustKernel, Se2Residual};
 
 use super::OptimizeArgs;
 
@@ -29,6 +29,12 @@ pub fn run(args: &OptimizeArgs, residual: Se2Residual) -> Result<()> {
         wildfire_threshold: args.wildfire_threshold,
     };
     let mut replay = G2oReplay::new(&file, residual, args.prior_sigma.unwrap_or(DEFAULT_PRIOR_SIGMA)).with_context(|| format!("{path}"))?;
+    if let Some(k) = args.landmark_cauchy_k {
+        if !(k.is_finite() && k > 0.0) {
+            bail!("--landmark-cauchy-k must be positive and finite (got {k})");
+        }
+        replay = replay.with_landmark_kernel(RobustKernel::Cauchy { k });
+    }
     let steps = replay.len();
     let mut isam = Isam2::new(params);
     let mut max_update_ms = 0.0f64;

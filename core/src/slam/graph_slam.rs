@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::factors::{BetweenSe3, Factor, GaussianNoise, GravitySe3, NoiseError, PointObservation3, PriorSe3, RobustKernel};
+use super::g2o::{G2oEdge, G2oFile, G2oVertex};
 use super::graph::{FactorGraph, GraphError};
 use super::incremental::{IncrementalError, Isam2, Isam2Params};
 use super::lie::Se3;
@@ -495,6 +496,59 @@ impl GraphSlam {
     pub fn marginals(&self) -> Result<Marginals, SlamError> {
         Ok(Marginals::new(self.graph(), &self.estimate(), self.params.optimizer.factorisation)?)
     }
+
+    /// The graph as a g2o file in *replay order*: per keyframe, the landmarks it saw first, then
+    /// its pose, so that [`super::G2oReplay`] makes one update per keyframe with the factors
+    /// this solver's update had. Vertices at the current estimate; the odometry as
+    /// `EDGE_SE3:QUAT`, the observations as `EDGE_SE3_TRACKXYZ` through sensor offset 0 (the
+    /// identity). The anchor and the gravity factors have no g2o form and the robust kernel is
+    /// dropped: returns the file and how many factors it leaves out. O(variables + factors).
+    pub fn to_g2o(&self) -> (G2oFile, usize) {
+        let estimate = self.estimate();
+        let n = estimate.len();
+        // Variables from one keyframe's to the next are that keyframe's new landmarks.
+        let mut file_id = vec![0u64; n];
+        let mut next = 0u64;
+        for (k, &pose) in self.keyframes.iter().enumerate() {
+            let end = self.keyframes.get(k + 1).map_or(n, |v| v.0);
+            for id in &mut file_id[pose.0 + 1..end] {
+                *id = next;
+                next += 1;
+            }
+            file_id[pose.0] = next;
+            next += 1;
+        }
+        let mut file = G2oFile::default();
+        file.offsets.insert(0, Se3::identity());
+        let mut by_file_id: Vec<(u64, Variable)> = estimate.iter().map(|(v, var)| (file_id[v.0], *var)).collect();
+        by_file_id.sort_unstable_by_key(|&(id, _)| id);
+        file.vertices = by_file_id
+            .into_iter()
+            .filter_map(|(id, var)| match var {
+                Variable::Se3(pose) => Some(G2oVertex::Se3 { id, pose }),
+                Variable::Point3(point) => Some(G2oVertex::Point3 { id, point }),
+                _ => None,
+            })
+            .collect();
+        let mut left_out = 0;
+        for f in self.graph().factors() {
+            match f.g2o_edge() {
+                Some(mut e) => {
+                    match &mut e {
+                        G2oEdge::Se2 { from, to, .. }
+                        | G2oEdge::Se3 { from, to, .. }
+                        | G2oEdge::Se2Point2 { from, to, .. }
+                        | G2oEdge::Se3Point3 { from, to, .. } => {
+                            (*from, *to) = (file_id[*from as usize], file_id[*to as usize]);
+                        }
+                    }
+                    file.edges.push(e);
+                }
+                None => left_out += 1,
+            }
+        }
+        (file, left_out)
+    }
 }
 
 /// The noise model of every observation, after checking that its point is finite.
@@ -923,5 +977,45 @@ mod tests {
         }
         assert_eq!(slam.keyframe_count(), 8);
         assert_eq!(slam.keyframe_poses()[0], w.truth[0]);
+    }
+
+    /// The exported graph, written and read back, replays as the same updates: one per
+    /// keyframe, the same factors (the anchor re-made by the replay's prior of the same σ), so
+    /// the same estimate.
+    #[test]
+    fn the_g2o_export_replays_as_the_same_updates() {
+        let params = GraphSlamParams { observation_kernel: RobustKernel::None, ..GraphSlamParams::default() };
+        let (_, slam, _) = run(7, params.clone());
+        let (file, left_out) = slam.to_g2o();
+        assert_eq!(left_out, 1, "only the anchor has no g2o form here");
+        assert_eq!(file.edges.len(), slam.graph().len() - 1);
+        let text = crate::slam::g2o::write_g2o(&file);
+        let read = crate::slam::g2o::read_g2o(text.as_bytes()).unwrap();
+        assert_eq!(read.vertices.len(), slam.estimate().len());
+        let mut replay = crate::slam::G2oReplay::new(&read, crate::slam::Se2Residual::default(), ANCHOR_SIGMA).unwrap();
+        assert_eq!(replay.len(), slam.keyframe_count());
+        let mut isam = Isam2::new(params.isam2);
+        while replay.step(&mut isam).unwrap().is_some() {}
+        let estimate = slam.estimate();
+        for v in &read.vertices {
+            let ours = replay.var_of(v.id()).and_then(|r| isam.estimate_of(r)).unwrap();
+            let theirs = match *v {
+                crate::slam::g2o::G2oVertex::Se3 { pose, .. } => Variable::Se3(pose),
+                crate::slam::g2o::G2oVertex::Point3 { point, .. } => Variable::Point3(point),
+                _ => unreachable!("the export writes SE(3) poses and 3-D points"),
+            };
+            let gap = match (ours, theirs) {
+                (Variable::Se3(a), Variable::Se3(b)) => a.between(&b).log().norm(),
+                (Variable::Point3(a), Variable::Point3(b)) => (a - b).norm(),
+                _ => panic!("vertex {} changed kind", v.id()),
+            };
+            assert!(gap < 1e-6, "vertex {}: {gap}", v.id());
+        }
+        // The vertices are the estimate, in replay order: the first keyframe after its landmarks.
+        let first_pose = read.vertices.iter().position(|v| matches!(v, crate::slam::g2o::G2oVertex::Se3 { .. })).unwrap();
+        assert_eq!(
+            read.vertices[first_pose],
+            crate::slam::g2o::G2oVertex::Se3 { id: first_pose as u64, pose: estimate.se3(VarId(0)).unwrap() }
+        );
     }
 }

@@ -26,6 +26,7 @@ pub use prior::{PriorSe2, PriorSe3};
 use nalgebra::{Matrix6, Vector6};
 use thiserror::Error;
 
+use super::g2o::G2oEdge;
 use super::values::{Values, VarId};
 
 /// How an SE(2) pose difference `D = a⁻¹ b` becomes a residual.
@@ -79,6 +80,13 @@ pub trait Factor: core::fmt::Debug + Send + Sync {
     /// eᵀ Ω e.
     fn chi2(&self, values: &Values) -> Result<f64, FactorError> {
         Ok(self.noise().chi2(&self.error(values)?))
+    }
+
+    /// This factor as a g2o edge whose vertex ids are its keys' indices (`VarId.0`), for the
+    /// kinds g2o has a tag for; `None` for the others (priors, gravity). The robust kernel has
+    /// no g2o form and is left out.
+    fn g2o_edge(&self) -> Option<G2oEdge> {
+        None
     }
 }
 
