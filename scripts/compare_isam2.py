@@ -34,7 +34,7 @@ import time
 
 import numpy as np
 
-from compare_gtsam import symmetric  # scripts/ is on the path of a script run from it
+from compare_gtsam import point_in_sensor_error, symmetric  # scripts/ is on the path of a script run from it
 
 try:
     import gtsam
@@ -98,17 +98,6 @@ def isam2(threshold, skip, factorization):
     return gtsam.ISAM2(params)
 
 
-def point_in_pose_error(z, this, values, jacobians):
-    """fitslam's PointObservation3: e = x^-1 m - z."""
-    x = values.atPose3(this.keys()[0])
-    m = values.atPoint3(this.keys()[1])
-    hx, hm = np.zeros((3, 6), order="F"), np.zeros((3, 3), order="F")
-    p = x.transformTo(m, hx, hm)
-    if jacobians is not None:
-        jacobians[0], jacobians[1] = hx, hm
-    return p - z
-
-
 def unit_pose(x, y, z, qx, qy, qz, qw):
     n = np.linalg.norm([qw, qx, qy, qz])  # Rot3.Quaternion does not normalise
     return gtsam.Pose3(gtsam.Rot3.Quaternion(qw / n, qx / n, qy / n, qz / n), np.array([x, y, z]))
@@ -119,7 +108,7 @@ def read_points_g2o(path, observations, cauchy_k):
     (from, to, factor, initialise(known value) -> value of `to`). Odometry is a
     BetweenFactorPose3 (information permuted to GTSAM's (rotation, translation) order, as
     readG2o does); an observation (EDGE_SE3_TRACKXYZ through PARAMS_SE3OFFSET) is either the
-    exact point-in-pose residual as a CustomFactor (`exact`: the same chi2 as fitslam's, but a
+    exact residual (compare_gtsam.py's point_in_sensor_error) as a CustomFactor (`exact`: the same chi2 as fitslam's, but a
     Python call per linearisation) or a BearingRangeFactor3D from the same point (`bearing-range`:
     the same graph structure, all in C++, its noise isotropic of the same mean variance: for
     timing, its chi2 is not comparable). With `cauchy_k`, a Cauchy kernel on every observation."""
@@ -143,20 +132,19 @@ def read_points_g2o(path, observations, cauchy_k):
             edges.append((i, j, factor, lambda x, z=z: x.compose(z), lambda x, z=z: x.compose(z.inverse())))
         elif t[0] == "EDGE_SE3_TRACKXYZ":
             i, j, o = int(t[1]), int(t[2]), offsets[int(t[3])]
-            z = o.transformFrom(np.array([float(v) for v in t[4:7]]))
-            info = symmetric([float(v) for v in t[7:13]], 3)
-            r = o.rotation().matrix()
-            info = r @ info @ r.T
+            z_sensor = np.array([float(v) for v in t[4:7]])
+            info = symmetric([float(v) for v in t[7:13]], 3)  # of the residual in the sensor frame
+            z = o.transformFrom(z_sensor)  # in the body frame
             if observations == "exact":
                 noise = gtsam.noiseModel.Gaussian.Information(info)
             else:
-                sigma = np.sqrt(np.trace(np.linalg.inv(info)) / 3.0)
+                sigma = np.sqrt(np.trace(np.linalg.inv(info)) / 3.0)  # the trace does not depend on the frame
                 rng = float(np.linalg.norm(z))
                 noise = gtsam.noiseModel.Diagonal.Sigmas(np.array([sigma / rng, sigma / rng, sigma]))
             if cauchy_k is not None:
                 noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(cauchy_k), noise)
             if observations == "exact":
-                factor = gtsam.CustomFactor(noise, [i, j], functools.partial(point_in_pose_error, z))
+                factor = gtsam.CustomFactor(noise, [i, j], functools.partial(point_in_sensor_error, o, z_sensor))
             else:
                 factor = gtsam.BearingRangeFactor3D(i, j, gtsam.Unit3(z), rng, noise)
             edges.append((i, j, factor, lambda x, z=z: x.transformFrom(z), None))
