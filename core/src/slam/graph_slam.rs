@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::factors::{BetweenSe3, Factor, GaussianNoise, GravitySe3, NoiseError, PointObservation3, PriorSe3, RobustKernel};
-use super::g2o::{G2oEdge, G2oFile, G2oVertex};
+use super::g2o::{G2oFile, G2oVertex};
 use super::graph::{FactorGraph, GraphError};
 use super::incremental::{IncrementalError, Isam2, Isam2Params};
 use super::lie::Se3;
@@ -530,23 +530,9 @@ impl GraphSlam {
                 _ => None,
             })
             .collect();
-        let mut left_out = 0;
-        for f in self.graph().factors() {
-            match f.g2o_edge() {
-                Some(mut e) => {
-                    match &mut e {
-                        G2oEdge::Se2 { from, to, .. }
-                        | G2oEdge::Se3 { from, to, .. }
-                        | G2oEdge::Se2Point2 { from, to, .. }
-                        | G2oEdge::Se3Point3 { from, to, .. } => {
-                            (*from, *to) = (file_id[*from as usize], file_id[*to as usize]);
-                        }
-                    }
-                    file.edges.push(e);
-                }
-                None => left_out += 1,
-            }
-        }
+        let factors = self.graph().factors();
+        file.edges = factors.iter().filter_map(|f| f.g2o_edge()).map(|e| e.renumbered(|v| file_id[v as usize])).collect();
+        let left_out = factors.len() - file.edges.len();
         (file, left_out)
     }
 }

@@ -118,6 +118,17 @@ impl G2oEdge {
             | G2oEdge::Se3Point3 { from, to, .. } => (*from, *to),
         }
     }
+
+    /// The same edge between vertices `id(from)` and `id(to)`.
+    pub fn renumbered(mut self, id: impl Fn(u64) -> u64) -> Self {
+        match &mut self {
+            G2oEdge::Se2 { from, to, .. }
+            | G2oEdge::Se3 { from, to, .. }
+            | G2oEdge::Se2Point2 { from, to, .. }
+            | G2oEdge::Se3Point3 { from, to, .. } => (*from, *to) = (id(*from), id(*to)),
+        }
+        self
+    }
 }
 
 /// The name of a variable's kind, for errors.
