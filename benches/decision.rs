@@ -14,7 +14,7 @@ use fitslam_core::fixtures::{SyntheticWorldSpec, synthetic_world};
 use fitslam_core::frontier::Blacklist;
 use fitslam_core::frontier::cluster_frontier_cells;
 use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
-use fitslam_core::params::{Params, Strategy};
+use fitslam_core::params::{Params, Strategy, Valid};
 use fitslam_core::path::dijkstra_with_frontiers;
 use fitslam_core::select::candidates::{PlanBuffers, frontiers_and_distances, prepare, rank_and_choose, score_u1, score_u2};
 use fitslam_core::select::{DecisionInput, FitSlam, GoalSelector};
@@ -32,7 +32,7 @@ fn main() {
     let spec = SyntheticWorldSpec::benchmark();
     let world = synthetic_world(&spec);
     let build_world_s = t.elapsed().as_secs_f64();
-    let params = Params::default();
+    let params = Valid::<Params>::default();
     let g = world.grid.geometry;
     let count = |v: i8| world.grid.data.iter().filter(|&&x| x == v).count();
     println!(

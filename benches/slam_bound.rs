@@ -30,7 +30,7 @@ mod common;
 use std::time::Instant;
 
 use faer::{Mat, Side};
-use fitslam_core::params::{Params, Strategy};
+use fitslam_core::params::{Params, Strategy, Valid};
 use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
 use fitslam_core::slam::{Marginals, SlamSolver};
 
@@ -54,7 +54,15 @@ fn main() {
             other => panic!("--solver {other}: batch or incremental"),
         };
     }
-    let mut mission = Mission::new(world, params, mission_params, Strategy::Fit, seed, Localisation::Slam).expect("mission");
+    let mut mission = Mission::new(
+        world,
+        Valid::new(params).expect("parameters"),
+        Valid::new(mission_params).expect("parameters"),
+        Strategy::Fit,
+        seed,
+        Localisation::Slam,
+    )
+    .expect("mission");
 
     let (mut mission_s, mut closures) = (0.0, 0);
     let (mut closure_s, mut closure_flops) = (0.0, 0.0);

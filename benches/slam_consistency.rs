@@ -16,7 +16,7 @@
 
 mod common;
 
-use fitslam_core::params::{Params, Strategy};
+use fitslam_core::params::{Params, Strategy, Valid};
 use fitslam_core::sim::StampedPose;
 use fitslam_core::sim::{Localisation, Mission, MissionParams, StepOutcome};
 use nalgebra::{DMatrix, DVector, Quaternion, UnitQuaternion, Vector3, Vector6};
@@ -56,7 +56,15 @@ fn main() {
     let mut nees = [0.0; 4];
     let (mut tilt_err2, mut tilt_var, mut rows) = (0.0, 0.0, 0usize);
     for seed in 1..=seeds {
-        let mut m = Mission::new(world.clone(), params.clone(), mp.clone(), Strategy::Fit, seed, Localisation::Slam).expect("mission");
+        let mut m = Mission::new(
+            world.clone(),
+            Valid::new(params.clone()).expect("parameters"),
+            Valid::new(mp.clone()).expect("parameters"),
+            Strategy::Fit,
+            seed,
+            Localisation::Slam,
+        )
+        .expect("mission");
         let mut seen = 0;
         loop {
             let out = m.step();

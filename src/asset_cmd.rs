@@ -12,7 +12,9 @@ use fitslam_core::{
     grid::GridGeometry,
     io,
     params::Num,
-    sim::{DemScaling, Heightfield, LandmarkDensity, line_of_sight, scatter_landmarks, scatter_rocks, visible_ground_points},
+    sim::{
+        DemScaling, Heightfield, LandmarkDensity, line_of_sight, scatter_landmarks, scatter_rocks, visible_ground_points, world::RockSpec,
+    },
     traversability::TraversabilityMap,
 };
 use nalgebra::{Matrix3, Point3};
@@ -103,7 +105,8 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
     }
     field.heights_m.iter_mut().for_each(|z| *z *= args.relief_scale);
     let start = viewpoints[0];
-    let rocks = scatter_rocks(&mut field, args.seed, 1.6, 0.3, (0.15, 0.45), (0.25, 0.7), start, 1.2);
+    let spec = RockSpec { spacing_m: 1.6, density: 0.3, radius_m: [0.15, 0.45], height_m: [0.25, 0.7], keep_clear_m: 1.2 };
+    let rocks = scatter_rocks(&mut field, args.seed, &spec, start);
     // The map frame is where a SLAM would put it: z = 0 at the ground under the start pose.
     let z0 = field
         .height_at(start.0, start.1)

@@ -1,6 +1,7 @@
 //! File loading for the CLI: read bytes, hand them to the core's parsers, name the file in errors.
 
 use anyhow::{Context, Result, bail};
+use fitslam_core::params::Valid;
 use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2, io};
 use std::path::{Path, PathBuf};
 
@@ -39,10 +40,10 @@ pub fn cloud(path: &Path) -> Result<PointCloud> {
     Ok(io::load_cloud(&bytes, &path.display().to_string())?)
 }
 
-/// Loads parameters (TOML or YAML), or the defaults.
-pub fn params(path: Option<&Path>) -> Result<Params> {
+/// Loads and checks parameters (TOML or YAML), or the defaults.
+pub fn params(path: Option<&Path>) -> Result<Valid<Params>> {
     match path {
-        None => Ok(Params::default()),
+        None => Ok(Valid::default()),
         Some(p) => Ok(Params::from_bytes(&read(p)?, &p.display().to_string())?),
     }
 }

@@ -12,7 +12,7 @@ use clap::Args;
 use fitslam_core::bag::record::MissionRecorder;
 use fitslam_core::explore::EndReason;
 use fitslam_core::io;
-use fitslam_core::params::{Params, Strategy};
+use fitslam_core::params::{Params, Strategy, Valid};
 use fitslam_core::sim::{
     Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary, World, WorldSpec, metrics_csv, timing_csv, tum,
 };
@@ -82,8 +82,8 @@ pub fn progress_bar(len: u64, template: &str) -> ProgressBar {
 pub struct Setup {
     pub world_name: String,
     pub world: World,
-    pub params: Params,
-    pub mission_params: MissionParams,
+    pub params: Valid<Params>,
+    pub mission_params: Valid<MissionParams>,
 }
 
 impl Setup {
@@ -114,7 +114,7 @@ pub fn load_setup(
         None => MissionParams::default(),
         Some(p) => {
             let text = String::from_utf8(load::read(p)?).with_context(|| format!("{}: not UTF-8", p.display()))?;
-            MissionParams::from_toml(&text, &p.display().to_string())?
+            MissionParams::from_toml(&text, &p.display().to_string())?.into_inner()
         }
     };
     if let Some(t) = time_limit_s {
@@ -123,6 +123,7 @@ pub fn load_setup(
         }
         mission_params.time_limit_s = Some(t);
     }
+    let mission_params = Valid::new(mission_params)?;
     let world_name = world.display().to_string();
     let spec = read_world_spec(world)?;
     let dir = world.parent().map(Path::to_path_buf).unwrap_or_default();

@@ -1,4 +1,6 @@
 //! `fitslam select`: one goal decision on a map and a landmark set, printed as a table or JSON.
+//! The decision is the exploration policy's (`explore::Explorer`, from a fresh start: no trail,
+//! no goal reached), so it is the goal the robot node and the simulator would choose.
 
 use crate::{bag_cmd, load};
 use anyhow::{Result, bail};
@@ -6,9 +8,10 @@ use clap::Args;
 use fitslam_core::{
     OccupancyGrid, PointCloud, Pose2,
     bag::{PoseSource, Snapshot},
-    frontier::{Blacklist, Boundary},
-    params::Strategy,
-    select::{CandidateReport, Decision, DecisionInput, DropReason, make_selector},
+    explore::{Action, Attempt, ExploreParams, Explorer, Situation, TracedDecision, WaitReason},
+    frontier::Boundary,
+    params::{Strategy, Valid},
+    select::{CandidateReport, Decision, DropReason},
     utility::LandmarkVoxels,
 };
 use serde::Serialize;
@@ -78,7 +81,7 @@ fn inputs(args: &SelectArgs, params: &fitslam_core::Params) -> Result<Inputs> {
 pub fn run(args: &SelectArgs) -> Result<()> {
     let mut params = load::params(args.params.as_deref())?;
     if let Some(s) = args.strategy {
-        params.selector.strategy = s;
+        params = params.with_selector(fitslam_core::params::SelectorParams { strategy: s, ..params.selector.clone() });
     }
     let Inputs { grid, cloud, robot, source, snapshot } = inputs(args, &params)?;
     let landmarks_name = args.landmarks.as_deref().map_or_else(|| source.clone(), |p| p.display().to_string());
@@ -93,15 +96,18 @@ pub fn run(args: &SelectArgs) -> Result<()> {
             bail!("--boundary {text:?} does not overlap the map {source} ([{x0}, {x1}] × [{y0}, {y1}] m)");
         }
     }
-    let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
-    let mut input = DecisionInput::new(&grid, &landmarks, robot, &blacklist);
-    if let Some(b) = boundary.as_ref() {
-        input = input.with_boundary(b);
+    let situation = Situation::one_off(&landmarks, robot, boundary.as_ref());
+    let mut explorer = Explorer::new(Valid::<ExploreParams>::default(), params);
+    let traced = explorer.decide_traced(&mut grid.clone(), &situation);
+    // A selector error the retries could not get past is the input's fault: say so and fail.
+    if let Action::Wait(WaitReason::NoPlan(e)) = &traced.action {
+        bail!("{source}: {e}");
     }
-    let mut selector = make_selector(&params.selector);
-    let decision = selector.select(&input, &params).map_err(|e| anyhow::anyhow!("{source}: {e}"))?;
+    let Some(decision) = traced.decision() else { bail!("{source}: no decision was made") };
     if args.json {
-        let mut json = serde_json::to_value(JsonDecision::from(&decision))?;
+        let mut json = serde_json::to_value(JsonDecision::from(decision))?;
+        json["action"] = action_json(&traced.action);
+        json["attempts"] = attempts_json(&traced);
         if let Some(s) = &snapshot {
             json["bag"] = bag_json(s, landmarks.len());
         }
@@ -110,9 +116,69 @@ pub fn run(args: &SelectArgs) -> Result<()> {
         if let Some(s) = &snapshot {
             print_snapshot(s, landmarks.len())?;
         }
-        print_table(&decision)?;
+        print_table(decision)?;
+        print_action(&traced)?;
     }
     Ok(())
+}
+
+/// The explorer's answer as JSON: `kind` (`goal`, `done`, `wait`, `recover`) and its details.
+fn action_json(action: &Action) -> serde_json::Value {
+    match action {
+        Action::Goal(plan) | Action::Keep(plan) => {
+            let g = plan.goal.goal;
+            let t = plan.target();
+            serde_json::json!({
+                "kind": "goal",
+                "goal": [g.x_m, g.y_m, g.yaw_rad],
+                "target": [t.x_m, t.y_m, t.yaw_rad],
+                "candidate": plan.candidate,
+                "inflation_m": plan.goal.inflation_m,
+                "tight": plan.tight,
+                "on_trail": plan.goal.on_trail,
+            })
+        }
+        Action::Done(reason) => serde_json::json!({ "kind": "done", "reason": reason }),
+        Action::Wait(why) => serde_json::json!({ "kind": "wait", "reason": format!("{why:?}") }),
+        Action::Recover { radius_m } => serde_json::json!({ "kind": "recover", "radius_m": radius_m }),
+    }
+}
+
+/// Each attempt of the retry ladder: its step and what the selector answered.
+fn attempts_json(traced: &TracedDecision) -> serde_json::Value {
+    let attempts: Vec<serde_json::Value> = traced
+        .attempts
+        .iter()
+        .map(|a| {
+            let mut v = serde_json::to_value(a.attempt).unwrap_or_default();
+            match &a.outcome {
+                Ok(d) => v["chosen"] = serde_json::json!(d.chosen),
+                Err(e) => v["error"] = serde_json::json!(e.to_string()),
+            }
+            v
+        })
+        .collect();
+    serde_json::Value::Array(attempts)
+}
+
+/// The explorer's answer below the table: the goal it sends (and on which step of the ladder).
+fn print_action(traced: &TracedDecision) -> std::io::Result<()> {
+    let last = traced.attempts.last().map(|a| a.attempt);
+    let how = match last {
+        Some(Attempt::Plain | Attempt::Reselected { .. }) | None => String::new(),
+        Some(Attempt::ClearFootprint) => " (after clearing the robot's footprint)".to_string(),
+        Some(Attempt::OpenTrail) => " (with the robot's trail open)".to_string(),
+        Some(Attempt::TightInflation { radius_m, .. }) => format!(" (at the tight inflation {radius_m} m)"),
+    };
+    match &traced.action {
+        Action::Goal(plan) | Action::Keep(plan) => {
+            let g = plan.goal.goal;
+            outln!("goal: ({:.2}, {:.2}) heading {:.1}°{how}", g.x_m, g.y_m, g.yaw_rad.to_degrees())
+        }
+        Action::Done(reason) => outln!("goal: none ({reason:?}: end of mission){how}"),
+        Action::Wait(why) => outln!("goal: none now ({why:?}){how}"),
+        Action::Recover { radius_m } => outln!("goal: none: trapped by its own map (forget it within {radius_m} m){how}"),
+    }
 }
 
 /// The bag's instant as JSON: when each input was recorded and what the robot chose.
@@ -284,10 +350,6 @@ fn print_table(d: &Decision) -> std::io::Result<()> {
             opt(c.u2, 3),
             note
         )?;
-    }
-    match d.chosen_candidate() {
-        Some(c) => outln!("goal: ({:.2}, {:.2}) heading {:.1}°", c.x_m, c.y_m, c.theta_star_rad.unwrap_or(0.0).to_degrees())?,
-        None => outln!("goal: none (no reachable frontier left: end of mission)")?,
     }
     Ok(())
 }

@@ -29,13 +29,13 @@ fn main() {
         let g = scene.map.geometry();
         let mut params = Params::default();
         let mut pipeline = Pipeline::default();
-        pipeline.update(&scene, Revisions::default(), &params);
+        pipeline.update(&scene, Revisions::default(), &params, &Default::default());
         let mut times = Vec::with_capacity(ROUNDS);
         for k in 0..ROUNDS {
             params.u2.beta = (k % 21) as f64 / 20.0;
             let revs = Revisions::default();
             let t = Instant::now();
-            pipeline.update(&scene, revs, &params);
+            pipeline.update(&scene, revs, &params, &Default::default());
             times.push(t.elapsed().as_secs_f64() * 1e3);
         }
         times.sort_by(f64::total_cmp);
@@ -52,7 +52,7 @@ fn main() {
             ROUNDS
         );
         // Where the time goes, stage by stage (same calls as the selector).
-        let params = Params::default();
+        let params = fitslam_core::params::Valid::<Params>::default();
         let grid = to_occupancy(&scene.map.score, params.traversability.tau);
         let voxels = LandmarkVoxels::new(&scene.landmarks.cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
         let input = DecisionInput::new(&grid, &voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);

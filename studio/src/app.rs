@@ -20,6 +20,7 @@ use crate::recording::{self, Recording};
 use crate::scene::{Landmarks, Scene};
 use crate::tour::Tour;
 use fitslam_core::Params;
+use fitslam_core::params::Validate;
 use std::collections::BTreeMap;
 
 /// What the studio shows.
@@ -237,7 +238,7 @@ impl StudioApp {
         };
         let stem = match &self.recording {
             Some(r) => {
-                let base = loader::base_name(r.name());
+                let base = files::base_name(r.name());
                 format!("{}_t{:.3}s", base.strip_suffix(".mcap").unwrap_or(base), r.t_s)
             }
             None => "fitslam_scene".to_string(),
@@ -290,9 +291,8 @@ impl StudioApp {
         let ctx = ui.ctx().clone();
         let mut actions = Vec::new();
         if let Some(rec) = &self.recording {
-            egui::Panel::top("recording").show(ui, |ui| {
-                crate::recording_view::show(ui, rec, self.planner.pipeline.ok_decision(), &mut self.widget_rects, &mut actions)
-            });
+            egui::Panel::top("recording")
+                .show(ui, |ui| crate::recording_view::show(ui, rec, self.planner.pipeline.action(), &mut self.widget_rects, &mut actions));
         }
         let p = &mut self.planner;
         egui::Panel::left("params").resizable(true).default_size(270.0).show(ui, |ui| {
@@ -316,7 +316,7 @@ impl StudioApp {
         if valid && self.planner.scene.map.refresh_terrain(&self.planner.params.traversability) {
             self.planner.revs.map += 1;
         }
-        if valid && self.planner.pipeline.update(&self.planner.scene, self.planner.revs, &self.planner.params) {
+        if valid && self.planner.pipeline.update(&self.planner.scene, self.planner.revs, &self.planner.params, &self.planner.explore) {
             ctx.request_repaint();
             // While the robot is dragged across obstacles the canvas shows the error live; only
             // a failure that stays is worth a message.
@@ -542,7 +542,7 @@ impl StudioApp {
         let mut choice = None;
         let mut rects = Vec::new();
         egui::Window::new("Point cloud").collapsible(false).resizable(false).show(ctx, |ui| {
-            ui.label(format!("What is {}?", loader::base_name(&name)));
+            ui.label(format!("What is {}?", files::base_name(&name)));
             ui.horizontal(|ui| {
                 let r = ui.button("Landmarks (for u2)");
                 rects.push(("cloud_landmarks", r.rect));
@@ -642,8 +642,8 @@ impl StudioApp {
                 "index": r.current_index(),
                 "t_s": r.t_s,
                 "robot_goal": r.robot_target(),
-                "chosen_m": self.planner.pipeline.ok_decision().and_then(|d| d.chosen_candidate()).map(|c| [c.x_m, c.y_m]),
-                "goal_gap_m": crate::recording_view::choice_gap_m(r, self.planner.pipeline.ok_decision()),
+                "chosen_m": crate::recording_view::answer_goal_m(self.planner.pipeline.action()),
+                "goal_gap_m": crate::recording_view::choice_gap_m(r, self.planner.pipeline.action()),
             })),
             "mission": if self.mode == Mode::Mission || self.mission.runner.is_some() {
                 self.mission.stats()

@@ -92,6 +92,11 @@ impl Inbox {
     }
 }
 
+/// The last path component of a name ("a/b/map.pgm" → "map.pgm").
+pub fn base_name(name: &str) -> &str {
+    name.rsplit(['/', '\\']).next().unwrap_or(name)
+}
+
 /// The extensions each intent accepts (lower case, without the dot).
 pub fn extensions(intent: Intent) -> &'static [&'static str] {
     match intent {
@@ -264,5 +269,17 @@ pub fn read_sibling(name: &str, sibling: &str) -> Option<(String, Result<Vec<u8>
     {
         let _ = (name, sibling);
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base_names() {
+        assert_eq!(base_name("a/b/map.pgm"), "map.pgm");
+        assert_eq!(base_name("C:\\maps\\m.yaml"), "m.yaml");
+        assert_eq!(base_name("plain"), "plain");
     }
 }

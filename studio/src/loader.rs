@@ -10,7 +10,7 @@
 //!
 //! Every failure is a message naming the file; nothing here panics on input.
 
-use crate::files::{IncomingFile, Intent};
+use crate::files::{IncomingFile, Intent, base_name};
 use crate::recording::Recording;
 use crate::scene::{Landmarks, MapKind, MapLayers};
 use fitslam_core::Params;
@@ -31,11 +31,6 @@ pub enum Loaded {
     },
     /// A point cloud dropped without saying what it is: the user is asked.
     AskCloudUse(IncomingFile),
-}
-
-/// The last path component of a name ("a/b/map.pgm" → "map.pgm").
-pub fn base_name(name: &str) -> &str {
-    name.rsplit(['/', '\\']).next().unwrap_or(name)
 }
 
 fn extension(name: &str) -> String {
@@ -144,7 +139,7 @@ fn bare_image_map(bytes: &[u8], name: &str, resolution_m: f64) -> Result<Loaded,
 
 fn params_or_error(bytes: &[u8], name: &str, map_err: Option<&MapError>) -> Result<Loaded, String> {
     match Params::from_bytes(bytes, name) {
-        Ok(p) => Ok(Loaded::Params(Box::new(p))),
+        Ok(p) => Ok(Loaded::Params(Box::new(p.into_inner()))),
         Err(pe) => Err(match map_err {
             // A YAML that is neither: say both, the map reason first (maps are the usual case).
             Some(me) => format!("{me}; not a parameter file either: {pe}"),
@@ -183,13 +178,6 @@ mod tests {
 
     /// A 2 × 1 binary PGM: a black (lethal) and a white (free) pixel.
     const PGM: &[u8] = b"P5\n2 1\n255\n\x00\xff";
-
-    #[test]
-    fn base_names() {
-        assert_eq!(base_name("a/b/map.pgm"), "map.pgm");
-        assert_eq!(base_name("C:\\maps\\m.yaml"), "m.yaml");
-        assert_eq!(base_name("plain"), "plain");
-    }
 
     #[test]
     fn yaml_and_image_pair_within_a_batch_by_base_name() {

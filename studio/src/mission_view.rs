@@ -103,11 +103,14 @@ impl MissionView {
         let reuse =
             self.runner.as_ref().is_some_and(|r| r.config.world == self.config.world && r.params.traversability == params.traversability);
         let result = match (reuse, self.runner.as_mut()) {
-            (true, Some(r)) => {
-                r.config = self.config.clone();
-                r.params = params.clone();
-                r.reset()
-            }
+            (true, Some(r)) => match fitslam_core::params::Valid::new(params.clone()) {
+                Ok(p) => {
+                    r.config = self.config.clone();
+                    r.params = p;
+                    r.reset()
+                }
+                Err(e) => Err(format!("planner parameters: {e}")),
+            },
             _ => SimRunner::new(self.config.clone(), params).map(|r| {
                 self.runner = Some(r);
             }),

@@ -8,6 +8,7 @@ use crate::pipeline::Pipeline;
 use crate::planner::PlannerState;
 use crate::summary::{candidate_summary, fmt};
 use fitslam_core::Params;
+use fitslam_core::params::Validate;
 use fitslam_core::params::{InfoNormalisation, Strategy};
 use fitslam_core::select::{CandidateReport, Decision};
 

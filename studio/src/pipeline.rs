@@ -5,15 +5,18 @@
 //! |---|---|---|
 //! | thresholded grid | `traversability::to_occupancy(score, τ)` | map, τ |
 //! | landmark voxels | `utility::LandmarkVoxels::new` | landmarks, voxel size, σ_l |
-//! | decision | `select::make_selector(..).select(..)` | any input or parameter |
+//! | decision | `explore::Explorer::decide_traced`: the robot's policy (selector, retry ladder, set-back) on the scene | any input or parameter |
 //! | inflated grid (display only) | `grid::inflate_lethal` | thresholded grid, robot radius |
 //!
-//! The selector is made afresh for every decision (the random one from its seed), so the same
-//! inputs always give the same decision.
+//! The explorer is made afresh for every decision (the scene's blacklist, no trail, no goal
+//! reached; the random selectors from their seed), so the same inputs always give the same
+//! decision, and it is the decision the robot node and the simulator would make on them.
 
 use crate::scene::Scene;
+use fitslam_core::explore::{Action, ExploreParams, Explorer, Situation, TracedDecision};
 use fitslam_core::grid::{OccupancyGrid, inflate_lethal};
-use fitslam_core::select::{Decision, DecisionInput, make_selector};
+use fitslam_core::params::Valid;
+use fitslam_core::select::Decision;
 use fitslam_core::traversability::to_occupancy;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{Params, Pose2};
@@ -41,14 +44,15 @@ pub struct Timings {
 /// Cache key of the voxels: landmarks revision, voxel size and σ_l bits.
 type VoxelKey = (u64, u64, u64);
 /// Cache key of the decision: everything it depends on (robot pose as bits).
-type DecisionKey = (Revisions, Params, [u64; 3]);
+type DecisionKey = (Revisions, Params, ExploreParams, [u64; 3]);
 
 /// The cached stages.
 #[derive(Default)]
 pub struct Pipeline {
     occupancy: Option<((u64, u64), OccupancyGrid)>,
     voxels: Option<(VoxelKey, Result<LandmarkVoxels, String>)>,
-    decision: Option<(DecisionKey, Result<Decision, String>)>,
+    /// The explorer's traced decision, its ranking (the last attempt's) or why there is none.
+    decision: Option<(DecisionKey, Result<Decision, String>, Option<TracedDecision>)>,
     inflated: Option<((u64, u64, u64), OccupancyGrid)>,
     /// Incremented whenever the decision is recomputed.
     pub decision_revision: u64,
@@ -63,7 +67,7 @@ fn bits(v: f64) -> u64 {
 
 impl Pipeline {
     /// Brings every stage up to date; returns whether the decision was recomputed.
-    pub fn update(&mut self, scene: &Scene, revs: Revisions, params: &Params) -> bool {
+    pub fn update(&mut self, scene: &Scene, revs: Revisions, params: &Params, explore: &ExploreParams) -> bool {
         let mut spent_ms = 0.0;
         let occ_key = (revs.map, bits(params.traversability.tau));
         if self.occupancy.as_ref().is_none_or(|(k, _)| *k != occ_key) {
@@ -83,21 +87,21 @@ impl Pipeline {
             self.voxels = Some((vox_key, v));
         }
         let pose = pose_bits(scene.robot);
-        let dec_key = (revs, params.clone(), pose);
+        let dec_key = (revs, params.clone(), explore.clone(), pose);
         let mut recomputed = false;
-        if self.decision.as_ref().is_none_or(|(k, _)| *k != dec_key) {
+        if self.decision.as_ref().is_none_or(|(k, _, _)| *k != dec_key) {
             let t = Instant::now();
-            let result = match (&self.occupancy, &self.voxels) {
-                (Some((_, grid)), Some((_, Ok(voxels)))) => {
-                    let input = DecisionInput::new(grid, voxels, scene.robot, &scene.blacklist).with_boundary(&scene.boundary);
-                    make_selector(&params.selector).select(&input, params).map_err(|e| e.to_string())
-                }
-                (_, Some((_, Err(e)))) => Err(e.clone()),
-                _ => Err("internal: stage missing".to_string()),
+            let (ranking, traced) = match (&self.occupancy, &self.voxels) {
+                (Some((_, grid)), Some((_, Ok(voxels)))) => match decide(scene, grid, voxels, params, explore) {
+                    Ok(traced) => (ranking_of(&traced), Some(traced)),
+                    Err(e) => (Err(e), None),
+                },
+                (_, Some((_, Err(e)))) => (Err(e.clone()), None),
+                _ => (Err("internal: stage missing".to_string()), None),
             };
             self.timings.decision_ms = ms_since(t);
             spent_ms += self.timings.decision_ms;
-            self.decision = Some((dec_key, result));
+            self.decision = Some((dec_key, ranking, traced));
             self.decision_revision += 1;
             self.decisions_computed += 1;
             recomputed = true;
@@ -108,9 +112,19 @@ impl Pipeline {
         recomputed
     }
 
-    /// The current decision, or why there is none.
+    /// The ranking the explorer acted on, or why there is none.
     pub fn decision(&self) -> Option<&Result<Decision, String>> {
-        self.decision.as_ref().map(|(_, d)| d)
+        self.decision.as_ref().map(|(_, d, _)| d)
+    }
+
+    /// The explorer's whole answer: its action and every attempt of the retry ladder.
+    pub fn traced(&self) -> Option<&TracedDecision> {
+        self.decision.as_ref().and_then(|(_, _, t)| t.as_ref())
+    }
+
+    /// What the robot would do on this scene.
+    pub fn action(&self) -> Option<&Action> {
+        self.traced().map(|t| &t.action)
     }
 
     /// The current decision if it succeeded.
@@ -142,6 +156,30 @@ impl Pipeline {
             self.inflated = Some((key, inflate_lethal(occ, radius_m)));
         }
         self.inflated.as_ref().map(|(k, g)| (g, *k))
+    }
+}
+
+/// The explorer's decision on the scene, as the robot would make it from a fresh start: the
+/// scene's blacklist, no trail, no goal reached, no position uncertainty, the map its own.
+fn decide(
+    scene: &Scene,
+    grid: &OccupancyGrid,
+    voxels: &LandmarkVoxels,
+    params: &Params,
+    explore: &ExploreParams,
+) -> Result<TracedDecision, String> {
+    let params = Valid::new(params.clone()).map_err(|e| format!("parameters: {e}"))?;
+    let explore = Valid::new(explore.clone()).map_err(|e| format!("exploration parameters: {e}"))?;
+    let mut explorer = Explorer::new(explore, params).with_blacklist(scene.blacklist.clone());
+    Ok(explorer.decide_traced(&mut grid.clone(), &Situation::one_off(voxels, scene.robot, Some(&scene.boundary))))
+}
+
+/// The ranking of a traced decision: the last attempt's, or the selector's error.
+fn ranking_of(traced: &TracedDecision) -> Result<Decision, String> {
+    match traced.attempts.last().map(|a| &a.outcome) {
+        Some(Ok(d)) => Ok(d.clone()),
+        Some(Err(e)) => Err(e.to_string()),
+        None => Err("internal: no attempt".to_string()),
     }
 }
 

@@ -5,6 +5,7 @@
 use crate::pipeline::{Pipeline, Revisions};
 use crate::scene::Scene;
 use fitslam_core::Params;
+use fitslam_core::explore::ExploreParams;
 
 /// Which map layer is drawn under the overlays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,6 +95,8 @@ pub struct PlannerState {
     pub scene: Scene,
     pub revs: Revisions,
     pub params: Params,
+    /// The exploration policy's parameters (the retry ladder, the set-back), as the robot's.
+    pub explore: ExploreParams,
     pub pipeline: Pipeline,
     pub layer: Layer,
     pub overlays: Overlays,
@@ -113,6 +116,7 @@ impl PlannerState {
             scene,
             revs: Revisions::default(),
             params: Params::default(),
+            explore: ExploreParams::default(),
             pipeline: Pipeline::default(),
             layer: Layer::Score,
             overlays: Overlays::default(),
@@ -120,7 +124,7 @@ impl PlannerState {
             hovered: None,
             recorded_goal_m: None,
         };
-        planner.pipeline.update(&planner.scene, planner.revs, &planner.params);
+        planner.pipeline.update(&planner.scene, planner.revs, &planner.params, &planner.explore);
         planner
     }
 

@@ -100,7 +100,7 @@ fn by_class(grid: &OccupancyGrid) -> OccupancyGrid {
 }
 
 fn scene_of(s: &Snapshot, bag_name: &str, blacklist_radius_m: f64) -> Scene {
-    let name = format!("{} at t = {:.3} s", crate::loader::base_name(bag_name), s.t_s);
+    let name = format!("{} at t = {:.3} s", crate::files::base_name(bag_name), s.t_s);
     let map = MapLayers::from_occupancy(&by_class(&s.map), name.clone());
     let landmarks = Landmarks { cloud: s.landmarks.clone(), source: format!("{name} landmarks") };
     let mut scene = Scene::new(map, landmarks, Some(s.robot), blacklist_radius_m);

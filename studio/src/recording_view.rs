@@ -6,7 +6,7 @@
 use crate::action::{Action, WidgetRects};
 use crate::recording::Recording;
 use egui::{Align2, Color32, FontId, Pos2, Sense, Stroke, Vec2};
-use fitslam_core::select::Decision;
+use fitslam_core::explore::Action as Answer;
 
 /// Colour of the robot's recorded choice (timeline and canvas).
 pub const ROBOT_CHOICE: Color32 = Color32::from_rgb(255, 80, 255);
@@ -14,19 +14,43 @@ pub const ROBOT_CHOICE: Color32 = Color32::from_rgb(255, 80, 255);
 /// Ticks closer than this to the pointer are snapped to, pixels.
 const SNAP_PX: f32 = 6.0;
 
-/// How far the re-ranked goal is from the robot's, metres (`None`: one of them is missing).
-pub fn choice_gap_m(rec: &Recording, decision: Option<&Decision>) -> Option<f64> {
+/// The frontier goal of the explorer's answer (its candidate's cell centre), if it is a goal.
+pub fn answer_goal_m(answer: Option<&Answer>) -> Option<[f64; 2]> {
+    match answer? {
+        Answer::Goal(plan) | Answer::Keep(plan) => Some([plan.goal.goal.x_m, plan.goal.goal.y_m]),
+        _ => None,
+    }
+}
+
+/// How far the explorer's goal on these parameters is from the robot's, metres (`None`: one of
+/// them is missing).
+pub fn choice_gap_m(rec: &Recording, answer: Option<&Answer>) -> Option<f64> {
     let robot = rec.robot_target()?;
-    let c = decision?.chosen_candidate()?;
-    Some((c.x_m - robot[0]).hypot(c.y_m - robot[1]))
+    let [x, y] = answer_goal_m(answer)?;
+    Some((x - robot[0]).hypot(y - robot[1]))
+}
+
+/// The explorer's answer in a few words.
+fn describe(answer: Option<&Answer>) -> String {
+    match answer {
+        Some(Answer::Goal(plan) | Answer::Keep(plan)) => {
+            let g = plan.goal.goal;
+            let tight = if plan.tight { format!(", at the tight inflation {} m", plan.goal.inflation_m) } else { String::new() };
+            format!("these parameters choose ({:.2}, {:.2}){tight}", g.x_m, g.y_m)
+        }
+        Some(Answer::Done(reason)) => format!("these parameters end the mission ({reason:?})"),
+        Some(Answer::Wait(why)) => format!("these parameters wait ({why:?})"),
+        Some(Answer::Recover { radius_m }) => format!("these parameters forget the map within {radius_m} m"),
+        None => "these parameters choose no goal".to_string(),
+    }
 }
 
 /// Draws the timeline; jumps, export and close are returned as actions.
-pub fn show(ui: &mut egui::Ui, rec: &Recording, decision: Option<&Decision>, rects: &mut WidgetRects, actions: &mut Vec<Action>) {
+pub fn show(ui: &mut egui::Ui, rec: &Recording, answer: Option<&Answer>, rects: &mut WidgetRects, actions: &mut Vec<Action>) {
     let duration = rec.duration_s();
     let index = rec.current_index();
     ui.horizontal(|ui| {
-        ui.strong(crate::loader::base_name(rec.name()));
+        ui.strong(crate::files::base_name(rec.name()));
         ui.label(format!(
             "t = {:.3} s of {duration:.3} s · decision {} of {}",
             rec.t_s,
@@ -104,15 +128,12 @@ pub fn show(ui: &mut egui::Ui, rec: &Recording, decision: Option<&Decision>, rec
             }
         }
         ui.separator();
-        match decision.and_then(Decision::chosen_candidate) {
-            Some(c) => {
-                ui.colored_label(Color32::from_rgb(255, 215, 0), format!("these parameters choose ({:.2}, {:.2})", c.x_m, c.y_m));
-            }
-            None => {
-                ui.label("these parameters choose no goal");
-            }
+        if answer_goal_m(answer).is_some() {
+            ui.colored_label(Color32::from_rgb(255, 215, 0), describe(answer));
+        } else {
+            ui.label(describe(answer));
         }
-        if let Some(gap) = choice_gap_m(rec, decision) {
+        if let Some(gap) = choice_gap_m(rec, answer) {
             ui.separator();
             ui.label(if gap < 1e-6 { "the same goal".to_string() } else { format!("{gap:.2} m apart") });
         }

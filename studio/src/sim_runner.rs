@@ -12,7 +12,7 @@
 //! Worlds are the repository's `assets/worlds/*.toml`, embedded with the files they name.
 
 use fitslam_core::Params;
-use fitslam_core::params::Strategy;
+use fitslam_core::params::{Strategy, Valid};
 use fitslam_core::sim::{EndReason, Localisation, Mission, MissionParams, StepOutcome, World, WorldSpec};
 use fitslam_core::slam::Factorisation;
 use std::collections::VecDeque;
@@ -122,15 +122,15 @@ pub struct MissionConfig {
 impl MissionConfig {
     /// The simulator parameters of this configuration, or the message of what is wrong with
     /// `sim_params_toml` (naming the line or the key).
-    pub fn mission_params(&self) -> Result<MissionParams, String> {
+    pub fn mission_params(&self) -> Result<Valid<MissionParams>, String> {
         let mut p = match self.sim_params_toml.trim() {
             "" => MissionParams::default(),
-            _ => MissionParams::from_toml(&self.sim_params_toml, "simulator parameters").map_err(|e| e.to_string())?,
+            _ => MissionParams::from_toml(&self.sim_params_toml, "simulator parameters").map_err(|e| e.to_string())?.into_inner(),
         };
         if self.reproducible_slam {
             p.slam.graph.optimizer.factorisation = Factorisation::Reproducible;
         }
-        Ok(p)
+        Valid::new(p).map_err(|e| format!("simulator parameters: {e}"))
     }
 }
 
@@ -191,7 +191,7 @@ pub const DEFAULT_BUDGET_MS: f64 = 8.0;
 pub struct SimRunner {
     pub config: MissionConfig,
     /// Planner parameters the missions were started with.
-    pub params: Params,
+    pub params: Valid<Params>,
     world: World,
     pub lanes: Vec<Lane>,
     pub state: RunState,
@@ -215,10 +215,11 @@ impl SimRunner {
     /// Builds the world and one mission per strategy.
     pub fn new(config: MissionConfig, params: &Params) -> Result<Self, String> {
         let w = world(&config.world).ok_or_else(|| format!("no built-in world named '{}'", config.world))?;
-        let world = w.build(params)?;
+        let params = Valid::new(params.clone()).map_err(|e| format!("planner parameters: {e}"))?;
+        let world = w.build(&params)?;
         let mut r = Self {
             config,
-            params: params.clone(),
+            params,
             world,
             lanes: Vec::new(),
             state: RunState::Paused,
@@ -403,10 +404,10 @@ pub fn run_to_end(
     strategy: Strategy,
     seed: u64,
     localisation: Localisation,
-    mission_params: MissionParams,
+    mission_params: Valid<MissionParams>,
 ) -> Result<WholeMission, String> {
     let w = world(world_name).ok_or_else(|| format!("no built-in world named '{world_name}'"))?;
-    let params = Params::default();
+    let params = Valid::<Params>::default();
     let mut mission = Mission::new(w.build(&params)?, params, mission_params, strategy, seed, localisation)
         .map_err(|e| format!("{world_name} / {}: {e}", strategy.name()))?;
     let end = mission.run().end_reason;
@@ -444,7 +445,7 @@ mod tests {
 
     #[test]
     fn a_whole_mission_at_once_is_the_lane_run_to_its_end() {
-        let whole = run_to_end("tiny_test", Strategy::Greedy, 2, Localisation::GroundTruth, MissionParams::default()).unwrap();
+        let whole = run_to_end("tiny_test", Strategy::Greedy, 2, Localisation::GroundTruth, Default::default()).unwrap();
         let mut lane = SimRunner::new(
             MissionConfig {
                 world: "tiny_test".into(),
@@ -462,17 +463,17 @@ mod tests {
         assert_eq!(whole.metrics_csv, fitslam_core::sim::metrics_csv(lane.lanes[0].mission.rows()));
         assert_eq!(whole.end, format!("{:?}", lane.lanes[0].end.unwrap()));
         assert!(whole.metrics_csv.lines().count() > 10 && whole.trajectory_est_tum.lines().count() > 10);
-        assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth, MissionParams::default()).is_err());
+        assert!(run_to_end("nowhere", Strategy::Fit, 1, Localisation::GroundTruth, Default::default()).is_err());
     }
 
     #[test]
     fn the_reproducible_switch_sets_the_slam_factorisation_and_nothing_else() {
         let mut c = config(vec![Strategy::Fit], 1);
-        assert_eq!(c.mission_params(), Ok(MissionParams::default()));
+        assert_eq!(c.mission_params().map(Valid::into_inner), Ok(MissionParams::default()));
         c.reproducible_slam = true;
         let mut expected = MissionParams::default();
         expected.slam.graph.optimizer.factorisation = Factorisation::Reproducible;
-        assert_eq!(c.mission_params(), Ok(expected.clone()));
+        assert_eq!(c.mission_params().map(Valid::into_inner), Ok(expected.clone()));
         assert_ne!(expected, MissionParams::default());
     }
 
@@ -483,7 +484,7 @@ mod tests {
     fn the_simulator_parameter_text_is_read_over_the_defaults() {
         let mut c = config(vec![Strategy::Greedy], 1);
         c.sim_params_toml = " \n".into();
-        assert_eq!(c.mission_params(), Ok(MissionParams::default()));
+        assert_eq!(c.mission_params().map(Valid::into_inner), Ok(MissionParams::default()));
         c.sim_params_toml = "[explore]\ntight_inflations_m = [0.2, 0.1]\n[lidar]\nmax_range_m = 8.0\n".into();
         let p = c.mission_params().unwrap();
         assert_eq!((p.explore.tight_inflations_m.as_slice(), p.lidar.max_range_m), ([0.2, 0.1].as_slice(), 8.0));

@@ -42,7 +42,7 @@ pub fn run_mission(world: &str, strategy: &str, seed: u64, localisation: &str, s
     let localisation = serde_json::from_str(&json_name(localisation)).map_err(|e| format!("localisation '{localisation}': {e}"))?;
     let mission_params = match sim_params_toml {
         Some(text) => fitslam_core::sim::MissionParams::from_toml(&text, "sim_params_toml").map_err(|e| e.to_string())?,
-        None => fitslam_core::sim::MissionParams::default(),
+        None => Default::default(),
     };
     let whole = crate::sim_runner::run_to_end(world, strategy, seed, localisation, mission_params)?;
     serde_json::to_string(&whole).map_err(|e| e.to_string().into())

@@ -10,8 +10,9 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use fitslam_core::bag::msgs::{self, Header, OccupancyGridMsg, PointCloud2, RigidPose, TransformStamped};
 use fitslam_core::bag::{Bag, BagTopics, McapWriter, schemas};
-use fitslam_core::frontier::Blacklist;
-use fitslam_core::select::{Decision, DecisionInput, make_selector};
+use fitslam_core::explore::{Explorer, Situation};
+use fitslam_core::params::Valid;
+use fitslam_core::select::Decision;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2, io};
 use fitslam_studio::StudioApp;
@@ -29,14 +30,13 @@ fn robot_at(k: u64) -> Pose2 {
     Pose2::new(3.0 + 0.3 * k as f64, 3.0, 0.3 * k as f64)
 }
 
-/// The core's decision on `grid`, `cloud` at `robot` with default parameters, whole map, no
-/// blacklist: what `fitslam select` computes.
+/// The explorer's decision on `grid`, `cloud` at `robot` with default parameters, whole map, no
+/// blacklist, from a fresh start: what `fitslam select` computes.
 fn core_decision(grid: &OccupancyGrid, cloud: &PointCloud, robot: Pose2) -> Decision {
-    let params = Params::default();
+    let params = Valid::<Params>::default();
     let voxels = LandmarkVoxels::new(cloud, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
-    let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
-    let input = DecisionInput::new(grid, &voxels, robot, &blacklist);
-    make_selector(&params.selector).select(&input, &params).unwrap()
+    let traced = Explorer::new(Valid::default(), params).decide_traced(&mut grid.clone(), &Situation::one_off(&voxels, robot, None));
+    traced.decision().cloned().unwrap()
 }
 
 /// A 6 s recording: the jacksboro map and landmarks at 1 s, tf every second (odom drifting
@@ -114,7 +114,7 @@ fn a_dropped_bag_opens_at_its_first_decision_and_reranks_as_the_cli_does() {
     let d = core_decision(&s.map, &s.landmarks, s.robot);
     let c = d.chosen_candidate().unwrap();
     assert_eq!(chosen_xy(&h), [c.x_m, c.y_m]);
-    assert_eq!(fitslam_studio::recording_view::choice_gap_m(rec, app.planner.pipeline.ok_decision()), Some(0.0));
+    assert_eq!(fitslam_studio::recording_view::choice_gap_m(rec, app.planner.pipeline.action()), Some(0.0));
     h.get_by_label("the same goal");
 
     // Next decision: the robot has moved; its choice then is 2 m ahead of it.
@@ -183,5 +183,46 @@ fn a_broken_bag_gives_one_message_naming_it_and_keeps_the_scene() {
         assert_eq!(app.planner.scene.map.source, before);
         let last = app.messages.last().unwrap();
         assert!(last.error && last.text.starts_with(name), "{:?}", last);
+    }
+}
+
+/// A whole simulated mission recorded as the node's topics, opened in the studio: at every
+/// decision instant the recording view shows the exploration policy's own answer on the
+/// instant's inputs (a fresh explorer: no trail, no goal reached, no blacklist), as `fitslam
+/// select --bag` does (tests/replay.rs).
+#[test]
+fn at_every_instant_of_a_recorded_mission_the_view_shows_the_explorers_answer() {
+    use fitslam_core::bag::record::MissionRecorder;
+    use fitslam_core::sim::{Localisation, Mission, World, WorldSpec};
+    let spec = WorldSpec::from_toml(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/worlds/tiny_test.toml")).unwrap(), "tiny_test.toml").unwrap();
+    let params = Valid::<Params>::default();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, |f| Err(format!("{f}: no files here"))).unwrap();
+    let mut mission = Mission::new(world, params, Valid::default(), fitslam_core::params::Strategy::Fit, 3, Localisation::GroundTruth).unwrap();
+    let mut recorder = MissionRecorder::new();
+    while mission.end().is_none() {
+        mission.step();
+        recorder.record(&mut mission);
+    }
+    let bytes = recorder.finish();
+    let bag = Bag::parse(&bytes, "mission.mcap").unwrap();
+    let instants = bag.decision_instants(&BagTopics::default()).unwrap();
+    assert!(instants.len() >= 3, "{instants:?}");
+
+    let mut h = harness();
+    h.state_mut().load_files(vec![IncomingFile { name: "mission.mcap".into(), bytes: Ok(bytes), intent: Intent::Recording }]);
+    h.run_ok();
+    for (k, instant) in instants.iter().enumerate() {
+        if k > 0 {
+            h.get_by_label("next decision >").click();
+            h.run_ok();
+        }
+        let app = h.state();
+        let t_s = app.recording.as_ref().unwrap().t_s;
+        assert!((t_s - instant.t_s).abs() < 1e-9, "instant {k}: {t_s} vs {}", instant.t_s);
+        let s = bag.snapshot(&BagTopics::default(), t_s).unwrap();
+        let params = Valid::<Params>::default();
+        let voxels = LandmarkVoxels::new(&s.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
+        let traced = Explorer::new(Valid::default(), params).decide_traced(&mut s.map.clone(), &Situation::one_off(&voxels, s.robot, None));
+        assert_eq!(app.planner.pipeline.action(), Some(&traced.action), "instant {k} at {t_s} s");
     }
 }

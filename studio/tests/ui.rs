@@ -59,7 +59,7 @@ fn every_builtin_asset_builds_and_decides() {
         assert!(scene.map.known_cells() > 0, "{}", b.name);
         assert!(!scene.landmarks.cloud.is_empty(), "{}", b.name);
         let mut p = fitslam_studio::pipeline::Pipeline::default();
-        p.update(&scene, Default::default(), &Params::default());
+        p.update(&scene, Default::default(), &Params::default(), &Default::default());
         let d = p.ok_decision().unwrap_or_else(|| panic!("{}: {:?}", b.name, p.decision()));
         assert!(d.chosen.is_some(), "{}: no goal", b.name);
         scene.robot.x_m += 0.0;
@@ -254,7 +254,7 @@ fn exports_carry_the_params_and_the_ranking() {
     let h = harness_with(None);
     let app = h.state();
     let yaml = app.planner.params.to_yaml();
-    assert_eq!(Params::from_yaml(&yaml, "p.yaml").unwrap(), app.planner.params);
+    assert_eq!(*Params::from_yaml(&yaml, "p.yaml").unwrap(), app.planner.params);
     let d = decision(&h);
     let csv = fitslam_studio::export::ranking_csv(&d);
     let lines: Vec<&str> = csv.lines().collect();

@@ -30,6 +30,24 @@ pub struct Situation<'a> {
     pub can_forget_map: bool,
 }
 
+impl<'a> Situation<'a> {
+    /// A decision with no history and nothing known beyond the map and the landmarks: flat
+    /// ground at z = 0, no position uncertainty, no goal to keep, a map the adapter cannot
+    /// forget. What `fitslam select` and the studio show for a scene or a recorded instant.
+    pub fn one_off(landmarks: &'a LandmarkVoxels, robot: Pose2, boundary: Option<&'a Boundary>) -> Self {
+        Self {
+            landmarks,
+            robot,
+            boundary,
+            ground_z_m: 0.0,
+            ground: None,
+            position_var_m2: 0.0,
+            replanning: false,
+            can_forget_map: false,
+        }
+    }
+}
+
 /// The goal being pursued.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ActiveGoal {

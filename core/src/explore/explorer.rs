@@ -29,16 +29,17 @@ use super::trail::Trail;
 use crate::frontier::{Blacklist, BlacklistReason, enclosed_within, recovery_radius_m};
 use crate::grid::{Cell, FREE, OccupancyGrid, fill_disc, free_traversed, inflate_lethal};
 use crate::math;
-use crate::params::Params;
+use crate::params::{Params, Valid};
 use crate::path::set_back;
 use crate::pose::Pose2;
 use crate::select::{Decision, DecisionInput, DropReason, GoalSelector, SelectError, make_selector};
+use serde::Serialize;
 
 /// The exploration policy's state.
 pub struct Explorer {
-    params: ExploreParams,
+    params: Valid<ExploreParams>,
     /// The planner's parameters (the selector's strategy and seed among them).
-    planner: Params,
+    planner: Valid<Params>,
     selector: Box<dyn GoalSelector>,
     blacklist: Blacklist,
     trail: Trail,
@@ -55,9 +56,8 @@ pub struct Explorer {
 }
 
 impl Explorer {
-    /// An explorer with these parameters (assumed valid: [`ExploreParams::validate`],
-    /// [`Params::validate`]); the selector is `planner.selector`'s.
-    pub fn new(params: ExploreParams, planner: Params) -> Self {
+    /// An explorer with these parameters; the selector is `planner.selector`'s.
+    pub fn new(params: Valid<ExploreParams>, planner: Valid<Params>) -> Self {
         Self {
             selector: make_selector(&planner.selector),
             blacklist: Blacklist::new(planner.frontier.blacklist_radius_m),
@@ -73,17 +73,23 @@ impl Explorer {
         }
     }
 
+    /// The same explorer with `blacklist` as its blacklist so far (a scene's, in the studio).
+    pub fn with_blacklist(mut self, blacklist: Blacklist) -> Self {
+        self.blacklist = blacklist;
+        self
+    }
+
     /// A wall clock in milliseconds, used only to fill the timing statistics.
     pub fn set_clock(&mut self, clock: Box<dyn FnMut() -> f64>) {
         self.clock = Some(clock);
     }
 
-    pub fn params(&self) -> &ExploreParams {
+    pub fn params(&self) -> &Valid<ExploreParams> {
         &self.params
     }
 
     /// The planner's parameters.
-    pub fn planner(&self) -> &Params {
+    pub fn planner(&self) -> &Valid<Params> {
         &self.planner
     }
 
@@ -151,23 +157,44 @@ impl Explorer {
     /// One decision on `grid`, the robot's thresholded map (its footprint is cleared in it when
     /// the robot is blocked: `grid` is then what the decision planned on).
     pub fn decide(&mut self, grid: &mut OccupancyGrid, s: &Situation) -> Action {
+        self.decide_timed(grid, s, None)
+    }
+
+    /// [`Self::decide`], with every attempt of the retry ladder and the selector's answer to it:
+    /// what the studio and `fitslam select` show, so that they show what the robot would do.
+    /// Costs a copy of each ranking.
+    pub fn decide_traced(&mut self, grid: &mut OccupancyGrid, s: &Situation) -> TracedDecision {
+        let mut attempts = Vec::new();
+        let action = self.decide_timed(grid, s, Some(&mut attempts));
+        TracedDecision { action, attempts }
+    }
+
+    fn decide_timed(&mut self, grid: &mut OccupancyGrid, s: &Situation, trace: Option<&mut Vec<AttemptRecord>>) -> Action {
         let started = self.stats.total_plan_ms;
-        let action = self.decide_untimed(grid, s);
+        let action = self.decide_untimed(grid, s, trace);
         self.stats.last_decide_ms = self.stats.total_plan_ms - started;
         action
     }
 
-    fn decide_untimed(&mut self, grid: &mut OccupancyGrid, s: &Situation) -> Action {
+    fn decide_untimed(&mut self, grid: &mut OccupancyGrid, s: &Situation, mut trace: Option<&mut Vec<AttemptRecord>>) -> Action {
         let g = grid.geometry;
         let margin_m = self.params.goal_setback.margin_m(s.position_var_m2, 0.0);
-        let (mut cleared, mut use_trail) = (false, false);
-        // The planner's parameters with a tight inflation, once a retry needs them, and the
-        // number of tight radii already considered.
-        let (mut tight_params, mut tight_tried): (Option<Params>, usize) = (None, 0);
+        let mut ladder = Ladder { footprint_cleared: false, trail_open: false, tight: None };
+        let mut attempt = Attempt::Plain;
         // At most: footprint clearing, trail, each tight inflation, and a few goals re-chosen.
-        for _attempt in 0..5 + self.params.tight_inflations_m.len() {
-            let tight = tight_params.is_some();
-            let params = tight_params.as_ref().unwrap_or(&self.planner);
+        for _ in 0..5 + self.params.tight_inflations_m.len() {
+            match attempt {
+                Attempt::Plain | Attempt::Reselected { .. } => {}
+                Attempt::ClearFootprint => {
+                    let clear_m = self.planner.robot.radius_m + g.resolution_m;
+                    fill_disc(grid, s.robot.x_m, s.robot.y_m, clear_m, FREE);
+                    ladder.footprint_cleared = true;
+                    self.stats.footprint_clearings += 1;
+                }
+                Attempt::OpenTrail => ladder.trail_open = true,
+                Attempt::TightInflation { index, radius_m } => ladder.tight = Some((index, self.planner.with_robot_radius_m(radius_m))),
+            }
+            let params = ladder.tight.as_ref().map_or(&self.planner, |(_, p)| p);
             let t0 = self.clock.as_mut().map(|c| c());
             let input = DecisionInput {
                 grid,
@@ -177,83 +204,99 @@ impl Explorer {
                 blacklist: &self.blacklist,
                 ground_z_m: s.ground_z_m,
                 ground: s.ground,
-                traversed: if use_trail { self.trail.cells(&g) } else { &[] },
+                traversed: if ladder.trail_open { self.trail.cells(&g) } else { &[] },
             };
             let result = self.selector.select(&input, params);
             if let (Some(t0), Some(c)) = (t0, self.clock.as_mut()) {
                 self.stats.total_plan_ms += c() - t0;
             }
             self.stats.decisions += 1;
-            let decision = match result {
-                Ok(d) => d,
-                // Blocked in its own map (speckle under the robot): plan again on its footprint.
-                Err(SelectError::RobotBlocked { .. }) if self.params.clear_footprint && !cleared => {
-                    let clear_m = self.planner.robot.radius_m + g.resolution_m;
-                    fill_disc(grid, s.robot.x_m, s.robot.y_m, clear_m, FREE);
-                    cleared = true;
-                    self.stats.footprint_clearings += 1;
-                    continue;
-                }
-                Err(e) => {
-                    self.stats.planning_errors += 1;
-                    let action = self.failed_decision(WaitReason::NoPlan(e));
-                    if matches!(action, Action::Wait(_)) {
-                        self.goal = None;
-                    }
-                    return action;
-                }
-            };
-            for c in &decision.candidates {
-                if c.dropped == Some(DropReason::NoPath) {
-                    self.blacklist.add(c.x_m, c.y_m, BlacklistReason::NoPath);
-                }
+            if let Some(t) = trace.as_deref_mut() {
+                t.push(AttemptRecord { attempt, outcome: result.clone() });
             }
             let inflation_m = params.robot.radius_m;
-            if s.replanning
-                && let Some(current) = self.goal
-                && let Some(k) = self.still_a_candidate(&decision, current.goal)
-            {
-                self.failed_decisions = 0;
-                self.stats.tight_plans += u64::from(tight);
-                let plan = self.plan(&decision, k, current.goal, inflation_m, use_trail, tight, grid, margin_m);
-                self.last_decision = Some(decision);
-                return Action::Keep(plan);
+            match self.judge(result, &ladder, inflation_m, grid, s, margin_m) {
+                Judged::Answer(action) => return action,
+                Judged::Retry(next) => attempt = next,
             }
-            let Some(chosen) = decision.chosen else {
-                // No goal: plan again with the cells the robot drove on open.
-                if self.params.reuse_trail && !use_trail && !self.trail.cells(&g).is_empty() {
-                    use_trail = true;
-                    continue;
-                }
-                // Then with each tight inflation smaller than the last radius tried (the trail
-                // still open).
-                let radii = &self.params.tight_inflations_m;
-                if let Some(k) = (tight_tried..radii.len()).find(|&k| radii[k] < inflation_m) {
-                    (tight_params, tight_tried) = (Some(self.planner.with_robot_radius_m(radii[k])), k + 1);
-                    continue;
-                }
-                let start = decision.robot_cell;
-                self.last_decision = Some(decision);
-                return self.nothing_left(grid, start, inflation_m, s.can_forget_map);
-            };
-            let c = &decision.candidates[chosen];
-            // A goal chosen again where the robot already went: blacklist and retry.
-            let radius_m = self.blacklist.radius_m();
-            if let Some(k) = self.reached.iter().position(|p| math::hypot(c.x_m - p[0], c.y_m - p[1]) <= radius_m) {
-                let [x, y] = self.reached.remove(k);
-                self.blacklist.add(x, y, BlacklistReason::Reselected);
-                continue;
-            }
-            let goal = decision.goal.unwrap_or(Pose2 { x_m: c.x_m, y_m: c.y_m, yaw_rad: s.robot.yaw_rad });
-            self.stats.tight_plans += u64::from(tight);
-            let plan = self.plan(&decision, chosen, goal, inflation_m, use_trail, tight, grid, margin_m);
-            self.goal = Some(plan.goal);
-            self.failed_decisions = 0;
-            self.last_decision = Some(decision);
-            return Action::Goal(plan);
         }
         // Every retry re-chose a reached goal: treat as a failure and look around.
         self.failed_decision(WaitReason::Reselected)
+    }
+
+    /// What the selector's answer on the ladder's current rung means: an answer, or the next
+    /// rung to try (module docs).
+    fn judge(
+        &mut self,
+        result: Result<Decision, SelectError>,
+        ladder: &Ladder,
+        inflation_m: f64,
+        grid: &OccupancyGrid,
+        s: &Situation,
+        margin_m: f64,
+    ) -> Judged {
+        let decision = match result {
+            Ok(d) => d,
+            // Blocked in its own map (speckle under the robot): plan again on its footprint.
+            Err(SelectError::RobotBlocked { .. }) if self.params.clear_footprint && !ladder.footprint_cleared => {
+                return Judged::Retry(Attempt::ClearFootprint);
+            }
+            Err(e) => {
+                self.stats.planning_errors += 1;
+                let action = self.failed_decision(WaitReason::NoPlan(e));
+                if matches!(action, Action::Wait(_)) {
+                    self.goal = None;
+                }
+                return Judged::Answer(action);
+            }
+        };
+        for c in &decision.candidates {
+            if c.dropped == Some(DropReason::NoPath) {
+                self.blacklist.add(c.x_m, c.y_m, BlacklistReason::NoPath);
+            }
+        }
+        let route = Route { inflation_m, on_trail: ladder.trail_open, tight: ladder.tight.is_some(), margin_m };
+        if s.replanning
+            && let Some(current) = self.goal
+            && let Some(k) = self.still_a_candidate(&decision, current.goal)
+        {
+            self.failed_decisions = 0;
+            self.stats.tight_plans += u64::from(route.tight);
+            let plan = self.plan(&decision, k, current.goal, route, grid);
+            self.last_decision = Some(decision);
+            return Judged::Answer(Action::Keep(plan));
+        }
+        let Some(chosen) = decision.chosen else {
+            // No goal: plan again with the cells the robot drove on open.
+            if self.params.reuse_trail && !ladder.trail_open && !self.trail.cells(&grid.geometry).is_empty() {
+                return Judged::Retry(Attempt::OpenTrail);
+            }
+            // Then with each tight inflation smaller than the last radius tried (the trail
+            // still open).
+            let radii = &self.params.tight_inflations_m;
+            let tried = ladder.tight.as_ref().map_or(0, |(index, _)| index + 1);
+            if let Some(index) = (tried..radii.len()).find(|&k| radii[k] < inflation_m) {
+                return Judged::Retry(Attempt::TightInflation { index, radius_m: radii[index] });
+            }
+            let start = decision.robot_cell;
+            self.last_decision = Some(decision);
+            return Judged::Answer(self.nothing_left(grid, start, inflation_m, s.can_forget_map));
+        };
+        let c = &decision.candidates[chosen];
+        // A goal chosen again where the robot already went: blacklist and retry.
+        let radius_m = self.blacklist.radius_m();
+        if let Some(k) = self.reached.iter().position(|p| math::hypot(c.x_m - p[0], c.y_m - p[1]) <= radius_m) {
+            let [x_m, y_m] = self.reached.remove(k);
+            self.blacklist.add(x_m, y_m, BlacklistReason::Reselected);
+            return Judged::Retry(Attempt::Reselected { x_m, y_m });
+        }
+        let goal = decision.goal.unwrap_or(Pose2 { x_m: c.x_m, y_m: c.y_m, yaw_rad: s.robot.yaw_rad });
+        self.stats.tight_plans += u64::from(route.tight);
+        let plan = self.plan(&decision, chosen, goal, route, grid);
+        self.goal = Some(plan.goal);
+        self.failed_decisions = 0;
+        self.last_decision = Some(decision);
+        Judged::Answer(Action::Goal(plan))
     }
 
     /// One more decision in a row without a plan: [`EndReason::Stuck`] after
@@ -279,23 +322,12 @@ impl Explorer {
             .filter(|&k| distance(k) <= self.blacklist.radius_m())
     }
 
-    /// The plan to `goal` along candidate `k`'s path, set back by `margin_m` on `grid`.
-    #[allow(clippy::too_many_arguments)]
-    fn plan(
-        &mut self,
-        decision: &Decision,
-        k: usize,
-        goal: Pose2,
-        inflation_m: f64,
-        on_trail: bool,
-        tight: bool,
-        grid: &OccupancyGrid,
-        margin_m: f64,
-    ) -> Plan {
+    /// The plan to `goal` along candidate `k`'s path, planned and set back as `route` says.
+    fn plan(&mut self, decision: &Decision, k: usize, goal: Pose2, route: Route, grid: &OccupancyGrid) -> Plan {
         let c = &decision.candidates[k];
-        let goal = ActiveGoal { goal, inflation_m, on_trail };
+        let goal = ActiveGoal { goal, inflation_m: route.inflation_m, on_trail: route.on_trail };
         self.goal = self.goal.map(|_| goal);
-        Plan { goal, path_m: set_back(&c.path_m, grid, margin_m), rho_m: c.rho_m.unwrap_or(0.0), candidate: k, tight }
+        Plan { goal, path_m: set_back(&c.path_m, grid, route.margin_m), rho_m: c.rho_m.unwrap_or(0.0), candidate: k, tight: route.tight }
     }
 
     /// No candidate is left after every retry: the mission is done, unless the map walls the
@@ -329,4 +361,71 @@ impl Explorer {
         free_traversed(grid, self.trail.cells(&grid.geometry), &mut inflated);
         enclosed_within(&inflated, start, r)
     }
+}
+
+/// One step of the retry ladder (module docs; ARCHITECTURE.md, "When a decision finds no goal"):
+/// what an attempt changed before the selector ran again. Each step keeps what the steps before
+/// it opened.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "step", rename_all = "snake_case")]
+pub enum Attempt {
+    /// The decision on the robot's map as it is.
+    Plain,
+    /// 1. The robot was blocked in its map: its footprint cleared ([`ExploreParams::clear_footprint`]).
+    ClearFootprint,
+    /// 2. No goal: the robot's trail free after inflation ([`ExploreParams::reuse_trail`]).
+    OpenTrail,
+    /// 3. Still none: lethal cells inflated by `tight_inflations_m[index]` = `radius_m`
+    ///    ([`ExploreParams::tight_inflations_m`]).
+    TightInflation { index: usize, radius_m: f64 },
+    /// The goal chosen lay where the robot had been: that goal blacklisted `Reselected`, the
+    /// same input again.
+    Reselected { x_m: f64, y_m: f64 },
+}
+
+/// One attempt of a decision and the selector's answer to it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AttemptRecord {
+    pub attempt: Attempt,
+    pub outcome: Result<Decision, SelectError>,
+}
+
+/// A decision with every attempt it took ([`Explorer::decide_traced`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TracedDecision {
+    /// What the explorer answers (what the robot would do).
+    pub action: Action,
+    /// The attempts in order; the last one decided the action.
+    pub attempts: Vec<AttemptRecord>,
+}
+
+impl TracedDecision {
+    /// The ranking the action was decided on: the last attempt's, when it ranked candidates.
+    pub fn decision(&self) -> Option<&Decision> {
+        self.attempts.last().and_then(|a| a.outcome.as_ref().ok())
+    }
+}
+
+/// What the rungs of the ladder taken so far have opened.
+struct Ladder {
+    footprint_cleared: bool,
+    trail_open: bool,
+    /// The tight radius in use: its index and the planner's parameters with it.
+    tight: Option<(usize, Valid<Params>)>,
+}
+
+/// How a plan is made on the current rung.
+#[derive(Clone, Copy)]
+struct Route {
+    inflation_m: f64,
+    on_trail: bool,
+    tight: bool,
+    /// The set-back from unknown ground, metres.
+    margin_m: f64,
+}
+
+/// A selector answer judged: the explorer's answer, or the next attempt.
+enum Judged {
+    Answer(Action),
+    Retry(Attempt),
 }

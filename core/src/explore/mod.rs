@@ -15,7 +15,7 @@ pub mod params;
 pub mod trail;
 
 pub use action::{Action, ActiveGoal, EndReason, ExploreStats, Plan, Situation, WaitReason};
-pub use explorer::Explorer;
+pub use explorer::{Attempt, AttemptRecord, Explorer, TracedDecision};
 pub use params::{EXPLORE_KEYS, ExploreParams, MAX_TIGHT_INFLATIONS, check_tight_inflations};
 pub use trail::{MAX_TRAIL_STEP_M, Trail, segment_cells};
 

@@ -1,7 +1,7 @@
 //! The exploration policy's parameters: one struct, nested unchanged as `explore` into the
 //! simulator's parameters (`MissionParams`) and the robot node's configuration (`node.explore`).
 
-use crate::params::{InvalidParam, Num, check_non_negative, check_positive};
+use crate::params::{InvalidParam, Num, Validate, check_non_negative, check_positive};
 use crate::path::GoalSetback;
 use serde::{Deserialize, Serialize};
 
@@ -88,15 +88,16 @@ pub const EXPLORE_KEYS: &[&str] = &[
     "trap_recoveries",
 ];
 
-impl ExploreParams {
-    /// Checks every field; the first bad one is named under `prefix` (e.g. `explore.`).
-    pub fn validate(&self, prefix: &str) -> Result<(), InvalidParam> {
-        self.goal_setback.validate(&format!("{prefix}goal_setback"))?;
-        check_tight_inflations(&format!("{prefix}tight_inflations_m"), &self.tight_inflations_m)?;
+impl Validate for ExploreParams {
+    /// Checks every field; the error names the first bad one (`tight_inflations_m[1]`; the
+    /// simulator's file adds `explore.`, the node's `node.explore.`).
+    fn validate(&self) -> Result<(), InvalidParam> {
+        self.goal_setback.validate().map_err(|e| e.under("goal_setback."))?;
+        check_tight_inflations("tight_inflations_m", &self.tight_inflations_m)?;
         if self.max_failed_decisions == 0 {
-            return Err(InvalidParam::new(format!("{prefix}max_failed_decisions"), "must be ≥ 1"));
+            return Err(InvalidParam::new("max_failed_decisions", "must be ≥ 1"));
         }
-        check_non_negative(&format!("{prefix}trapped_radius_m"), self.trapped_radius_m)
+        check_non_negative("trapped_radius_m", self.trapped_radius_m)
     }
 }
 
@@ -122,17 +123,17 @@ mod tests {
 
     #[test]
     fn defaults_are_valid_and_bad_values_name_their_key() {
-        assert_eq!(ExploreParams::default().validate("explore."), Ok(()));
+        assert_eq!(ExploreParams::default().validate(), Ok(()));
         let p = ExploreParams { tight_inflations_m: vec![0.2, 0.3], ..ExploreParams::default() };
-        let e = p.validate("explore.").unwrap_err();
+        let e = p.validate().unwrap_err().under("explore.");
         assert_eq!(e.key, "explore.tight_inflations_m[1]");
         assert!(e.to_string().contains("smaller than the radius before it"), "{e}");
         let p = ExploreParams { max_failed_decisions: 0, ..ExploreParams::default() };
-        assert_eq!(p.validate("").unwrap_err().key, "max_failed_decisions");
-        let p = ExploreParams { trapped_radius_m: -1.0, ..ExploreParams::default() };
-        assert_eq!(p.validate("node.explore.").unwrap_err().key, "node.explore.trapped_radius_m");
+        assert_eq!(p.validate().unwrap_err().key, "max_failed_decisions");
+        let p = ExploreParams { goal_setback: GoalSetback { max_m: -1.0, ..GoalSetback::default() }, ..ExploreParams::default() };
+        assert_eq!(p.validate().unwrap_err().key, "goal_setback.max_m");
         let p = ExploreParams { tight_inflations_m: vec![0.5; MAX_TIGHT_INFLATIONS + 1], ..ExploreParams::default() };
-        assert!(p.validate("").unwrap_err().to_string().contains("over the limit"));
+        assert!(p.validate().unwrap_err().to_string().contains("over the limit"));
     }
 
     #[test]

@@ -6,8 +6,13 @@ use crate::GridGeometry;
 use crate::fixtures::corridor_two_frontiers;
 use crate::grid::{FREE, Grid, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::Params;
+use crate::params::{Valid, Validate};
 use crate::pose::Pose2;
 use crate::utility::LandmarkVoxels;
+
+fn valid<T: Validate>(value: T) -> Valid<T> {
+    Valid::new(value).unwrap()
+}
 
 fn situation(landmarks: &LandmarkVoxels, robot: Pose2) -> Situation<'_> {
     Situation {
@@ -48,7 +53,7 @@ fn a_goal_is_the_chosen_candidate_and_its_path_is_set_back_by_the_position_uncer
     let w = corridor_two_frontiers(true);
     let params = Params::default();
     let voxels = LandmarkVoxels::new(&w.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m).unwrap();
-    let mut e = Explorer::new(ExploreParams::default(), params);
+    let mut e = Explorer::new(valid(ExploreParams::default()), valid(params));
     let mut grid = w.grid.clone();
     let Action::Goal(plan) = e.decide(&mut grid, &situation(&voxels, w.robot)) else { panic!("a goal") };
     let d = e.last_decision().unwrap();
@@ -59,7 +64,7 @@ fn a_goal_is_the_chosen_candidate_and_its_path_is_set_back_by_the_position_uncer
     assert_eq!(plan.rho_m, c.rho_m.unwrap());
     assert_eq!(e.goal(), Some(plan.goal));
     // σx² + σy² = 0.09 m²: 2 σ = 0.6 m, within the 1 m cap: the path ends ≥ 0.6 m short of unknown.
-    let mut e = Explorer::new(ExploreParams::default(), Params::default());
+    let mut e = Explorer::new(valid(ExploreParams::default()), valid(Params::default()));
     let s = Situation { position_var_m2: 0.09, ..situation(&voxels, w.robot) };
     let Action::Goal(set_back) = e.decide(&mut w.grid.clone(), &s) else { panic!("a goal") };
     let end = *set_back.path_m.last().unwrap();
@@ -72,7 +77,7 @@ fn a_goal_is_the_chosen_candidate_and_its_path_is_set_back_by_the_position_uncer
 fn a_goal_reached_and_chosen_again_is_blacklisted_and_another_one_chosen() {
     let w = corridor_two_frontiers(false);
     let voxels = LandmarkVoxels::empty(0.25);
-    let mut e = Explorer::new(ExploreParams::default(), greedy());
+    let mut e = Explorer::new(valid(ExploreParams::default()), valid(greedy()));
     let Action::Goal(first) = e.decide(&mut w.grid.clone(), &situation(&voxels, w.robot)) else { panic!() };
     e.goal_reached();
     assert_eq!((e.goal(), e.stats().goals_reached), (None, 1));
@@ -88,7 +93,7 @@ fn a_goal_reached_and_chosen_again_is_blacklisted_and_another_one_chosen() {
 fn a_failed_goal_is_blacklisted_and_a_dropped_one_is_not() {
     let w = corridor_two_frontiers(false);
     let voxels = LandmarkVoxels::empty(0.25);
-    let mut e = Explorer::new(ExploreParams::default(), greedy());
+    let mut e = Explorer::new(valid(ExploreParams::default()), valid(greedy()));
     let Action::Goal(first) = e.decide(&mut w.grid.clone(), &situation(&voxels, w.robot)) else { panic!() };
     e.goal_dropped();
     assert!(e.blacklist().is_empty());
@@ -104,7 +109,7 @@ fn a_failed_goal_is_blacklisted_and_a_dropped_one_is_not() {
 fn replanning_keeps_the_current_goal_while_it_is_still_a_candidate() {
     let w = corridor_two_frontiers(false);
     let voxels = LandmarkVoxels::empty(0.25);
-    let mut e = Explorer::new(ExploreParams::default(), greedy());
+    let mut e = Explorer::new(valid(ExploreParams::default()), valid(greedy()));
     let Action::Goal(first) = e.decide(&mut w.grid.clone(), &situation(&voxels, w.robot)) else { panic!() };
     // The robot moved a little towards the other end: greedy would now choose the other frontier.
     let s = Situation { replanning: true, ..situation(&voxels, w.robot) };
@@ -133,10 +138,10 @@ fn a_blocked_robot_decides_again_on_its_cleared_footprint() {
     crate::grid::fill_disc(&mut grid, robot.x_m, robot.y_m, 0.12, LETHAL);
     let voxels = LandmarkVoxels::empty(0.25);
     let off = ExploreParams { clear_footprint: false, max_failed_decisions: 2, ..ExploreParams::default() };
-    let mut e = Explorer::new(off, greedy());
+    let mut e = Explorer::new(valid(off), valid(greedy()));
     assert!(matches!(e.decide(&mut grid.clone(), &situation(&voxels, robot)), Action::Wait(WaitReason::NoPlan(_))));
     assert_eq!(e.decide(&mut grid.clone(), &situation(&voxels, robot)), Action::Done(EndReason::Stuck));
-    let mut e = Explorer::new(ExploreParams::default(), greedy());
+    let mut e = Explorer::new(valid(ExploreParams::default()), valid(greedy()));
     let mut planned_on = grid.clone();
     assert!(matches!(e.decide(&mut planned_on, &situation(&voxels, robot)), Action::Goal(_)));
     assert_eq!((e.stats().footprint_clearings, e.stats().decisions), (1, 2));
@@ -162,9 +167,9 @@ fn a_robot_shut_in_by_inflation_goes_back_along_its_trail() {
     let robot = Pose2::new(1.0, 1.0, 0.0);
     let voxels = LandmarkVoxels::empty(0.25);
     let no_tight = ExploreParams { tight_inflations_m: vec![], trapped_radius_m: 0.0, ..ExploreParams::default() };
-    let mut e = Explorer::new(no_tight.clone(), greedy());
+    let mut e = Explorer::new(valid(no_tight.clone()), valid(greedy()));
     assert_eq!(e.decide(&mut grid.clone(), &situation(&voxels, robot)), Action::Done(EndReason::NoFrontier));
-    let mut e = Explorer::new(no_tight, greedy());
+    let mut e = Explorer::new(valid(no_tight), valid(greedy()));
     // It came in through the gap, from the frontier side.
     for k in 0..=60 {
         e.record_position(2.8 - 0.03 * f64::from(k), 1.0);
@@ -173,7 +178,7 @@ fn a_robot_shut_in_by_inflation_goes_back_along_its_trail() {
     assert!(plan.goal.on_trail && plan.goal.goal.x_m > 2.0, "{plan:?}");
     // With the trail off it stays shut.
     let off = ExploreParams { reuse_trail: false, tight_inflations_m: vec![], trapped_radius_m: 0.0, ..ExploreParams::default() };
-    let mut e = Explorer::new(off, greedy());
+    let mut e = Explorer::new(valid(off), valid(greedy()));
     for k in 0..=60 {
         e.record_position(2.8 - 0.03 * f64::from(k), 1.0);
     }
@@ -197,9 +202,9 @@ fn a_door_the_full_inflation_shuts_is_passed_at_a_tight_inflation() {
     let robot = Pose2::new(1.0, 1.0, 0.0);
     let voxels = LandmarkVoxels::empty(0.25);
     let base = ExploreParams { trapped_radius_m: 0.0, ..ExploreParams::default() };
-    let mut e = Explorer::new(ExploreParams { tight_inflations_m: vec![], ..base.clone() }, greedy());
+    let mut e = Explorer::new(valid(ExploreParams { tight_inflations_m: vec![], ..base.clone() }), valid(greedy()));
     assert_eq!(e.decide(&mut grid.clone(), &situation(&voxels, robot)), Action::Done(EndReason::NoFrontier));
-    let mut e = Explorer::new(base, greedy());
+    let mut e = Explorer::new(valid(base), valid(greedy()));
     let Action::Goal(plan) = e.decide(&mut grid.clone(), &situation(&voxels, robot)) else { panic!("through the door") };
     assert!(plan.tight && plan.goal.inflation_m == 0.20 && plan.goal.goal.x_m > 2.0, "{plan:?}");
     assert_eq!(e.stats().tight_plans, 1);
@@ -217,12 +222,12 @@ fn a_trapped_robot_recovers_then_ends_trapped() {
     let robot = Pose2::new(2.0, 2.0, 0.0);
     let voxels = LandmarkVoxels::empty(0.25);
     let params = ExploreParams { trap_recoveries: 1, ..ExploreParams::default() };
-    let mut e = Explorer::new(params.clone(), greedy());
+    let mut e = Explorer::new(valid(params.clone()), valid(greedy()));
     e.goal_failed(); // no goal: nothing happens
     let Action::Recover { radius_m } = e.decide(&mut grid.clone(), &situation(&voxels, robot)) else { panic!("recover") };
     assert_eq!(radius_m, crate::frontier::recovery_radius_m(params.trapped_radius_m, &greedy()));
     assert_eq!(e.decide(&mut grid.clone(), &situation(&voxels, robot)), Action::Done(EndReason::Trapped));
-    let mut e = Explorer::new(params, greedy());
+    let mut e = Explorer::new(valid(params), valid(greedy()));
     let s = Situation { can_forget_map: false, ..situation(&voxels, robot) };
     assert_eq!(e.decide(&mut grid.clone(), &s), Action::Wait(WaitReason::Trapped));
     assert_eq!(e.stats().trap_recoveries, 0);

@@ -193,7 +193,7 @@ fn load_positional<'a>(lines: impl Iterator<Item = (usize, &'a str)>, name: &str
             }
         };
         if let Some(m) = cov {
-            check_cov(&m).map_err(|d| line_err(line_no, d))?;
+            check_cov(&m).map_err(|e| line_err(line_no, e.to_string()))?;
             covariances.push(m);
         }
         points.push(p);

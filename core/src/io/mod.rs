@@ -163,24 +163,31 @@ pub(crate) fn cov_to_upper(m: &Matrix3<f64>) -> [f64; 6] {
     [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 1)], m[(1, 2)], m[(2, 2)]]
 }
 
-/// Checks a covariance: finite entries, non-negative diagonal. Returns a reason when invalid.
-pub(crate) fn check_cov(m: &Matrix3<f64>) -> Result<(), String> {
+/// A point attribute with a value no point can have (the loaders put it in their own errors).
+#[derive(Clone, Copy, Debug, Error, PartialEq)]
+pub(crate) enum AttributeError {
+    #[error("non-finite covariance")]
+    NonFiniteCovariance,
+    #[error("negative variance on the covariance diagonal")]
+    NegativeVariance,
+    #[error("classification {0} is not an integer in 0..=255")]
+    Classification(f64),
+}
+
+/// Checks a covariance: finite entries, non-negative diagonal.
+pub(crate) fn check_cov(m: &Matrix3<f64>) -> Result<(), AttributeError> {
     if m.iter().any(|v| !v.is_finite()) {
-        return Err("non-finite covariance".to_string());
+        return Err(AttributeError::NonFiniteCovariance);
     }
     if (0..3).any(|i| m[(i, i)] < 0.0) {
-        return Err("negative variance on the covariance diagonal".to_string());
+        return Err(AttributeError::NegativeVariance);
     }
     Ok(())
 }
 
 /// A classification value read as a number: must be an integer in 0..=255.
-pub(crate) fn classification_of(v: f64) -> Result<u8, String> {
-    if v.fract() == 0.0 && (0.0..=255.0).contains(&v) {
-        Ok(v as u8)
-    } else {
-        Err(format!("classification {v} is not an integer in 0..=255"))
-    }
+pub(crate) fn classification_of(v: f64) -> Result<u8, AttributeError> {
+    if v.fract() == 0.0 && (0.0..=255.0).contains(&v) { Ok(v as u8) } else { Err(AttributeError::Classification(v)) }
 }
 
 /// Where each attribute lives among a record's numeric fields (PLY properties, PCD fields).
@@ -273,7 +280,7 @@ impl<'a> CloudBuilder<'a> {
         if !(p.x.is_finite() && p.y.is_finite() && p.z.is_finite()) {
             return Err(CloudError::NonFinitePoint { name: self.name.to_string(), index });
         }
-        let attr_err = |detail: String| CloudError::Attribute { name: self.name.to_string(), index, detail };
+        let attr_err = |e: AttributeError| CloudError::Attribute { name: self.name.to_string(), index, detail: e.to_string() };
         if let (Some(i), Some(out)) = (self.map.classification, self.cloud.classification.as_mut()) {
             out.push(classification_of(field(i)).map_err(attr_err)?);
         }

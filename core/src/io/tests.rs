@@ -145,7 +145,7 @@ fn a_byte_order_mark_is_read_past_by_every_text_loader() {
     for (text, name) in [("[u1]\nalpha = 0.5\n", "p.toml"), ("u1:\n  alpha: 0.5\n", "p.yaml")] {
         let p = crate::Params::from_bytes(&with_bom(text), name).unwrap();
         assert_eq!(p, crate::Params::from_bytes(text.as_bytes(), name).unwrap());
-        assert_ne!(p, crate::Params::default(), "{name} was read");
+        assert_ne!(*p, crate::Params::default(), "{name} was read");
     }
 
     let sim = "[explore]\nmax_failed_decisions = 7\n";

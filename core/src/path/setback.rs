@@ -41,10 +41,10 @@ impl GoalSetback {
         (self.sigmas * var.sqrt()).min(self.max_m)
     }
 
-    /// `Ok` when both fields are finite and ≥ 0; errors name the field under `prefix`.
-    pub fn validate(&self, prefix: &str) -> Result<(), crate::params::InvalidParam> {
-        crate::params::check_non_negative(&format!("{prefix}.sigmas"), self.sigmas)?;
-        crate::params::check_non_negative(&format!("{prefix}.max_m"), self.max_m)
+    /// `Ok` when both fields are finite and ≥ 0; the error names the field (`max_m`).
+    pub fn validate(&self) -> Result<(), crate::params::InvalidParam> {
+        crate::params::check_non_negative("sigmas", self.sigmas)?;
+        crate::params::check_non_negative("max_m", self.max_m)
     }
 }
 
@@ -129,7 +129,7 @@ mod tests {
         assert_eq!(s.margin_m(0.0, 0.0), 0.0);
         assert_eq!(s.margin_m(f64::NAN, 0.0), 0.0);
         assert_eq!(GoalSetback { sigmas: 0.0, ..s }.margin_m(1e-2, 1e-2), 0.0);
-        assert!(GoalSetback { max_m: -1.0, ..s }.validate("goal_setback").unwrap_err().key == "goal_setback.max_m");
+        assert!(GoalSetback { max_m: -1.0, ..s }.validate().unwrap_err().key == "max_m");
     }
 
     #[test]

@@ -25,10 +25,10 @@ use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
 use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
 use crate::grid::{Cell, CellClass, OccupancyGrid, free_traversed, inflate_lethal_into};
-use crate::params::{BaselineHeading, Params, Strategy, check_radius_cells, check_waypoint_spacing};
+use crate::params::{BaselineHeading, Params, Strategy, Valid, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::u2::{CameraGround, arrival_heading_rad};
-use crate::utility::{FovWindows, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
+use crate::utility::{FovWindows, PathView, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
 /// one decision neither allocates nor page-faults them afresh (measured in docs/benchmarks.md,
@@ -61,9 +61,9 @@ pub struct Prepared {
     pub start_snapped: bool,
 }
 
-/// Step 1: validate, inflate (into `buffers`' storage), locate (and if needed snap) the robot.
-pub fn prepare(input: &DecisionInput, params: &Params, buffers: &mut PlanBuffers) -> Result<Prepared, SelectError> {
-    params.validate()?;
+/// Step 1: check the input against the map, inflate (into `buffers`' storage), locate (and if
+/// needed snap) the robot.
+pub fn prepare(input: &DecisionInput, params: &Valid<Params>, buffers: &mut PlanBuffers) -> Result<Prepared, SelectError> {
     let g = input.grid.geometry;
     if input.grid.data.len() != g.len() {
         return Err(SelectError::GridSizeMismatch { data_len: input.grid.data.len(), cells: g.len() });
@@ -214,20 +214,18 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
         known: input.ground.filter(|_| params.u2.follow_terrain),
         occlusion: params.u2.occlusion,
     };
+    let view = PathView {
+        voxels: input.landmarks,
+        camera: &params.camera,
+        camera_height_m: params.robot.camera_height_m,
+        ground,
+        spacing_m: params.waypoint_spacing_m(),
+        sigma_bearing_rad: params.u2.sigma_bearing_rad,
+    };
     let mut raw = Vec::with_capacity(top.len());
     for &i in &top {
         let c = &mut decision.candidates[i];
-        let ip = path_information(
-            &c.path_m,
-            c.theta_star_rad.unwrap_or(0.0),
-            input.landmarks,
-            params.waypoint_spacing_m(),
-            &params.camera,
-            params.robot.camera_height_m,
-            &ground,
-            params.u2.sigma_bearing_rad,
-            &mut c.waypoints,
-        );
+        let ip = path_information(&c.path_m, c.theta_star_rad.unwrap_or(0.0), &view, &mut c.waypoints);
         c.path_info_raw = Some(ip);
         raw.push(ip);
     }
@@ -241,7 +239,7 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
 }
 
 /// Steps 1–4: everything but u2, with the grid-sized storage in `buffers`.
-pub fn plan(input: &DecisionInput, params: &Params, strategy: Strategy, buffers: &mut PlanBuffers) -> Result<Decision, SelectError> {
+pub fn plan(input: &DecisionInput, params: &Valid<Params>, strategy: Strategy, buffers: &mut PlanBuffers) -> Result<Decision, SelectError> {
     let prepared = prepare(input, params, buffers)?;
     let (clusters, field) = frontiers_and_distances(input, &prepared, params, buffers)?;
     let decision = score_u1(input, &prepared, clusters, &field, params, strategy);

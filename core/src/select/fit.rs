@@ -4,7 +4,7 @@
 
 use super::candidates::{PlanBuffers, plan, rank_and_choose, score_u2};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, Valid};
 
 /// FIT-SLAM: u1 then u2.
 #[derive(Clone, Debug, Default)]
@@ -13,7 +13,7 @@ pub struct FitSlam {
 }
 
 impl GoalSelector for FitSlam {
-    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
+    fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
         let mut d = plan(input, params, Strategy::Fit, &mut self.buffers)?;
         score_u2(&mut d, input, params);
         let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();

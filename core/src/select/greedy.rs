@@ -4,7 +4,7 @@
 
 use super::candidates::{PlanBuffers, plan, rank_and_choose, set_baseline_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, Valid};
 
 /// Nearest candidate by path length.
 #[derive(Clone, Debug, Default)]
@@ -13,7 +13,7 @@ pub struct Greedy {
 }
 
 impl GoalSelector for Greedy {
-    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
+    fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
         let mut d = plan(input, params, Strategy::Greedy, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         rank_and_choose(&mut d, &scored, |c| c.rho_m.unwrap_or(f64::INFINITY));

@@ -8,7 +8,7 @@
 
 use super::candidates::{PlanBuffers, choose, plan, rank_and_choose, score_u2, set_baseline_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, Valid};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -32,7 +32,7 @@ impl LengthMatched {
 }
 
 impl GoalSelector for LengthMatched {
-    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
+    fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
         let mut d = plan(input, params, Strategy::Matched, &mut self.buffers)?;
         let reachable: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         score_u2(&mut d, input, params);

@@ -48,7 +48,7 @@ pub use u1_only::U1Only;
 
 use crate::frontier::{Blacklist, Boundary, FrontierError};
 use crate::grid::{Cell, OccupancyGrid};
-use crate::params::{Params, SelectorParams, Strategy};
+use crate::params::{Params, SelectorParams, Strategy, Valid};
 use crate::path::PathError;
 use crate::pose::Pose2;
 use crate::utility::{LandmarkVoxels, UtilityError};
@@ -119,7 +119,7 @@ pub enum SelectError {
 /// A goal selector: one decision from the current map, landmarks and robot pose.
 pub trait GoalSelector {
     /// Ranks the frontier candidates and picks one.
-    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError>;
+    fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError>;
 
     /// The strategy this selector implements.
     fn strategy(&self) -> Strategy;

@@ -5,7 +5,7 @@
 
 use super::candidates::{PlanBuffers, choose, plan, set_baseline_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, Valid};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -24,7 +24,7 @@ impl RandomSelector {
 }
 
 impl GoalSelector for RandomSelector {
-    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
+    fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
         let mut d = plan(input, params, Strategy::Random, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         let chosen = (!scored.is_empty()).then(|| scored[self.rng.random_range(0..scored.len())]);

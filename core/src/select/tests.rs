@@ -1,5 +1,11 @@
 use super::candidates::{PlanBuffers, frontiers_and_distances, prepare, score_u1};
 use super::*;
+use crate::params::Valid;
+
+/// The parameters checked, as the selectors take them.
+fn valid(p: &Params) -> Valid<Params> {
+    Valid::new(p.clone()).unwrap()
+}
 use crate::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use crate::frontier::{BlacklistReason, FrontierCluster};
 use crate::grid::{FREE, Grid, GridGeometry, LETHAL, UNKNOWN};
@@ -34,7 +40,7 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
     let bl = Blacklist::new(p.frontier.blacklist_radius_m);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
 
-    let g = Greedy::default().select(&input, &p).unwrap();
+    let g = Greedy::default().select(&input, &valid(&p)).unwrap();
     let (west, east) = ends(&g);
     assert_eq!(g.chosen, Some(west));
     assert!((g.candidates[west].rho_m.unwrap() - 7.5).abs() < 1e-9);
@@ -42,7 +48,7 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
     assert_eq!(g.candidates[west].rank, Some(1));
     assert_eq!(g.candidates[east].rank, Some(2));
 
-    let f = FitSlam::default().select(&input, &p).unwrap();
+    let f = FitSlam::default().select(&input, &valid(&p)).unwrap();
     let (west, east) = ends(&f);
     assert_eq!(f.chosen, Some(east));
     let (cw, ce) = (&f.candidates[west], &f.candidates[east]);
@@ -67,7 +73,7 @@ fn fit_slam_and_greedy_differ_for_a_stated_reason() {
     // Without landmarks both paths carry no information and FIT-SLAM follows u1.
     let w0 = corridor_two_frontiers(false);
     let lv0 = voxels(&w0, &p);
-    let f0 = FitSlam::default().select(&DecisionInput::new(&w0.grid, &lv0, w0.robot, &bl), &p).unwrap();
+    let f0 = FitSlam::default().select(&DecisionInput::new(&w0.grid, &lv0, w0.robot, &bl), &valid(&p)).unwrap();
     let best_u1 = (0..2).max_by(|&a, &b| f0.candidates[a].u1.partial_cmp(&f0.candidates[b].u1).unwrap().then(b.cmp(&a))).unwrap();
     assert_eq!(f0.chosen, Some(best_u1));
 }
@@ -80,17 +86,17 @@ fn baselines_arrive_as_they_drive_unless_told_to_turn_to_theta_star() {
     let lv = voxels(&w, &p);
     let bl = Blacklist::new(p.frontier.blacklist_radius_m);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let g = Greedy::default().select(&input, &p).unwrap();
+    let g = Greedy::default().select(&input, &valid(&p)).unwrap();
     assert!(wrap_pi(g.goal.unwrap().yaw_rad - PI).abs() < 1e-9, "{:?}", g.goal);
-    let r = RandomSelector::new(3).select(&input, &p).unwrap();
+    let r = RandomSelector::new(3).select(&input, &valid(&p)).unwrap();
     let c = r.chosen_candidate().unwrap();
     let heading = if c.x_m < w.robot.x_m { PI } else { 0.0 };
     assert!(wrap_pi(r.goal.unwrap().yaw_rad - heading).abs() < 1e-9, "{:?}", r.goal);
     // With `theta_star` they take u1's best view, as FIT-SLAM does.
     p.selector.baseline_heading = crate::params::BaselineHeading::ThetaStar;
-    let g = Greedy::default().select(&input, &p).unwrap();
+    let g = Greedy::default().select(&input, &valid(&p)).unwrap();
     assert_eq!(g.goal.unwrap().yaw_rad, g.chosen_candidate().unwrap().theta_star_rad.unwrap());
-    let f = FitSlam::default().select(&input, &params()).unwrap();
+    let f = FitSlam::default().select(&input, &valid(&params())).unwrap();
     assert_eq!(f.goal.unwrap().yaw_rad, f.chosen_candidate().unwrap().theta_star_rad.unwrap());
 }
 
@@ -101,13 +107,13 @@ fn u1_only_and_top_n() {
     let lv = voxels(&w, &p);
     let bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let u = U1Only::default().select(&input, &p).unwrap();
+    let u = U1Only::default().select(&input, &valid(&p)).unwrap();
     let top = u.candidates.iter().position(|c| c.u1_rank == Some(1)).unwrap();
     assert_eq!(u.chosen, Some(top));
     assert!(u.candidates.iter().all(|c| c.u2.is_none() && c.waypoints.is_empty()));
     // N = 1: FIT-SLAM only scores u1's best, the other is dropped NotInTopN.
     p.u2.top_n = 1;
-    let f = FitSlam::default().select(&input, &p).unwrap();
+    let f = FitSlam::default().select(&input, &valid(&p)).unwrap();
     assert_eq!(f.chosen, Some(top));
     assert_eq!(f.candidates[1 - top].dropped, Some(DropReason::NotInTopN));
     assert_eq!(f.candidates[1 - top].rank, None);
@@ -122,19 +128,19 @@ fn blacklisted_candidates_are_dropped_with_their_reason() {
     let lv = voxels(&w, &p);
     let mut bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let first = FitSlam::default().select(&input, &p).unwrap();
+    let first = FitSlam::default().select(&input, &valid(&p)).unwrap();
     let (west, east) = ends(&first);
     let ce = &first.candidates[east];
     bl.add(ce.x_m + 0.3, ce.y_m, BlacklistReason::Failed);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let d = FitSlam::default().select(&input, &p).unwrap();
+    let d = FitSlam::default().select(&input, &valid(&p)).unwrap();
     assert_eq!(d.candidates[east].dropped, Some(DropReason::Blacklisted(BlacklistReason::Failed)));
     assert_eq!(d.candidates[east].u1, None);
     assert_eq!(d.chosen, Some(west));
     // Blacklist both: end of mission, not an error.
     let cw = &first.candidates[west];
     bl.add(cw.x_m, cw.y_m, BlacklistReason::Reselected);
-    let d = FitSlam::default().select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
+    let d = FitSlam::default().select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &valid(&p)).unwrap();
     assert_eq!(d.chosen, None);
     assert_eq!(d.goal, None);
 }
@@ -155,7 +161,7 @@ fn unreachable_candidates_are_reported_for_the_blacklist() {
     let bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&grid, &lv, w.robot, &bl);
     let mut buffers = PlanBuffers::default();
-    let prepared = prepare(&input, &p, &mut buffers).unwrap();
+    let prepared = prepare(&input, &valid(&p), &mut buffers).unwrap();
     let (mut clusters, field) = frontiers_and_distances(&input, &prepared, &p, &mut buffers).unwrap();
     assert_eq!(clusters.len(), 2);
     clusters.insert(0, FrontierCluster::from_ordered_cells(vec![Cell::new(10, 20)]).unwrap());
@@ -178,9 +184,9 @@ fn random_is_reproducible_per_seed() {
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
     let draw = |seed: u64| {
         let mut s = RandomSelector::new(seed);
-        (0..12).map(|_| s.select(&input, &p).unwrap().chosen.unwrap()).collect::<Vec<_>>()
+        (0..12).map(|_| s.select(&input, &valid(&p)).unwrap().chosen.unwrap()).collect::<Vec<_>>()
     };
-    let n = Greedy::default().select(&input, &p).unwrap().candidates.iter().filter(|c| c.is_scored()).count();
+    let n = Greedy::default().select(&input, &valid(&p)).unwrap().candidates.iter().filter(|c| c.is_scored()).count();
     assert!(n >= 3, "only {n} candidates");
     let a = draw(5);
     assert_eq!(a, draw(5));
@@ -188,7 +194,7 @@ fn random_is_reproducible_per_seed() {
     // Each draw is a scored candidate ranked 1, and nothing else is ranked.
     let mut s = make_selector(&SelectorParams { strategy: Strategy::Random, seed: 5, ..SelectorParams::default() });
     assert_eq!(s.strategy(), Strategy::Random);
-    let d = s.select(&input, &p).unwrap();
+    let d = s.select(&input, &valid(&p)).unwrap();
     assert_eq!(d.chosen, Some(a[0]));
     assert_eq!(d.candidates.iter().filter(|c| c.rank.is_some()).count(), 1);
     assert!(d.candidates[a[0]].is_scored());
@@ -206,8 +212,8 @@ fn length_matched_random_draws_among_candidates_at_fit_slams_distance() {
     let bl = Blacklist::new(p.frontier.blacklist_radius_m);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
     let mut s = LengthMatched::new(3);
-    let draws: Vec<usize> = (0..40).map(|_| s.select(&input, &p).unwrap().chosen.unwrap()).collect();
-    let d = LengthMatched::new(3).select(&input, &p).unwrap();
+    let draws: Vec<usize> = (0..40).map(|_| s.select(&input, &valid(&p)).unwrap().chosen.unwrap()).collect();
+    let d = LengthMatched::new(3).select(&input, &valid(&p)).unwrap();
     let (west, east) = ends(&d);
     assert!(draws.contains(&west) && draws.contains(&east), "{draws:?}");
     assert_eq!(d.chosen, Some(draws[0]), "same seed, same draw");
@@ -218,13 +224,13 @@ fn length_matched_random_draws_among_candidates_at_fit_slams_distance() {
     let w = synthetic_world(&SyntheticWorldSpec::small(11));
     let lv = voxels(&w, &p);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let fit = FitSlam::default().select(&input, &p).unwrap();
+    let fit = FitSlam::default().select(&input, &valid(&p)).unwrap();
     let rho_fit = fit.chosen_candidate().unwrap().rho_m.unwrap();
     let mut s = make_selector(&SelectorParams { strategy: Strategy::Matched, seed: 9, ..SelectorParams::default() });
     assert_eq!(s.strategy(), Strategy::Matched);
     let mut others = 0;
     for _ in 0..30 {
-        let d = s.select(&input, &p).unwrap();
+        let d = s.select(&input, &valid(&p)).unwrap();
         let rho = d.chosen_candidate().unwrap().rho_m.unwrap();
         assert!((rho - rho_fit).abs() <= 0.2 * rho_fit + 1e-12, "{rho} vs FIT-SLAM's {rho_fit}");
         others += usize::from(d.chosen != fit.chosen);
@@ -240,8 +246,8 @@ fn ranks_are_complete_and_deterministic_on_a_bigger_world() {
     let lv = voxels(&w, &p);
     let bl = Blacklist::new(0.5);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let d = FitSlam::default().select(&input, &p).unwrap();
-    let d2 = FitSlam::default().select(&input, &p).unwrap();
+    let d = FitSlam::default().select(&input, &valid(&p)).unwrap();
+    let d2 = FitSlam::default().select(&input, &valid(&p)).unwrap();
     assert_eq!(d, d2);
     // Candidates sorted by flat cell index.
     let g = w.grid.geometry;
@@ -255,7 +261,7 @@ fn ranks_are_complete_and_deterministic_on_a_bigger_world() {
     // The top N by u2 are the top N by u1.
     assert!(ranked.iter().all(|&i| d.candidates[i].u1_rank.unwrap() <= p.u2.top_n));
     // Greedy ranks every scored candidate by increasing ρ.
-    let gr = Greedy::default().select(&input, &p).unwrap();
+    let gr = Greedy::default().select(&input, &valid(&p)).unwrap();
     let order = gr.ranking();
     assert_eq!(order.len(), scored);
     assert!(order.windows(2).all(|r| gr.candidates[r[0]].rho_m <= gr.candidates[r[1]].rho_m));
@@ -268,19 +274,26 @@ fn robot_cell_errors_and_snapping() {
     let lv = LandmarkVoxels::empty(0.25);
     let bl = Blacklist::new(0.5);
     let at = |x: f64, y: f64| DecisionInput::new(&w.grid, &lv, Pose2::new(x, y, 0.0), &bl);
-    assert_eq!(Greedy::default().select(&at(f64::NAN, 1.0), &p).unwrap_err(), SelectError::RobotPoseNotFinite);
-    assert!(matches!(Greedy::default().select(&at(-1.0, 1.0), &p).unwrap_err(), SelectError::RobotOutsideMap { .. }));
+    assert_eq!(Greedy::default().select(&at(f64::NAN, 1.0), &valid(&p)).unwrap_err(), SelectError::RobotPoseNotFinite);
+    assert!(matches!(Greedy::default().select(&at(-1.0, 1.0), &valid(&p)).unwrap_err(), SelectError::RobotOutsideMap { .. }));
     // Row 11 (y = 1.15) is within 0.25 m of the wall on row 9: lethal after inflation (rows
     // 10–11). The nearest free cell within 0.25 + 0.1 m is on row 12, straight up.
-    let d = Greedy::default().select(&at(11.55, 1.15), &p).unwrap();
+    let d = Greedy::default().select(&at(11.55, 1.15), &valid(&p)).unwrap();
     assert!(d.start_snapped);
     assert_eq!(d.requested_robot_cell, Cell::new(115, 11));
     assert_eq!(d.robot_cell, Cell::new(115, 12));
     // Deep inside unknown space: no free cell within reach.
-    assert!(matches!(Greedy::default().select(&at(1.0, 1.0), &p).unwrap_err(), SelectError::RobotBlocked { .. }));
+    assert!(matches!(Greedy::default().select(&at(1.0, 1.0), &valid(&p)).unwrap_err(), SelectError::RobotBlocked { .. }));
+    // Out-of-range parameters never reach a selector: they take only checked ones.
     let mut bad = p.clone();
     bad.u1.alpha = 2.0;
-    assert!(matches!(Greedy::default().select(&at(11.55, 2.05), &bad).unwrap_err(), SelectError::InvalidParams(_)));
+    assert_eq!(Valid::new(bad).unwrap_err().key, "u1.alpha");
+    // What depends on the map is checked against it: a waypoint spacing under its cell.
+    let mut fine = p.clone();
+    fine.u2.waypoint_spacing_m = Some(p.grid.resolution_m * 2.0);
+    let coarse = Grid::filled(GridGeometry::new(0.0, 0.0, p.grid.resolution_m * 5.0, 30, 30), FREE);
+    let input = DecisionInput::new(&coarse, &lv, Pose2::new(1.5, 1.5, 0.0), &bl);
+    assert!(matches!(Greedy::default().select(&input, &valid(&fine)).unwrap_err(), SelectError::InvalidParams(_)));
 }
 
 #[test]
@@ -288,7 +301,7 @@ fn no_frontier_is_not_an_error() {
     let g = Grid::filled(GridGeometry::new(0.0, 0.0, 0.1, 30, 30), FREE);
     let lv = LandmarkVoxels::empty(0.25);
     let bl = Blacklist::new(0.5);
-    let d = FitSlam::default().select(&DecisionInput::new(&g, &lv, Pose2::new(1.5, 1.5, 0.0), &bl), &params()).unwrap();
+    let d = FitSlam::default().select(&DecisionInput::new(&g, &lv, Pose2::new(1.5, 1.5, 0.0), &bl), &valid(&params())).unwrap();
     assert!(d.candidates.is_empty());
     assert_eq!(d.chosen, None);
     let _ = (LETHAL, UNKNOWN);
@@ -302,7 +315,7 @@ fn decision_json_has_the_keys() {
     let bl = Blacklist::new(0.5);
     let mut sel = make_selector(&p.selector);
     assert_eq!(sel.strategy(), Strategy::Fit);
-    let d = sel.select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &p).unwrap();
+    let d = sel.select(&DecisionInput::new(&w.grid, &lv, w.robot, &bl), &valid(&p)).unwrap();
     let v = serde_json::to_value(&d).unwrap();
     for k in ["strategy", "chosen", "goal", "robot", "robot_cell", "requested_robot_cell", "start_snapped", "ray_angles_rad", "candidates"]
     {
@@ -361,6 +374,7 @@ fn a_selector_reusing_its_buffers_decides_as_a_fresh_one() {
         let lv = voxels(w, &p);
         let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
         for p in [&p, &p_unknown, &p] {
+            let p = &valid(p);
             for (a, mut b) in reused.iter_mut().zip(all()) {
                 let d = a.select(&input, p).unwrap();
                 assert!(d.candidates.len() >= 2);
@@ -388,12 +402,12 @@ fn a_robot_goes_back_through_a_doorway_it_drove_through() {
     let (lv, bl, p) = (LandmarkVoxels::empty(0.25), Blacklist::new(0.5), params());
     let robot = Pose2::new(1.05, 1.05, 0.0);
     // Inflated by 0.25 m the doorway is shut: no frontier reachable.
-    let d = Greedy::default().select(&DecisionInput::new(&grid, &lv, robot, &bl), &p).unwrap();
+    let d = Greedy::default().select(&DecisionInput::new(&grid, &lv, robot, &bl), &valid(&p)).unwrap();
     assert_eq!(d.chosen, None);
     // The robot came in along row 10: its trail keeps the doorway's cells open.
     let trail: Vec<usize> = (10..=30).map(|col| 10 * 40 + col).collect();
     let input = DecisionInput { traversed: &trail, ..DecisionInput::new(&grid, &lv, robot, &bl) };
-    let d = Greedy::default().select(&input, &p).unwrap();
+    let d = Greedy::default().select(&input, &valid(&p)).unwrap();
     let c = &d.candidates[d.chosen.expect("a frontier beyond the doorway")];
     assert!(c.x_m > 3.0);
     // Every cell the path's polyline crosses (sampled every 1 cm) is free after inflation or a
@@ -412,5 +426,5 @@ fn a_robot_goes_back_through_a_doorway_it_drove_through() {
     // A trail cell outside the grid is an error.
     let bad = [800];
     let input = DecisionInput { traversed: &bad, ..DecisionInput::new(&grid, &lv, robot, &bl) };
-    assert_eq!(Greedy::default().select(&input, &p).unwrap_err(), SelectError::TraversedOutsideGrid { index: 800, cells: 800 });
+    assert_eq!(Greedy::default().select(&input, &valid(&p)).unwrap_err(), SelectError::TraversedOutsideGrid { index: 800, cells: 800 });
 }

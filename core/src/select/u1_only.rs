@@ -3,7 +3,7 @@
 
 use super::candidates::{PlanBuffers, plan, rank_and_choose};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, Valid};
 
 /// Largest u1.
 #[derive(Clone, Debug, Default)]
@@ -12,7 +12,7 @@ pub struct U1Only {
 }
 
 impl GoalSelector for U1Only {
-    fn select(&mut self, input: &DecisionInput, params: &Params) -> Result<Decision, SelectError> {
+    fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
         let mut d = plan(input, params, Strategy::U1, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         rank_and_choose(&mut d, &scored, |c| -c.u1.unwrap_or(f64::NEG_INFINITY));

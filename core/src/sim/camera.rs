@@ -5,8 +5,9 @@
 //! noise σ_d = `depth_sigma_coeff` · d² (structured-light stereo: error grows with depth squared).
 //! O(landmarks in a bucket box × line-of-sight steps).
 
+use super::heightfield::Heightfield;
 use super::lidar::{RayCaster, gaussian};
-use super::{Heightfield, line_of_sight};
+use super::scan::line_of_sight;
 use crate::math;
 use crate::params::CameraParams;
 pub use crate::slam::keyframes::CameraObservation;
@@ -75,23 +76,38 @@ fn in_frustum(v: &Vector3<f64>, params: &CameraParams, th: f64, tv: f64) -> bool
     depth >= params.min_depth_m && depth <= params.max_depth_m && v.y.abs() <= th * depth && v.z.abs() <= tv * depth
 }
 
-/// The landmarks seen from a camera at `camera_m` with `world_from_body` rotation (the camera
-/// looks along the body's +x), in increasing id order, into `out`; the ids of every landmark in
-/// the frustum, in line of sight or not, into `in_frustum_out` (both cleared first).
-#[allow(clippy::too_many_arguments)]
+/// What a camera looks at: the terrain (for the line of sight) and the landmarks with their
+/// frustum index.
+#[derive(Clone, Copy, Debug)]
+pub struct LandmarkScene<'a> {
+    pub field: &'a Heightfield,
+    pub landmarks: &'a [Point3<f64>],
+    pub index: &'a LandmarkIndex,
+}
+
+/// Where a camera stands, world frame: its optical centre and its body's origin and rotation
+/// (the camera looks along the body's +x).
+#[derive(Clone, Copy, Debug)]
+pub struct CameraPose {
+    pub camera_m: Point3<f64>,
+    pub body_m: Point3<f64>,
+    pub world_from_body: Rotation3<f64>,
+}
+
+/// The landmarks of `scene` seen from `pose`, in increasing id order, into `out`; the ids of
+/// every landmark in the frustum, in line of sight or not, into `in_frustum_out` (both cleared
+/// first).
 pub fn observe_landmarks(
-    field: &Heightfield,
-    landmarks: &[Point3<f64>],
-    index: &LandmarkIndex,
-    camera_m: Point3<f64>,
-    body_m: Point3<f64>,
-    world_from_body: &Rotation3<f64>,
+    scene: &LandmarkScene,
+    pose: &CameraPose,
     params: &CameraParams,
     noise: &CameraNoise,
     rng: &mut ChaCha8Rng,
     out: &mut Vec<CameraObservation>,
     in_frustum_out: &mut Vec<usize>,
 ) {
+    let LandmarkScene { field, landmarks, index } = *scene;
+    let CameraPose { camera_m, body_m, world_from_body } = *pose;
     out.clear();
     in_frustum_out.clear();
     let (th, tv) = (math::tan(params.hfov_rad / 2.0), math::tan(params.vfov_rad / 2.0));
@@ -129,7 +145,6 @@ pub fn observe_landmarks(
 /// evenly over the field of view from `camera_m`, looking along the body's +x; calls
 /// `on_hit(direction_in_world, depth_m)` for each ray that hits within the depth range, row by
 /// row. O(rays × ray march).
-#[allow(clippy::too_many_arguments)]
 pub fn depth_ground_hits(
     field: &Heightfield,
     caster: &RayCaster,
@@ -176,19 +191,9 @@ mod tests {
         let mut out = Vec::new();
         let cam = Point3::new(1.0, 5.0, 0.2);
         let noise = CameraNoise { bearing_sigma_rad: 0.0, depth_sigma_coeff: 0.0 };
-        observe_landmarks(
-            &field,
-            &lms,
-            &idx,
-            cam,
-            Point3::new(1.0, 5.0, 0.0),
-            &Rotation3::identity(),
-            &CameraParams::default(),
-            &noise,
-            &mut rng,
-            &mut out,
-            &mut Vec::new(),
-        );
+        let scene = LandmarkScene { field: &field, landmarks: &lms, index: &idx };
+        let pose = CameraPose { camera_m: cam, body_m: Point3::new(1.0, 5.0, 0.0), world_from_body: Rotation3::identity() };
+        observe_landmarks(&scene, &pose, &CameraParams::default(), &noise, &mut rng, &mut out, &mut Vec::new());
         let ids: Vec<u64> = out.iter().map(|o| o.landmark_id).collect();
         assert_eq!(ids, vec![0, 4]);
         // Noise-free: the point in the body frame is exact.
@@ -207,19 +212,10 @@ mod tests {
             let mut s2 = 0.0;
             let n = 4000;
             for _ in 0..n {
-                observe_landmarks(
-                    &field,
-                    &lms,
-                    &idx,
-                    Point3::new(1.0, 5.0, 0.2),
-                    Point3::new(1.0, 5.0, 0.2),
-                    &Rotation3::identity(),
-                    &CameraParams::default(),
-                    &noise,
-                    rng,
-                    &mut out,
-                    &mut Vec::new(),
-                );
+                let scene = LandmarkScene { field: &field, landmarks: &lms, index: &idx };
+                let at = Point3::new(1.0, 5.0, 0.2);
+                let pose = CameraPose { camera_m: at, body_m: at, world_from_body: Rotation3::identity() };
+                observe_landmarks(&scene, &pose, &CameraParams::default(), &noise, rng, &mut out, &mut Vec::new());
                 s2 += (out[0].point_in_robot.x - d).powi(2);
             }
             (s2 / n as f64).sqrt()

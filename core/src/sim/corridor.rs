@@ -26,20 +26,18 @@ pub struct CorridorCheck {
 
 impl CorridorCheck {
     /// Whether the polyline `ahead` (world metres) is blocked for a robot of radius `radius_m` at
-    /// `robot_m`. `score(i)` gives cell `i`'s traversability score (NaN when unknown); a score
-    /// below `tau` is lethal. `on_trail[i]` says whether the robot's centre has driven on cell
-    /// `i` (empty or short: no cell). Only the cells in the squares of the samples up to the
-    /// first blocked one are asked for, and a cell that is not lethal only once per call.
-    #[allow(clippy::too_many_arguments)]
+    /// `robot_m`. `lethal(i)` says whether cell `i` is lethal (its traversability score below τ;
+    /// unknown is not). `on_trail[i]` says whether the robot's centre has driven on cell `i`
+    /// (empty or short: no cell). Only the cells in the squares of the samples up to the first
+    /// blocked one are asked for, and a cell that is not lethal only once per call.
     pub fn blocked(
         &mut self,
         g: &GridGeometry,
         ahead: impl IntoIterator<Item = [f64; 2]>,
         robot_m: [f64; 2],
         radius_m: f64,
-        tau: f32,
         on_trail: &[bool],
-        mut score: impl FnMut(usize) -> f32,
+        mut lethal: impl FnMut(usize) -> bool,
     ) -> bool {
         let rc = (radius_m / g.resolution_m).ceil() as i32;
         if self.marks.len() != g.len() {
@@ -65,7 +63,7 @@ impl CorridorCheck {
                 let Some(c) = g.cell_of(x, y) else { return true };
                 if let Some(i) = g.index(c).filter(|&i| on_trail.get(i) == Some(&true)) {
                     if self.marks[i] != self.pass {
-                        if score(i) < tau {
+                        if lethal(i) {
                             return true;
                         }
                         self.marks[i] = self.pass;
@@ -79,8 +77,7 @@ impl CorridorCheck {
                         if self.marks[i] == self.pass {
                             continue;
                         }
-                        let s = score(i);
-                        if s.is_nan() || s >= tau {
+                        if !lethal(i) {
                             self.marks[i] = self.pass;
                         } else {
                             let (cx, cy) = g.center_of(cell);
@@ -154,9 +151,9 @@ mod tests {
         let path = [[-0.5, 0.05], [0.75, 0.05]];
         let mut check = CorridorCheck::default();
         let mut asked = 0;
-        let blocked = check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &[], |i| {
+        let blocked = check.blocked(&g, path, [-0.5, 0.05], 0.25, &[], |i| {
             asked += 1;
-            scores[i]
+            scores[i] < 0.5
         });
         assert!(!blocked);
         // Every cell of the corridor once: the samples kept run from x = −0.21 m (the first one
@@ -164,12 +161,12 @@ mod tests {
         // columns 4–19 (the grid's last) × rows 7–13.
         assert_eq!(asked, 16 * 7);
         lethal(&mut scores, 0.25, 0.15); // 0.1 m off the path, ahead
-        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &[], |i| scores[i]));
+        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, &[], |i| scores[i] < 0.5));
         // The robot past it, at the path's end: what is behind it no longer matters.
-        assert!(!check.blocked(&g, [[0.7, 0.05], [0.75, 0.05]], [0.7, 0.05], 0.25, 0.5, &[], |i| scores[i]));
+        assert!(!check.blocked(&g, [[0.7, 0.05], [0.75, 0.05]], [0.7, 0.05], 0.25, &[], |i| scores[i] < 0.5));
         // Leaving the grid blocks; an empty path does not.
-        assert!(check.blocked(&g, [[0.5, 0.5], [1.5, 0.5]], [0.5, 0.5], 0.25, 0.5, &[], |_| 1.0));
-        assert!(!check.blocked(&g, [], [0.0, 0.0], 0.25, 0.5, &[], |_| 0.0));
+        assert!(check.blocked(&g, [[0.5, 0.5], [1.5, 0.5]], [0.5, 0.5], 0.25, &[], |_| false));
+        assert!(!check.blocked(&g, [], [0.0, 0.0], 0.25, &[], |_| true));
     }
 
     #[test]
@@ -181,16 +178,16 @@ mod tests {
         scores[idx(0.25, 0.2)] = 0.0;
         let path = [[-0.5, 0.05], [0.75, 0.05]];
         let mut check = CorridorCheck::default();
-        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &[], |i| scores[i]));
+        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, &[], |i| scores[i] < 0.5));
         // The robot drove along y = 0.05 before: the jamb no longer blocks...
         let mut trail = vec![false; g.len()];
         for k in 0..13 {
             trail[idx(-0.45 + 0.1 * k as f64, 0.05)] = true;
         }
-        assert!(!check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &trail, |i| scores[i]));
+        assert!(!check.blocked(&g, path, [-0.5, 0.05], 0.25, &trail, |i| scores[i] < 0.5));
         // ...but a trail cell its map now holds lethal does.
         scores[idx(0.35, 0.05)] = 0.2;
-        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, 0.5, &trail, |i| scores[i]));
+        assert!(check.blocked(&g, path, [-0.5, 0.05], 0.25, &trail, |i| scores[i] < 0.5));
     }
 
     proptest! {
@@ -214,11 +211,11 @@ mod tests {
             for &i in &trail_cells { trail[i] = true; }
             let mut check = CorridorCheck::default();
             let mut asked = vec![0u32; g.len()];
-            let got = check.blocked(&g, path.iter().copied(), robot, r, 0.5, &trail, |i| { asked[i] += 1; scores[i] });
+            let got = check.blocked(&g, path.iter().copied(), robot, r, &trail, |i| { asked[i] += 1; scores[i] < 0.5 });
             prop_assert_eq!(got, blocked_by_definition(&g, &path, robot, r, 0.5, &trail, &scores));
             prop_assert!(asked.iter().zip(&scores).all(|(&n, &s)| n <= 1 || s < 0.5), "only lethal cells are asked twice");
             // A second call on the same marks answers the same.
-            prop_assert_eq!(check.blocked(&g, path.iter().copied(), robot, r, 0.5, &trail, |i| scores[i]), got);
+            prop_assert_eq!(check.blocked(&g, path.iter().copied(), robot, r, &trail, |i| scores[i] < 0.5), got);
         }
     }
 }

@@ -7,7 +7,7 @@
 //! Coverage = 100 − `unexplored_pct`. A level is reached at the first row whose coverage is at
 //! least the level; rows come every `metrics_period_s`, so times are that coarse.
 
-use super::MetricsRow;
+use super::metrics::MetricsRow;
 
 /// The milestones `fitslam compare` reports, coverage %.
 pub const MILESTONES_PCT: [f64; 4] = [50.0, 75.0, 90.0, 99.0];

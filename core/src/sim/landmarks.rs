@@ -3,7 +3,9 @@
 //! variation, path information could not matter (notes §6). Deterministic in `seed`.
 //! O(area / spacing²).
 
-use super::{Heightfield, Rock, fractal_noise, hash_unit};
+use super::heightfield::Heightfield;
+use super::noise::{fractal_noise, hash_unit};
+use super::obstacles::Rock;
 use crate::math;
 use nalgebra::Point3;
 

@@ -4,8 +4,8 @@
 //! The unexplored share counts explorable ground-truth cells still unknown in the robot's map,
 //! from the map's known/unknown flags (no estimate needed: O(cells whose disc changed) per row).
 
-use super::World;
 use super::localisation::{Localisation, PoseCovariance};
+use super::world::World;
 use super::world_sim::BodyPose;
 use crate::explore::EndReason;
 use crate::params::{Strategy, TraversabilityParams};

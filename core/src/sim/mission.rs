@@ -26,18 +26,18 @@
 //! corridor); per decision the selector's cost (one Dijkstra, rays, u2) plus the stale cells'
 //! estimates and O(cells) thresholding; per metrics row O(cells whose disc changed).
 
-use super::World;
 use super::corridor::CorridorCheck;
 use super::localisation::{Localisation, Localiser, PoseCovariance, new_localiser};
 use super::metrics::{Metrics, MetricsRow, Sample, StampedPose, Summary};
 use super::params::MissionParams;
 use super::robot::{PathFollower, Twist};
+use super::world::World;
 use super::world_sim::WorldSim;
 use crate::PointCloud;
 use crate::explore::{Action, ActiveGoal, EndReason, Explorer, Situation};
 use crate::grid::OccupancyGrid;
 use crate::math;
-use crate::params::{InvalidParam, Params, Strategy};
+use crate::params::{Params, SelectorParams, Strategy, Valid};
 use crate::pose::{Pose2, wrap_pi};
 use crate::select::Decision;
 use crate::slam::keyframes::SlamFrontend;
@@ -48,10 +48,6 @@ use std::f64::consts::TAU;
 /// Why a [`Mission`] could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum MissionError {
-    #[error("planner parameters: {0}")]
-    Params(InvalidParam),
-    #[error("simulator parameters: {0}")]
-    Simulator(InvalidParam),
     #[error("traversability map: {0}")]
     Map(#[from] crate::traversability::TraversabilityError),
     #[error("SLAM: {0}")]
@@ -84,7 +80,7 @@ pub struct Mission {
     localiser: Box<dyn Localiser>,
     explorer: Explorer,
     metrics: Metrics,
-    mission: MissionParams,
+    mission: Valid<MissionParams>,
     strategy: Strategy,
     seed: u64,
     time_limit_s: f64,
@@ -108,20 +104,17 @@ pub struct Mission {
 impl Mission {
     /// A mission in `world` with planner `params` (its `selector.strategy` and `selector.seed`
     /// are overridden by `strategy` and `seed`), simulator `mission` parameters, sensor seed
-    /// `seed`. Fails on invalid parameters, a world too large for a map, or a SLAM that cannot
-    /// start (a non-finite start pose).
+    /// `seed`. Fails on a world too large for a map or a SLAM that cannot start (a non-finite
+    /// start pose).
     pub fn new(
         world: World,
-        mut params: Params,
-        mission: MissionParams,
+        params: Valid<Params>,
+        mission: Valid<MissionParams>,
         strategy: Strategy,
         seed: u64,
         localisation: Localisation,
     ) -> Result<Self, MissionError> {
-        params.validate().map_err(MissionError::Params)?;
-        mission.validate().map_err(MissionError::Simulator)?;
-        params.selector.strategy = strategy;
-        params.selector.seed = seed;
+        let params = params.with_selector(SelectorParams { strategy, seed, ..params.selector.clone() });
         let tmap = TraversabilityMap::new(world.field.geometry)?;
         let layers = tmap.compute(&params.traversability);
         let time_limit_s = mission.time_limit_s.unwrap_or(world.spec.time_limit_s);
@@ -130,7 +123,7 @@ impl Mission {
         let start = sim.pose();
         let mut m = Self {
             localiser,
-            explorer: Explorer::new(mission.explore.clone(), params),
+            explorer: Explorer::new(mission.explore(), params),
             metrics: Metrics::default(),
             strategy,
             seed,
@@ -289,9 +282,10 @@ impl Mission {
         let on_trail: &[bool] = if goal.on_trail { self.explorer.trail().mask(&g) } else { &[] };
         let (tmap, layers) = (&mut self.tmap, &mut self.layers);
         let ahead = self.follower.remaining(est);
-        self.corridor.blocked(&g, ahead, [est.x_m, est.y_m], goal.inflation_m, params.tau as f32, on_trail, |i| {
+        let tau = params.tau as f32;
+        self.corridor.blocked(&g, ahead, [est.x_m, est.y_m], goal.inflation_m, on_trail, |i| {
             tmap.refresh_cells([i], &params, layers);
-            layers.score.data[i]
+            layers.score.data[i] < tau
         })
     }
 

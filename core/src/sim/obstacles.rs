@@ -2,7 +2,9 @@
 //! seeded Poisson-like process (one candidate per lattice cell, kept with a probability).
 //! O(rocks × footprint cells).
 
-use super::{Heightfield, hash_unit};
+use super::heightfield::Heightfield;
+use super::noise::hash_unit;
+use super::world_spec::RockSpec;
 use crate::math;
 
 /// One rock: a vertical cylinder standing on the terrain.
@@ -14,20 +16,11 @@ pub struct Rock {
     pub height_m: f64,
 }
 
-/// Scatters rocks over the heightfield: one candidate per `spacing_m` lattice cell, kept with
-/// probability `density`, radius in [r_min, r_max], height in [h_min, h_max]; rocks within
-/// `keep_clear_m` of `clear_xy` are skipped (the robot's start). Returns the rocks placed.
-#[allow(clippy::too_many_arguments)]
-pub fn scatter_rocks(
-    field: &mut Heightfield,
-    seed: u64,
-    spacing_m: f64,
-    density: f64,
-    radius_range_m: (f64, f64),
-    height_range_m: (f64, f64),
-    clear_xy: (f64, f64),
-    keep_clear_m: f64,
-) -> Vec<Rock> {
+/// Scatters rocks over the heightfield as `spec` says: one candidate per `spacing_m` lattice
+/// cell, kept with probability `density`, radius and height drawn in their ranges; rocks within
+/// `keep_clear_m` of `clear_xy` (the robot's start) are skipped. Returns the rocks placed.
+pub fn scatter_rocks(field: &mut Heightfield, seed: u64, spec: &RockSpec, clear_xy: (f64, f64)) -> Vec<Rock> {
+    let RockSpec { spacing_m, density, radius_m: radius_range_m, height_m: height_range_m, keep_clear_m } = *spec;
     let (min_x, min_y, max_x, max_y) = field.geometry.bounds_m();
     let nx = ((max_x - min_x) / spacing_m).floor() as i64;
     let ny = ((max_y - min_y) / spacing_m).floor() as i64;
@@ -39,8 +32,8 @@ pub fn scatter_rocks(
             }
             let x = min_x + (i as f64 + hash_unit(i, j, seed ^ 1)) * spacing_m;
             let y = min_y + (j as f64 + hash_unit(i, j, seed ^ 2)) * spacing_m;
-            let r = radius_range_m.0 + (radius_range_m.1 - radius_range_m.0) * hash_unit(i, j, seed ^ 3);
-            let h = height_range_m.0 + (height_range_m.1 - height_range_m.0) * hash_unit(i, j, seed ^ 4);
+            let r = radius_range_m[0] + (radius_range_m[1] - radius_range_m[0]) * hash_unit(i, j, seed ^ 3);
+            let h = height_range_m[0] + (height_range_m[1] - height_range_m[0]) * hash_unit(i, j, seed ^ 4);
             if math::hypot(x - clear_xy.0, y - clear_xy.1) < keep_clear_m + r {
                 continue;
             }

@@ -7,7 +7,7 @@ use super::odometry::OdometryNoise;
 use super::robot::DriveParams;
 use super::vision::VisionParams;
 use crate::explore::{EXPLORE_KEYS, ExploreParams};
-use crate::params::{InvalidParam, Num, ParamsError, check_non_negative as nonneg, check_positive as pos};
+use crate::params::{InvalidParam, Num, ParamsError, Valid, Validate, check_non_negative as nonneg, check_positive as pos};
 use crate::slam::keyframes::SlamParams;
 use serde::{Deserialize, Serialize};
 
@@ -102,7 +102,7 @@ impl MissionParams {
     /// values at every depth, [`crate::params::from_toml_over_default`]) and validates; `name` is
     /// quoted in errors, with the line of a TOML error. A key of [`ExploreParams`] at the top
     /// level (where it was before the `[explore]` table) is named with where it moved.
-    pub fn from_toml(text: &str, name: &str) -> Result<Self, ParamsError> {
+    pub fn from_toml(text: &str, name: &str) -> Result<Valid<Self>, ParamsError> {
         let text = crate::io::without_bom_str(text);
         if let Ok(table) = toml::from_str::<toml::Table>(text)
             && let Some(key) = EXPLORE_KEYS.iter().find(|k| table.contains_key(**k))
@@ -110,13 +110,21 @@ impl MissionParams {
             return Err(ParamsError::Moved { source_name: name.into(), key: (*key).into(), moved_to: format!("[explore] {key}") });
         }
         let p: Self = crate::params::from_toml_over_default(text).map_err(|e| ParamsError::toml(text, name, &e))?;
-        p.validate().map_err(|error| ParamsError::Invalid { source_name: name.into(), error })?;
-        Ok(p)
+        Valid::new(p).map_err(|error| ParamsError::Invalid { source_name: name.into(), error })
     }
+}
 
+impl Valid<MissionParams> {
+    /// The exploration policy's part (valid as part of a valid whole).
+    pub fn explore(&self) -> Valid<ExploreParams> {
+        Valid::part_of_valid(self.explore.clone())
+    }
+}
+
+impl Validate for MissionParams {
     /// Checks every numeric field, nested ones included: finite and in its documented range;
     /// the error names the first bad field by its key path (`odometry.gyro_sigma_per_sqrt_s`).
-    pub fn validate(&self) -> Result<(), InvalidParam> {
+    fn validate(&self) -> Result<(), InvalidParam> {
         use std::f64::consts::{FRAC_PI_2, PI, TAU};
         fn at_most(name: &str, v: f64, max: f64, unit: &str) -> Result<(), InvalidParam> {
             if v <= max { Ok(()) } else { Err(InvalidParam::new(name, format!("must be ≤ {max}{unit} (got {})", Num(v)))) }
@@ -186,7 +194,7 @@ impl MissionParams {
         if let Some(t) = self.time_limit_s {
             pos("time_limit_s", t)?;
         }
-        self.explore.validate("explore.")?;
+        self.explore.validate().map_err(|e| e.under("explore."))?;
         self.vision.validate()?;
         self.slam.validate()
     }

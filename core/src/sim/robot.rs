@@ -5,7 +5,7 @@
 //! terrain under the body. O(path vertices) per step (the carrot search starts at the last
 //! vertex reached).
 
-use super::Heightfield;
+use super::heightfield::Heightfield;
 use crate::math;
 use crate::pose::{Pose2, wrap_pi};
 use nalgebra::{Point3, Rotation3};

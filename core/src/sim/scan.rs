@@ -4,7 +4,8 @@
 //! stand-in for a registered LiDAR sweep, used to build assets and maps.
 //! O(points in range × range / step).
 
-use super::{Heightfield, hash_unit};
+use super::heightfield::Heightfield;
+use super::noise::hash_unit;
 use crate::math;
 use nalgebra::Point3;
 

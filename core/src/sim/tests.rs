@@ -4,7 +4,11 @@ use super::mission::{Mission, StepOutcome};
 use super::world::{World, WorldSpec};
 use super::{EndReason, Localisation, MissionParams};
 use crate::explore::ExploreParams;
-use crate::params::{Params, Strategy};
+use crate::params::{Params, Strategy, Valid, Validate};
+
+fn valid<T: Validate>(value: T) -> Valid<T> {
+    Valid::new(value).unwrap()
+}
 
 const TINY: &str = include_str!("../../../assets/worlds/tiny_test.toml");
 
@@ -94,7 +98,7 @@ fn a_body_overhanging_a_ledge_is_a_violation_and_the_bumper_stops_it() {
     let world = limits_world(&params, "pit_ledge_16m.toml");
     let run = |safety_stop: bool| {
         let mp = MissionParams { safety_stop, time_limit_s: Some(70.0), ..MissionParams::default() };
-        Mission::new(world.clone(), params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
+        Mission::new(world.clone(), valid(params.clone()), valid(mp), Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
     };
     let s = run(true);
     assert!(s.safety_stops >= 1 && s.gt_violations == 0, "{s:?}");
@@ -177,13 +181,13 @@ fn a_malformed_simulator_file_is_an_error_naming_the_file_and_line() {
 fn simulator_settings_left_out_keep_the_defaults_at_every_depth() {
     let defaults = MissionParams::default();
     let restated = MissionParams::from_toml("[slam.graph]\nwindow_keyframes = 10\n", "sim.toml").unwrap();
-    assert_eq!(restated, defaults);
+    assert_eq!(*restated, defaults);
     let one = MissionParams::from_toml("[slam.graph.optimizer]\nfactorisation = \"reproducible\"\n", "sim.toml").unwrap();
     let mut expected = defaults.clone();
     expected.slam.graph.optimizer.factorisation = crate::slam::Factorisation::Reproducible;
-    assert_eq!(one, expected);
+    assert_eq!(*one, expected);
     let whole = toml::to_string(&defaults).unwrap();
-    assert_eq!(MissionParams::from_toml(&whole, "sim.toml").unwrap(), defaults);
+    assert_eq!(*MissionParams::from_toml(&whole, "sim.toml").unwrap(), defaults);
 }
 
 proptest::proptest! {
@@ -244,7 +248,7 @@ fn tiny_mission(strategy: Strategy, seed: u64, safety_stop: bool, time_limit_s: 
     let params = Params::default();
     let world = tiny_world(&params);
     let mp = MissionParams { safety_stop, time_limit_s: Some(time_limit_s), ..MissionParams::default() };
-    Mission::new(world, params, mp, strategy, seed, Localisation::GroundTruth).unwrap()
+    Mission::new(world, valid(params), valid(mp), strategy, seed, Localisation::GroundTruth).unwrap()
 }
 
 /// Steps `m` to its end and returns how many goals it set that lie within the blacklist radius
@@ -281,7 +285,7 @@ fn no_goal_is_set_where_the_robot_already_reached_one() {
     for strategy in [Strategy::Fit, Strategy::Greedy] {
         for seed in 1..=2 {
             let mp = MissionParams { time_limit_s: Some(1000.0), ..MissionParams::default() };
-            let mut m = Mission::new(world.clone(), params.clone(), mp, strategy, seed, Localisation::GroundTruth).unwrap();
+            let mut m = Mission::new(world.clone(), valid(params.clone()), valid(mp), strategy, seed, Localisation::GroundTruth).unwrap();
             let (near, n) = goals_near_reached_ones(&mut m);
             assert_eq!(near, 0, "{strategy:?} seed {seed}");
             reached += n;
@@ -368,7 +372,7 @@ fn driven_paths_end_short_of_unknown_ground_by_the_position_uncertainty() {
     // Dead reckoning: the margin grows with the covariance and paths are cut.
     let params = Params::default();
     let mp = MissionParams { time_limit_s: Some(120.0), ..MissionParams::default() };
-    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 2, Localisation::Odometry).unwrap();
+    let mut m = Mission::new(tiny_world(&params), valid(params), valid(mp), Strategy::Greedy, 2, Localisation::Odometry).unwrap();
     let (paths, cut) = check_setbacks(&mut m);
     assert!(paths >= 3 && cut >= 1, "{paths} {cut}");
 }
@@ -379,7 +383,7 @@ fn same_seed_same_metrics_and_other_seed_other_noise() {
         let params = Params::default();
         let world = tiny_world(&params);
         let mp = MissionParams { time_limit_s: Some(60.0), ..MissionParams::default() };
-        let mut m = Mission::new(world, params, mp, Strategy::Random, seed, Localisation::Odometry).unwrap();
+        let mut m = Mission::new(world, valid(params), valid(mp), Strategy::Random, seed, Localisation::Odometry).unwrap();
         m.run();
         (crate::sim::metrics_csv(m.rows()), crate::sim::tum(m.trajectory_est()))
     };
@@ -395,7 +399,7 @@ fn odometry_localisation_drifts_and_its_covariance_grows() {
     let params = Params::default();
     let world = tiny_world(&params);
     let mp = MissionParams { time_limit_s: Some(60.0), ..MissionParams::default() };
-    let mut m = Mission::new(world, params, mp, Strategy::Greedy, 2, Localisation::Odometry).unwrap();
+    let mut m = Mission::new(world, valid(params), valid(mp), Strategy::Greedy, 2, Localisation::Odometry).unwrap();
     m.run();
     let last = m.rows().last().unwrap();
     assert!(last.cov_trace > 0.0 && last.pos_cov_trace > 0.0 && last.rot_cov_trace > 0.0);
@@ -409,7 +413,7 @@ fn tiny_slam_mission(seed: u64, time_limit_s: f64) -> Mission {
     let params = Params::default();
     let world = tiny_world(&params);
     let mp = MissionParams { time_limit_s: Some(time_limit_s), ..MissionParams::default() };
-    Mission::new(world, params, mp, Strategy::Fit, seed, Localisation::Slam).unwrap()
+    Mission::new(world, valid(params), valid(mp), Strategy::Fit, seed, Localisation::Slam).unwrap()
 }
 
 #[test]
@@ -478,13 +482,14 @@ fn a_robot_that_cannot_plan_ends_the_mission_as_stuck() {
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
     let explore = ExploreParams { max_failed_decisions: 3, clear_footprint: false, ..ExploreParams::default() };
     let mission = MissionParams { explore: explore.clone(), ..MissionParams::default() };
-    let mut m = Mission::new(world.clone(), params.clone(), mission.clone(), Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
+    let mut m =
+        Mission::new(world.clone(), valid(params.clone()), valid(mission.clone()), Strategy::Fit, 1, Localisation::GroundTruth).unwrap();
     let s = m.run();
     assert_eq!(s.end_reason, Some(EndReason::Stuck), "{s:?}");
     assert_eq!(s.planning_errors, 3);
     assert!(s.time_s < 60.0 && s.gt_violations == 0, "{s:?}");
     let cleared = MissionParams { explore: ExploreParams { clear_footprint: true, ..explore }, time_limit_s: Some(60.0), ..mission };
-    let s = Mission::new(world, params, cleared, Strategy::Fit, 1, Localisation::GroundTruth).unwrap().run();
+    let s = Mission::new(world, valid(params), valid(cleared), Strategy::Fit, 1, Localisation::GroundTruth).unwrap().run();
     assert_eq!((s.planning_errors, s.gt_violations), (0, 0), "{s:?}");
     assert_ne!(s.end_reason, Some(EndReason::Stuck));
 }
@@ -529,7 +534,7 @@ fn run_in_a_planted_ring(trap_recoveries: u32, localisation: Localisation) -> (s
     let params = Params::default();
     let explore = ExploreParams { trap_recoveries, ..ExploreParams::default() };
     let mp = MissionParams { explore, time_limit_s: Some(300.0), ..MissionParams::default() };
-    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Fit, 1, localisation).unwrap();
+    let mut m = Mission::new(tiny_world(&params), valid(params), valid(mp), Strategy::Fit, 1, localisation).unwrap();
     let (x0, y0) = (m.true_pose().x_m, m.true_pose().y_m);
     let z = m.world().field.height_at(x0, y0).unwrap() + 0.4;
     let pts = (0..3000).map(|k| {
@@ -564,7 +569,7 @@ fn a_robot_not_blocked_plans_on_its_map_as_it_is() {
     let spec = WorldSpec::from_toml(&TINY.replace("start = [1.0, 1.0, 0.0]", "start = [2.05, 2.6, 0.0]"), "w.toml").unwrap();
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |n| Err(format!("no file {n}"))).unwrap();
     let mp = MissionParams { time_limit_s: Some(120.0), ..MissionParams::default() };
-    let mut m = Mission::new(world, params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
+    let mut m = Mission::new(world, valid(params.clone()), valid(mp), Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
     while m.driven_path_m().is_empty() {
         assert!(matches!(m.step(), StepOutcome::Running));
     }
@@ -593,7 +598,7 @@ fn run_in_a_ring_open_on_the_trail(reuse_trail: bool) -> (super::Summary, usize)
     let params = Params::default();
     let explore = ExploreParams { reuse_trail, trap_recoveries: 0, ..ExploreParams::default() };
     let mp = MissionParams { explore, time_limit_s: Some(300.0), ..MissionParams::default() };
-    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
+    let mut m = Mission::new(tiny_world(&params), valid(params), valid(mp), Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
     let (xs, ys) = (m.true_pose().x_m, m.true_pose().y_m);
     while (m.true_pose().x_m - xs).hypot(m.true_pose().y_m - ys) < 1.5 {
         assert!(matches!(m.step(), StepOutcome::Running));
@@ -667,7 +672,7 @@ fn a_doorway_the_full_inflation_shuts_is_passed_with_a_tight_one() {
     let run = |door_m: f64, tight_inflations_m: Vec<f64>| {
         let mp = MissionParams { explore: ExploreParams { tight_inflations_m, ..ExploreParams::default() }, ..MissionParams::default() };
         let world = two_rooms(&params, door_m);
-        Mission::new(world, params.clone(), mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
+        Mission::new(world, valid(params.clone()), valid(mp), Strategy::Greedy, 1, Localisation::GroundTruth).unwrap().run()
     };
     let passed = |s: &super::Summary| {
         assert_eq!(s.end_reason, Some(EndReason::NoFrontier), "{s:?}");
@@ -808,7 +813,7 @@ fn every_simulator_setting_out_of_range_is_an_error_naming_its_key() {
 fn a_mission_runs_with_the_depth_camera_off() {
     let params = Params::default();
     let mp = MissionParams { depth_rays: [0, 0], time_limit_s: Some(5.0), ..MissionParams::default() };
-    let mut m = Mission::new(tiny_world(&params), params, mp, Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
+    let mut m = Mission::new(tiny_world(&params), valid(params), valid(mp), Strategy::Greedy, 1, Localisation::GroundTruth).unwrap();
     let s = m.run();
     assert!(s.scans >= 1 && s.unexplored_pct.is_finite() && s.unexplored_pct < 100.0, "{s:?}");
 }

@@ -19,7 +19,8 @@
 //!
 //! Cost per frame: O(landmarks in view · log) plus the frustum's candidates for the outliers.
 
-use super::{Heightfield, hash_unit};
+use super::heightfield::Heightfield;
+use super::noise::hash_unit;
 use crate::math;
 use crate::params::{CameraParams, InvalidParam, check_non_negative, check_positive};
 use crate::slam::keyframes::CameraObservation;

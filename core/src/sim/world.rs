@@ -16,7 +16,10 @@
 
 #![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
 
-use super::{DemScaling, Heightfield, Rock, fractal_noise, scatter_landmarks, scatter_rocks};
+use super::heightfield::{DemScaling, Heightfield};
+use super::landmarks::scatter_landmarks;
+use super::noise::fractal_noise;
+use super::obstacles::{Rock, scatter_rocks};
 use crate::frontier::Boundary;
 use crate::grid::{Cell, FREE, GridGeometry, LETHAL, OccupancyGrid};
 use crate::math;
@@ -68,15 +71,16 @@ pub struct World {
 pub const START_CLEARANCE_M: f64 = 0.25;
 
 impl World {
-    /// Builds a world; `load(name)` returns the bytes of a file the spec names.
-    pub fn build(
+    /// Builds a world; `load(name)` returns the bytes of a file the spec names (its error is
+    /// quoted in [`WorldError::Load`]).
+    pub fn build<E: std::fmt::Display>(
         spec: &WorldSpec,
         traversability: &TraversabilityParams,
         tau: f64,
-        mut load: impl FnMut(&str) -> Result<Vec<u8>, String>,
+        mut load: impl FnMut(&str) -> Result<Vec<u8>, E>,
     ) -> Result<Self, WorldError> {
         spec.validate()?;
-        let mut fetch = |name: &str| load(name).map_err(|message| WorldError::Load { name: name.into(), message });
+        let mut fetch = |name: &str| load(name).map_err(|e| WorldError::Load { name: name.into(), message: e.to_string() });
         let mut field = match &spec.terrain {
             TerrainSpec::Procedural {
                 seed,
@@ -145,16 +149,7 @@ impl World {
             check_covers_cells(&format!("ramps[{i}]"), &field.geometry, r.min_m, r.max_m, cells)?;
         }
         let rocks = match &spec.rocks {
-            Some(r) => scatter_rocks(
-                &mut field,
-                spec.seed,
-                r.spacing_m,
-                r.density,
-                (r.radius_m[0], r.radius_m[1]),
-                (r.height_m[0], r.height_m[1]),
-                start_xy,
-                r.keep_clear_m,
-            ),
+            Some(r) => scatter_rocks(&mut field, spec.seed, r, start_xy),
             None => Vec::new(),
         };
         let rock_side_landmarks: f64 =

@@ -10,12 +10,12 @@
 //! Cost: O(1) per motion step; per scan O(rays × march); per camera frame O(landmarks in the
 //! frustum's buckets).
 
-use super::World;
-use super::camera::{CameraObservation, LandmarkIndex, depth_ground_hits, observe_landmarks};
+use super::camera::{CameraObservation, CameraPose, LandmarkIndex, LandmarkScene, depth_ground_hits, observe_landmarks};
 use super::lidar::{RayCaster, gaussian, scan};
 use super::params::MissionParams;
 use super::robot::{Twist, body_on_terrain, footprint_points, integrate};
 use super::vision::{FrameCounts, FrameView, landmark_normals, select_features};
+use super::world::World;
 use crate::params::{CameraParams, Params};
 use crate::pose::{Pose2, wrap_pi};
 use crate::slam::Se3;
@@ -217,13 +217,10 @@ impl WorldSim {
     pub fn observe_landmarks(&mut self) -> &[CameraObservation] {
         let (gp, gr) = self.body_pose();
         let cam = gp + gr * Vector3::new(0.0, 0.0, self.camera_height_m);
+        let scene = LandmarkScene { field: &self.world.field, landmarks: &self.world.landmarks, index: &self.landmark_index };
         observe_landmarks(
-            &self.world.field,
-            &self.world.landmarks,
-            &self.landmark_index,
-            cam,
-            gp,
-            &gr,
+            &scene,
+            &CameraPose { camera_m: cam, body_m: gp, world_from_body: gr },
             &self.camera,
             &self.sensors.camera_noise,
             &mut self.rng,

@@ -3,7 +3,8 @@
 
 #![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
 
-use super::{HeightfieldError, LandmarkDensity};
+use super::heightfield::HeightfieldError;
+use super::landmarks::LandmarkDensity;
 use crate::grid::GridGeometry;
 use crate::io::MapError;
 use crate::params::{InvalidParam, Num};

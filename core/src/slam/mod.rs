@@ -37,9 +37,11 @@
 //! | [`marginals`] | marginal covariances by solving `H X = E` |
 //! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
 //! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
-//! | [`graph_slam`] | keyframe graph SLAM back end: incremental (iSAM2) or batch (sliding window + full), covariances |
+//! | [`backend`] | `SlamBackend`: what the simulator and the robot ask of a SLAM back end (keyframes in; poses, landmarks, covariances out) |
+//! | [`graph_slam`] | `GraphSlam`, the keyframe graph SLAM back end: incremental (iSAM2) or batch (sliding window + full), covariances |
 //! | [`keyframes`] | keyframe SLAM front end: odometry in SE(3), landmark and gravity factors, keyframe clouds and re-registration |
 
+pub mod backend;
 pub mod factors;
 pub mod g2o;
 pub mod graph;
@@ -56,12 +58,10 @@ mod real_data_tests;
 pub mod values;
 pub mod victoria;
 
+pub use backend::{CovarianceTraces, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
 pub use factors::{Factor, FactorError, GaussianNoise, RobustKernel, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
-pub use graph_slam::{
-    ANCHOR_SIGMA, CovarianceTraces, GraphSlam, GraphSlamParams, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry,
-    SlamBackend, SlamError, SlamSolver,
-};
+pub use graph_slam::{ANCHOR_SIGMA, GraphSlam, GraphSlamParams, SlamSolver};
 pub use incremental::{G2oReplay, IncrementalError, Isam2, Isam2Params, ReplayError, UpdateReport};
 pub use lie::{Se2, Se3};
 pub use linear_system::Factorisation;

@@ -23,7 +23,9 @@ pub use fim::{bearing_jacobian, information_matrix, trace_information, trace_inf
 pub use rays::{RayFan, ray_count};
 pub use theta_star::{FovWindows, ThetaStar, theta_star};
 pub use u1::u1_scores;
-pub use u2::{Frustum, Waypoint, WaypointReport, camera_pose, normalise_path_information, path_information, u2_score, waypoints_along};
+pub use u2::{
+    Frustum, PathView, Waypoint, WaypointReport, camera_pose, normalise_path_information, path_information, u2_score, waypoints_along,
+};
 pub use voxels::LandmarkVoxels;
 
 use thiserror::Error;

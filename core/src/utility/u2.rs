@@ -282,31 +282,37 @@ fn hidden_by_ground(ground: &GroundModel, cam: &Vector3<f64>, d: &Vector3<f64>) 
     false
 }
 
+/// How u2 looks along a path (module doc): what there is to see, the camera, where it stands.
+#[derive(Clone, Copy, Debug)]
+pub struct PathView<'a> {
+    /// The mapped landmarks.
+    pub voxels: &'a LandmarkVoxels,
+    pub camera: &'a CameraParams,
+    /// Height of the camera above the ground, metres.
+    pub camera_height_m: f64,
+    pub ground: CameraGround<'a>,
+    /// Waypoint spacing d_max, metres.
+    pub spacing_m: f64,
+    /// σ of a landmark bearing, radians (eq. 10).
+    pub sigma_bearing_rad: f64,
+}
+
 /// `I_p = Σ_k I_{w_k}` along `path_m` (map frame, metres; from the robot's cell to the candidate),
-/// with the goal's yaw `goal_yaw_rad` (Θ*), cameras `camera_height_m` above `ground`. Writes one
-/// report per waypoint into `out` (cleared) and returns `I_p`.
-#[allow(clippy::too_many_arguments)]
-pub fn path_information(
-    path_m: &[[f64; 2]],
-    goal_yaw_rad: f64,
-    voxels: &LandmarkVoxels,
-    spacing_m: f64,
-    camera: &CameraParams,
-    camera_height_m: f64,
-    ground: &CameraGround,
-    sigma_bearing_rad: f64,
-    out: &mut Vec<WaypointReport>,
-) -> f64 {
+/// with the goal's yaw `goal_yaw_rad` (Θ*), seen as `view` says. Writes one report per waypoint
+/// into `out` (cleared) and returns `I_p`.
+pub fn path_information(path_m: &[[f64; 2]], goal_yaw_rad: f64, view: &PathView, out: &mut Vec<WaypointReport>) -> f64 {
     out.clear();
     let mut wps = Vec::new();
-    waypoints_along(path_m, spacing_m, goal_yaw_rad, &mut wps);
-    let frustum = Frustum::from_params(camera);
+    waypoints_along(path_m, view.spacing_m, goal_yaw_rad, &mut wps);
+    let frustum = Frustum::from_params(view.camera);
+    let ground = &view.ground;
     let occluder = ground.known.as_ref().filter(|_| ground.occlusion);
     let mut total = 0.0;
     for w in &wps {
         let (body, world_from_body) = ground.body_at(w.x_m, w.y_m, w.yaw_rad);
-        let cam = body + world_from_body * Vector3::new(0.0, 0.0, camera_height_m);
-        let (voxels_seen, info) = waypoint_information(voxels, cam.coords.into(), &world_from_body, &frustum, sigma_bearing_rad, occluder);
+        let cam = body + world_from_body * Vector3::new(0.0, 0.0, view.camera_height_m);
+        let (voxels_seen, info) =
+            waypoint_information(view.voxels, cam.coords.into(), &world_from_body, &frustum, view.sigma_bearing_rad, occluder);
         total += info;
         out.push(WaypointReport {
             x_m: w.x_m,
@@ -521,7 +527,15 @@ mod tests {
         let path: Vec<[f64; 2]> = (0..=60).map(|k| [k as f64 * 0.1, 0.0]).collect();
         let mut rep = Vec::new();
         let cam = CameraParams::default();
-        let ip = path_information(&path, 0.0, &v, 3.0, &cam, 0.2, &CameraGround::flat(0.0), 0.01, &mut rep);
+        let view = PathView {
+            voxels: &v,
+            camera: &cam,
+            camera_height_m: 0.2,
+            ground: CameraGround::flat(0.0),
+            spacing_m: 3.0,
+            sigma_bearing_rad: 0.01,
+        };
+        let ip = path_information(&path, 0.0, &view, &mut rep);
         assert_eq!(rep.len(), 2); // s = 3 and the goal at 6
         let sum: f64 = rep.iter().map(|r| r.info).sum();
         assert_eq!(ip, sum);

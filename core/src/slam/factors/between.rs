@@ -17,8 +17,7 @@
 
 use nalgebra::Matrix2;
 
-use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, Se2Residual, fetch};
-use crate::slam::g2o::G2oEdge;
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Measurement, Residual, Se2Residual, fetch};
 use crate::slam::lie::{Se2, Se3, se2_right_jacobian_inv, se3_right_jacobian_inv};
 use crate::slam::values::{Values, VarId};
 
@@ -128,10 +127,9 @@ impl Factor for BetweenSe3 {
         &self.noise
     }
 
-    fn g2o_edge(&self) -> Option<G2oEdge> {
-        let [from, to] = self.keys.map(|k| k.0 as u64);
-        let information = self.noise.information();
-        Some(G2oEdge::Se3 { from, to, measurement: self.measured, information })
+    fn measurement(&self) -> Option<Measurement> {
+        let [from, to] = self.keys;
+        Some(Measurement::Se3Between { from, to, z: self.measured, information: self.noise.information() })
     }
 
     fn error(&self, values: &Values) -> Result<Residual, FactorError> {

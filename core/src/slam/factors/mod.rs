@@ -23,10 +23,10 @@ pub use noise::{GaussianNoise, NoiseError, RobustKernel};
 pub use point_observation::{PointObservation2, PointObservation3};
 pub use prior::{PriorSe2, PriorSe3};
 
-use nalgebra::{Matrix6, Vector6};
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 use thiserror::Error;
 
-use super::g2o::G2oEdge;
+use super::lie::Se3;
 use super::values::{Values, VarId};
 
 /// How an SE(2) pose difference `D = a⁻¹ b` becomes a residual.
@@ -82,12 +82,24 @@ pub trait Factor: core::fmt::Debug + Send + Sync {
         Ok(self.noise().chi2(&self.error(values)?))
     }
 
-    /// This factor as a g2o edge whose vertex ids are its keys' indices (`VarId.0`), for the
-    /// kinds g2o has a tag for; `None` for the others (priors, gravity). The robust kernel has
-    /// no g2o form and is left out.
-    fn g2o_edge(&self) -> Option<G2oEdge> {
+    /// What this factor measures between its two variables, in terms any graph format can
+    /// write ([`Measurement`]); `None` for unary factors (priors, gravity). The robust kernel is
+    /// not part of it.
+    fn measurement(&self) -> Option<Measurement> {
         None
     }
+}
+
+/// A binary factor's measurement and its information Ω (the inverse covariance, in the factor's
+/// tangent order), for exporters such as [`super::g2o`].
+// Made one at a time while a graph is written; boxing the 6×6 would cost an allocation each.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Measurement {
+    /// Relative pose `z ≈ x_from⁻¹ x_to`; Ω over (δt, δφ).
+    Se3Between { from: VarId, to: VarId, z: Se3, information: Matrix6<f64> },
+    /// The point `point` seen from the pose `pose`, in the pose's frame.
+    Point3InSe3 { pose: VarId, point: VarId, point_in_pose: Vector3<f64>, information: Matrix3<f64> },
 }
 
 /// Looks up a variable of a given kind, with the factor errors.

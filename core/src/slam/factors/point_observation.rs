@@ -8,8 +8,7 @@
 
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 
-use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Residual, fetch};
-use crate::slam::g2o::G2oEdge;
+use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Measurement, Residual, fetch};
 use crate::slam::lie::hat;
 use crate::slam::values::{Values, VarId};
 
@@ -40,11 +39,10 @@ impl Factor for PointObservation3 {
         &self.noise
     }
 
-    /// `EDGE_SE3_TRACKXYZ` through sensor offset 0, which must be the identity.
-    fn g2o_edge(&self) -> Option<G2oEdge> {
-        let [from, to] = self.keys.map(|k| k.0 as u64);
+    fn measurement(&self) -> Option<Measurement> {
+        let [pose, point] = self.keys;
         let information = self.noise.information().fixed_view::<3, 3>(0, 0).into_owned();
-        Some(G2oEdge::Se3Point3 { from, to, offset: 0, measurement: self.point_in_robot, information })
+        Some(Measurement::Point3InSe3 { pose, point, point_in_pose: self.point_in_robot, information })
     }
 
     fn error(&self, values: &Values) -> Result<Residual, FactorError> {

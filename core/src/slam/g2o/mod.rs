@@ -28,7 +28,7 @@ use std::fmt::Write as _;
 use nalgebra::{Matrix2, Matrix3, Matrix6, Quaternion, SMatrix, UnitQuaternion, Vector2, Vector3};
 use thiserror::Error;
 
-use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, NoiseError, PointObservation2, PointObservation3, Se2Residual};
+use super::factors::{BetweenSe2, BetweenSe3, GaussianNoise, Measurement, NoiseError, PointObservation2, PointObservation3, Se2Residual};
 use super::lie::{Se2, Se3};
 use super::problem::{Gauge, GaugeError, Problem};
 use super::values::{Values, VarId, Variable};
@@ -119,15 +119,18 @@ impl G2oEdge {
         }
     }
 
-    /// The same edge between vertices `id(from)` and `id(to)`.
-    pub fn renumbered(mut self, id: impl Fn(u64) -> u64) -> Self {
-        match &mut self {
-            G2oEdge::Se2 { from, to, .. }
-            | G2oEdge::Se3 { from, to, .. }
-            | G2oEdge::Se2Point2 { from, to, .. }
-            | G2oEdge::Se3Point3 { from, to, .. } => (*from, *to) = (id(*from), id(*to)),
+    /// The edge of a factor's measurement, its variables numbered `id(var)`: a relative pose as
+    /// `EDGE_SE3:QUAT`, a point seen from a pose as `EDGE_SE3_TRACKXYZ` through sensor offset 0
+    /// (which a file must hold as the identity).
+    pub fn of_measurement(m: &Measurement, id: impl Fn(VarId) -> u64) -> Self {
+        match *m {
+            Measurement::Se3Between { from, to, z, information } => {
+                G2oEdge::Se3 { from: id(from), to: id(to), measurement: z, information }
+            }
+            Measurement::Point3InSe3 { pose, point, point_in_pose, information } => {
+                G2oEdge::Se3Point3 { from: id(pose), to: id(point), offset: 0, measurement: point_in_pose, information }
+            }
         }
-        self
     }
 }
 
