@@ -6,9 +6,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
 
+use fitslam_core::Params;
 use fitslam_core::bag::{Bag, BagTopics};
 use fitslam_core::explore::{Action, Explorer, Situation};
-use fitslam_core::Params;
 use fitslam_core::params::Valid;
 use fitslam_core::utility::LandmarkVoxels;
 use std::path::PathBuf;
@@ -65,14 +65,18 @@ fn select_on_a_recorded_mission_answers_as_the_explorer_at_every_decision_instan
         let mut explorer = Explorer::new(Valid::default(), params);
         let traced = explorer.decide_traced(&mut snap.map.clone(), &Situation::one_off(&voxels, snap.robot, None));
         // The command line at the same instant.
-        let o = Command::new(BIN).args(["select", "--bag", bag_path.to_str().unwrap(), "--at", &t_s.to_string(), "--json"]).output().unwrap();
+        let o =
+            Command::new(BIN).args(["select", "--bag", bag_path.to_str().unwrap(), "--at", &t_s.to_string(), "--json"]).output().unwrap();
         assert!(o.status.success(), "at {t_s}: {}", String::from_utf8_lossy(&o.stderr));
         let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         assert_eq!(json["action"]["kind"], action_kind(&traced.action), "at {t_s}");
         let shown = if json["action"]["kind"] == "goal" { json["action"]["goal"].clone() } else { serde_json::Value::Null };
         let (a, b) = (number_list(&shown), number_list(&action_goal(&traced.action)));
         // serde_json's reader may round a printed f64 by one ulp: equal to 1e-12.
-        assert!(a.len() == b.len() && a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-12), "at {t_s}: select shows {a:?}, the explorer {b:?}");
+        assert!(
+            a.len() == b.len() && a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-12),
+            "at {t_s}: select shows {a:?}, the explorer {b:?}"
+        );
         assert_eq!(json["attempts"].as_array().unwrap().len(), traced.attempts.len(), "at {t_s}");
         // The ranking shown is the one the explorer acted on.
         let ranked = traced.decision().map(|d| d.chosen);

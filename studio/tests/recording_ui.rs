@@ -194,10 +194,15 @@ fn a_broken_bag_gives_one_message_naming_it_and_keeps_the_scene() {
 fn at_every_instant_of_a_recorded_mission_the_view_shows_the_explorers_answer() {
     use fitslam_core::bag::record::MissionRecorder;
     use fitslam_core::sim::{Localisation, Mission, World, WorldSpec};
-    let spec = WorldSpec::from_toml(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/worlds/tiny_test.toml")).unwrap(), "tiny_test.toml").unwrap();
+    let spec = WorldSpec::from_toml(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/worlds/tiny_test.toml")).unwrap(),
+        "tiny_test.toml",
+    )
+    .unwrap();
     let params = Valid::<Params>::default();
     let world = World::build(&spec, &params.traversability, params.traversability.tau, |f| Err(format!("{f}: no files here"))).unwrap();
-    let mut mission = Mission::new(world, params, Valid::default(), fitslam_core::params::Strategy::Fit, 3, Localisation::GroundTruth).unwrap();
+    let mut mission =
+        Mission::new(world, params, Valid::default(), fitslam_core::params::Strategy::Fit, 3, Localisation::GroundTruth).unwrap();
     let mut recorder = MissionRecorder::new();
     while mission.end().is_none() {
         mission.step();

@@ -35,16 +35,7 @@ impl<'a> Situation<'a> {
     /// ground at z = 0, no position uncertainty, no goal to keep, a map the adapter cannot
     /// forget. What `fitslam select` and the studio show for a scene or a recorded instant.
     pub fn one_off(landmarks: &'a LandmarkVoxels, robot: Pose2, boundary: Option<&'a Boundary>) -> Self {
-        Self {
-            landmarks,
-            robot,
-            boundary,
-            ground_z_m: 0.0,
-            ground: None,
-            position_var_m2: 0.0,
-            replanning: false,
-            can_forget_map: false,
-        }
+        Self { landmarks, robot, boundary, ground_z_m: 0.0, ground: None, position_var_m2: 0.0, replanning: false, can_forget_map: false }
     }
 }
 

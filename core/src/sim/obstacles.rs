@@ -4,8 +4,8 @@
 
 use super::heightfield::Heightfield;
 use super::noise::hash_unit;
-use super::world_spec::RockSpec;
 use crate::math;
+use serde::{Deserialize, Serialize};
 
 /// One rock: a vertical cylinder standing on the terrain.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,6 +14,27 @@ pub struct Rock {
     pub y_m: f64,
     pub radius_m: f64,
     pub height_m: f64,
+}
+
+/// Rocks scattered on a lattice ([`scatter_rocks`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RockSpec {
+    /// Lattice spacing, metres, > 0.
+    pub spacing_m: f64,
+    /// Probability of a rock per lattice cell, in [0, 1].
+    pub density: f64,
+    /// Radius range [min, max], metres: 0 < min ≤ max ≤ half the terrain's shorter side.
+    pub radius_m: [f64; 2],
+    /// Height range [min, max], metres: 0 ≤ min ≤ max, finite.
+    pub height_m: [f64; 2],
+    /// No rock within this distance of the start, metres. Default 1.2.
+    #[serde(default = "default_keep_clear")]
+    pub keep_clear_m: f64,
+}
+
+fn default_keep_clear() -> f64 {
+    1.2
 }
 
 /// Scatters rocks over the heightfield as `spec` says: one candidate per `spacing_m` lattice

@@ -5,6 +5,7 @@
 
 use super::heightfield::HeightfieldError;
 use super::landmarks::LandmarkDensity;
+pub use super::obstacles::RockSpec;
 use crate::grid::GridGeometry;
 use crate::io::MapError;
 use crate::params::{InvalidParam, Num};
@@ -151,27 +152,6 @@ fn one_f() -> f64 {
 }
 fn default_wall_height() -> f64 {
     1.0
-}
-
-/// Rocks scattered on a lattice (see [`scatter_rocks`]).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RockSpec {
-    /// Lattice spacing, metres, > 0.
-    pub spacing_m: f64,
-    /// Probability of a rock per lattice cell, in [0, 1].
-    pub density: f64,
-    /// Radius range [min, max], metres: 0 < min ≤ max ≤ half the terrain's shorter side.
-    pub radius_m: [f64; 2],
-    /// Height range [min, max], metres: 0 ≤ min ≤ max, finite.
-    pub height_m: [f64; 2],
-    /// No rock within this distance of the start, metres. Default 1.2.
-    #[serde(default = "default_keep_clear")]
-    pub keep_clear_m: f64,
-}
-
-fn default_keep_clear() -> f64 {
-    1.2
 }
 
 /// An axis-aligned box (or wall) on the terrain: its top is `height_m` above the ground at its
