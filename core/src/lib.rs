@@ -20,8 +20,14 @@
 //! | [`slam`] | SE(3) factor graphs, batch and keyframe SLAM, marginals, g2o (notes §1) |
 //! | [`sim`] | the simulator: worlds, sensors, localisation, missions, metrics (notes §8) |
 //! | [`params`] | every parameter with the paper's defaults |
-//! | [`math`] | sin, cos, atan2… computed alike on every target (same seed, same run, native and wasm) |
+//! | `math` (internal) | sin, cos, atan2… computed alike on every target (same seed, same run, native and wasm) |
 //! | [`fixtures`] | shared fixture worlds (synthetic map + landmarks, corridor) for tests, benches, examples |
+//!
+//! The entry points are re-exported here: the parameters ([`Params`], checked once into
+//! [`Valid`]), one decision ([`make_selector`] → [`GoalSelector`] → [`Decision`]), the
+//! exploration policy every face runs ([`Explorer`]), whole simulated missions ([`Mission`] in a
+//! [`World`]), the loaders ([`load_map`], [`load_cloud`]; more in [`io`]), the SLAM solvers
+//! ([`GraphSlam`], [`Isam2`], [`LevenbergMarquardt`]) and recorded missions ([`Bag`]).
 
 // Tests compare against the platform's maths library on purpose (see math.rs).
 #![cfg_attr(test, allow(clippy::disallowed_methods))]
@@ -33,7 +39,7 @@ pub mod fixtures;
 pub mod frontier;
 pub mod grid;
 pub mod io;
-pub mod math;
+pub(crate) mod math;
 pub mod params;
 pub mod path;
 pub mod pose;
@@ -43,7 +49,14 @@ pub mod slam;
 pub mod traversability;
 pub mod utility;
 
+// The library's entry points (each documented with an example where it is defined).
+pub use bag::Bag;
 pub use cloud::PointCloud;
+pub use explore::{Action, ExploreParams, Explorer, Situation, TracedDecision};
 pub use grid::{Cell, Grid, GridGeometry, OccupancyGrid};
-pub use params::Params;
+pub use io::{load_cloud, load_map};
+pub use params::{Params, Valid};
 pub use pose::Pose2;
+pub use select::{Decision, DecisionInput, GoalSelector, make_selector};
+pub use sim::{Localisation, Mission, MissionParams, World, WorldSpec};
+pub use slam::{GraphSlam, Isam2, LevenbergMarquardt};

@@ -125,7 +125,7 @@ impl Explorer {
 
     /// The robot's centre drove from `from` to `to` (estimated poses, map frame): extends the
     /// trail (when `reuse_trail`; a new stroke where the estimate jumped since the last motion).
-    pub fn record_motion(&mut self, from: Pose2, to: Pose2) {
+    pub(crate) fn record_motion(&mut self, from: Pose2, to: Pose2) {
         if self.params.reuse_trail {
             self.trail.drove([from.x_m, from.y_m], [to.x_m, to.y_m]);
         }

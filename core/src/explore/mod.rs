@@ -14,10 +14,13 @@ pub mod explorer;
 pub mod params;
 pub mod trail;
 
-pub use action::{Action, ActiveGoal, EndReason, ExploreStats, Plan, Situation, WaitReason};
-pub use explorer::{Attempt, AttemptRecord, Explorer, TracedDecision};
-pub use params::{EXPLORE_KEYS, ExploreParams, MAX_TIGHT_INFLATIONS, check_tight_inflations};
-pub use trail::{MAX_TRAIL_STEP_M, Trail, segment_cells};
+pub use action::{Action, ActiveGoal, EndReason, Plan, Situation, WaitReason};
+
+pub use action::ExploreStats;
+pub use explorer::AttemptRecord;
+pub use explorer::{Attempt, Explorer, TracedDecision};
+pub use params::{EXPLORE_KEYS, ExploreParams};
+pub use trail::Trail;
 
 #[cfg(test)]
 mod tests;

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 /// Most radii in [`ExploreParams::tight_inflations_m`]: each is one more decision whenever a
 /// decision finds no goal.
-pub const MAX_TIGHT_INFLATIONS: usize = 8;
+pub(crate) const MAX_TIGHT_INFLATIONS: usize = 8;
 
 /// How the explorer chooses, keeps and retries goals (see [`super::Explorer`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -103,7 +103,7 @@ impl Validate for ExploreParams {
 
 /// `Ok` when `radii` (named `name`) is a valid [`ExploreParams::tight_inflations_m`]: at most
 /// [`MAX_TIGHT_INFLATIONS`], each finite and > 0, each smaller than the one before.
-pub fn check_tight_inflations(name: &str, radii: &[f64]) -> Result<(), InvalidParam> {
+pub(crate) fn check_tight_inflations(name: &str, radii: &[f64]) -> Result<(), InvalidParam> {
     if radii.len() > MAX_TIGHT_INFLATIONS {
         return Err(InvalidParam::new(name, format!("{} radii, over the limit of {MAX_TIGHT_INFLATIONS}", radii.len())));
     }

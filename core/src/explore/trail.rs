@@ -16,11 +16,11 @@ use crate::grid::{Cell, GridGeometry};
 use crate::math;
 
 /// Longest segment between two positions that is marked as driven, metres.
-pub const MAX_TRAIL_STEP_M: f64 = 0.25;
+pub(crate) const MAX_TRAIL_STEP_M: f64 = 0.25;
 
 /// Calls `visit` with the cells of the segment `from_m` → `to_m` on `g`, in order (a cell may
 /// come more than once; cells off the grid are skipped).
-pub fn segment_cells(g: &GridGeometry, from_m: [f64; 2], to_m: [f64; 2], mut visit: impl FnMut(Cell)) {
+pub(crate) fn segment_cells(g: &GridGeometry, from_m: [f64; 2], to_m: [f64; 2], mut visit: impl FnMut(Cell)) {
     let (dx, dy) = (to_m[0] - from_m[0], to_m[1] - from_m[1]);
     let d = math::hypot(dx, dy);
     let n = if d <= MAX_TRAIL_STEP_M { (2.0 * d / g.resolution_m).ceil() as usize } else { 0 };

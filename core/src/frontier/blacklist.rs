@@ -9,7 +9,9 @@
 //!
 //! O(E) per query for E entries (one per failed or selected goal: tens to hundreds per mission).
 
+#[cfg(test)]
 use super::FrontierCluster;
+#[cfg(test)]
 use crate::grid::{Cell, GridGeometry};
 use serde::{Deserialize, Serialize};
 
@@ -74,15 +76,16 @@ impl Blacklist {
         best.map(|(_, reason)| reason)
     }
 
+    #[cfg(test)]
     /// [`Self::contains`] at the centre of `cell`.
-    pub fn contains_cell(&self, geometry: &GridGeometry, cell: Cell) -> Option<BlacklistReason> {
+    pub(crate) fn contains_cell(&self, geometry: &GridGeometry, cell: Cell) -> Option<BlacklistReason> {
         let (x_m, y_m) = geometry.center_of(cell);
         self.contains(x_m, y_m)
     }
 
     /// Removes every entry added for `reason` (e.g. the `NoPath` ones once the map they were
     /// judged on is forgotten); returns how many. The others keep their order.
-    pub fn remove_reason(&mut self, reason: BlacklistReason) -> usize {
+    pub(crate) fn remove_reason(&mut self, reason: BlacklistReason) -> usize {
         let before = self.entries.len();
         self.entries.retain(|e| e.reason != reason);
         before - self.entries.len()
@@ -102,14 +105,16 @@ impl Blacklist {
     }
 }
 
+#[cfg(test)]
 /// The clusters whose candidate is not blacklisted, in their original order (cloned).
-pub fn filter_blacklisted(clusters: &[FrontierCluster], blacklist: &Blacklist, geometry: &GridGeometry) -> Vec<FrontierCluster> {
+pub(crate) fn filter_blacklisted(clusters: &[FrontierCluster], blacklist: &Blacklist, geometry: &GridGeometry) -> Vec<FrontierCluster> {
     clusters.iter().filter(|c| blacklist.contains_cell(geometry, c.candidate).is_none()).cloned().collect()
 }
 
+#[cfg(test)]
 /// Splits `clusters` into those whose candidate is allowed and those blacklisted, with the reason;
 /// both in their original order.
-pub fn partition_blacklisted(
+pub(crate) fn partition_blacklisted(
     clusters: Vec<FrontierCluster>,
     blacklist: &Blacklist,
     geometry: &GridGeometry,
@@ -125,9 +130,10 @@ pub fn partition_blacklisted(
     (allowed, rejected)
 }
 
+#[cfg(test)]
 /// End of mission: true when no cluster has a non-blacklisted candidate (including when there
 /// are no clusters at all).
-pub fn end_of_mission(clusters: &[FrontierCluster], blacklist: &Blacklist, geometry: &GridGeometry) -> bool {
+pub(crate) fn end_of_mission(clusters: &[FrontierCluster], blacklist: &Blacklist, geometry: &GridGeometry) -> bool {
     clusters.iter().all(|c| blacklist.contains_cell(geometry, c.candidate).is_some())
 }
 

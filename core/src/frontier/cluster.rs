@@ -52,7 +52,7 @@ const WAVED: u8 = 6;
 /// Lengths of the consecutive pieces a chain of `n` cells is split into with at most
 /// `max_cells` per piece (`max_cells == 0` is treated as 1): ⌈n / max⌉ pieces, the first
 /// `n mod k` one cell longer. Sums to `n`; empty for `n == 0`.
-pub fn split_lengths(n: usize, max_cells: usize) -> Vec<usize> {
+pub(crate) fn split_lengths(n: usize, max_cells: usize) -> Vec<usize> {
     if n == 0 {
         return Vec::new();
     }

@@ -17,7 +17,7 @@ use crate::params::Params;
 /// within `radius_m` of `robot`'s centre. The robot's own cell counts as reached whatever its
 /// value; a robot outside the grid reaches nothing (enclosed). A negative or NaN radius is
 /// never enclosing; one wider than the grid always is unless a reached cell lies beyond it.
-pub fn enclosed_within(grid: &OccupancyGrid, robot: Cell, radius_m: f64) -> bool {
+pub(crate) fn enclosed_within(grid: &OccupancyGrid, robot: Cell, radius_m: f64) -> bool {
     let g = &grid.geometry;
     if radius_m.is_nan() || radius_m < 0.0 {
         return false;
@@ -61,7 +61,7 @@ pub fn enclosed_within(grid: &OccupancyGrid, robot: Cell, radius_m: f64) -> bool
 /// How far around itself a robot walled in within `trapped_radius_m` forgets its map to recover
 /// (a clear-costmap recovery), metres: the pocket, plus the robot's radius (the inflation that
 /// closed it) and the traversability disc radius (the points that shape a cell's estimate).
-pub fn recovery_radius_m(trapped_radius_m: f64, params: &Params) -> f64 {
+pub(crate) fn recovery_radius_m(trapped_radius_m: f64, params: &Params) -> f64 {
     trapped_radius_m + params.robot.radius_m + params.traversability.disc_radius_m
 }
 

@@ -21,13 +21,16 @@ mod cluster;
 mod enclosure;
 mod wfd;
 
-pub use blacklist::{Blacklist, BlacklistEntry, BlacklistReason, end_of_mission, filter_blacklisted, partition_blacklisted};
-pub use boundary::Boundary;
-pub use cluster::split_lengths;
-pub use enclosure::{enclosed_within, recovery_radius_m};
-pub use wfd::{cluster_frontier_cells, detect_frontiers, detect_frontiers_with, frontier_cells};
+pub use blacklist::{Blacklist, BlacklistReason};
 
-use crate::grid::{Cell, GridGeometry};
+pub use blacklist::BlacklistEntry;
+
+pub use boundary::Boundary;
+pub(crate) use enclosure::{enclosed_within, recovery_radius_m};
+pub(crate) use wfd::detect_frontiers_with;
+pub use wfd::{cluster_frontier_cells, frontier_cells};
+
+use crate::grid::Cell;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -55,7 +58,7 @@ pub struct FrontierCluster {
 
 impl FrontierCluster {
     /// A cluster from cells already ordered along the chain; `None` if `cells` is empty.
-    pub fn from_ordered_cells(cells: Vec<Cell>) -> Option<Self> {
+    pub(crate) fn from_ordered_cells(cells: Vec<Cell>) -> Option<Self> {
         let candidate = *cells.get(cells.len() / 2)?;
         Some(Self { cells, candidate })
     }
@@ -69,8 +72,9 @@ impl FrontierCluster {
         self.cells.is_empty()
     }
 
+    #[cfg(test)]
     /// World position (metres) of the candidate's cell centre.
-    pub fn candidate_m(&self, geometry: &GridGeometry) -> [f64; 2] {
+    pub(crate) fn candidate_m(&self, geometry: &crate::grid::GridGeometry) -> [f64; 2] {
         let (x, y) = geometry.center_of(self.candidate);
         [x, y]
     }

@@ -1,7 +1,11 @@
 //! Tests of the whole detection pipeline (WFD + clustering) on hand-drawn maps, property tests
 //! against the planner's reachability, and an ignored timing run for docs/benchmarks.md.
 
+use super::blacklist::end_of_mission;
+use super::cluster::split_lengths;
+use super::wfd::detect_frontiers;
 use super::*;
+use crate::grid::GridGeometry;
 use crate::grid::{CellClass, FREE, Grid, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::FrontierParams;
 use crate::path::dijkstra;

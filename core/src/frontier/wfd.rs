@@ -104,6 +104,7 @@ pub fn frontier_cells(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Bound
     Ok(frontier.into_iter().map(|i| grid.geometry.cell_at(i)).collect())
 }
 
+#[cfg(test)]
 /// WFD: BFS over passable cells (4-connected, which is exactly the reachable set of the
 /// 8-connected no-corner-cutting planner in [`crate::path`]) from `robot`; frontier cells = free
 /// cells with an unknown 4-neighbour, inside `boundary` (cell centre); then linked 8-connected,
@@ -115,7 +116,7 @@ pub fn frontier_cells(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Bound
 ///
 /// Errors: the robot's cell is outside the map or not free; `grid.data` does not match its
 /// geometry; `params.max_cluster_cells == 0`.
-pub fn detect_frontiers(
+pub(crate) fn detect_frontiers(
     grid: &OccupancyGrid,
     robot: Cell,
     boundary: Option<&Boundary>,
@@ -126,7 +127,7 @@ pub fn detect_frontiers(
 
 /// [`detect_frontiers`] with the flood's state layer in `state`, whose storage is reused (a
 /// planner that decides again and again keeps one).
-pub fn detect_frontiers_with(
+pub(crate) fn detect_frontiers_with(
     grid: &OccupancyGrid,
     robot: Cell,
     boundary: Option<&Boundary>,

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 /// 145 m × 145 m at 0.05 m). A cell of the traversability map costs ≈ 250 bytes (moments 104,
 /// disc sums 96, layers), so this bounds a map at ≈ 2 GB; an absurd extent or resolution (two far-apart points of a cloud, a
 /// mistyped resolution) is refused instead of exhausting memory. Larger areas need coarser cells.
-pub const MAX_CELLS: usize = 1 << 23;
+pub(crate) const MAX_CELLS: usize = 1 << 23;
 
 /// A cell address: column (x) and row (y). Signed so that neighbour arithmetic may step outside
 /// the grid; [`GridGeometry::index`] says whether it is inside.

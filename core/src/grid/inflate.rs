@@ -24,7 +24,7 @@ pub fn inflate_lethal(grid: &OccupancyGrid, radius_m: f64) -> OccupancyGrid {
 /// free in `raw`: a robot's centre may return to cells it has driven on, whatever lethal cells
 /// appeared near them since. Cells lethal or unknown in `raw` itself stay as they are; indices
 /// outside the grid are skipped. O(traversed).
-pub fn free_traversed(raw: &OccupancyGrid, traversed: &[usize], inflated: &mut OccupancyGrid) {
+pub(crate) fn free_traversed(raw: &OccupancyGrid, traversed: &[usize], inflated: &mut OccupancyGrid) {
     for &i in traversed {
         if let (Some(&v), Some(out)) = (raw.data.get(i), inflated.data.get_mut(i))
             && CellClass::of(v) == CellClass::Free
@@ -36,7 +36,7 @@ pub fn free_traversed(raw: &OccupancyGrid, traversed: &[usize], inflated: &mut O
 
 /// [`inflate_lethal`] into `out`, reusing its storage (a planner that decides again and again
 /// keeps one, so the copy does not allocate and page-fault a fresh grid each time).
-pub fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut OccupancyGrid) {
+pub(crate) fn inflate_lethal_into(grid: &OccupancyGrid, radius_m: f64, out: &mut OccupancyGrid) {
     out.geometry = grid.geometry;
     out.data.clear();
     out.data.extend_from_slice(&grid.data);

@@ -4,9 +4,13 @@ mod geometry;
 mod inflate;
 mod occupancy;
 
-pub use geometry::{Cell, GridGeometry, MAX_CELLS};
-pub use inflate::{free_traversed, inflate_lethal, inflate_lethal_into};
-pub use occupancy::{CellClass, FREE, LETHAL, LETHAL_THRESHOLD, OccupancyGrid, UNKNOWN, cells_in_disc, fill_disc};
+pub use geometry::{Cell, GridGeometry};
+
+pub(crate) use geometry::MAX_CELLS;
+pub use inflate::inflate_lethal;
+pub(crate) use inflate::{free_traversed, inflate_lethal_into};
+pub use occupancy::{CellClass, FREE, LETHAL, OccupancyGrid, UNKNOWN, fill_disc};
+pub(crate) use occupancy::{LETHAL_THRESHOLD, cells_in_disc};
 
 use serde::{Deserialize, Serialize};
 

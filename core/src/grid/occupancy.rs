@@ -11,7 +11,7 @@ pub const LETHAL: i8 = 100;
 /// A cell never observed.
 pub const UNKNOWN: i8 = -1;
 /// Values at or above this are lethal; non-negative values below it are free.
-pub const LETHAL_THRESHOLD: i8 = 50;
+pub(crate) const LETHAL_THRESHOLD: i8 = 50;
 
 /// An occupancy layer in the ROS convention.
 pub type OccupancyGrid = Grid<i8>;
@@ -55,7 +55,7 @@ pub fn fill_disc(grid: &mut OccupancyGrid, x_m: f64, y_m: f64, radius_m: f64, va
 /// The flat indices of the grid cells whose centre lies within `radius_m` of (`x_m`, `y_m`), each
 /// with that distance in metres, row by row. None for a negative or NaN radius or a non-finite
 /// centre. O(radius² / resolution²).
-pub fn cells_in_disc(g: &GridGeometry, x_m: f64, y_m: f64, radius_m: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+pub(crate) fn cells_in_disc(g: &GridGeometry, x_m: f64, y_m: f64, radius_m: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
     let valid = radius_m >= 0.0 && x_m.is_finite() && y_m.is_finite() && !g.is_empty();
     // The cell range covering the disc, clipped to the grid (in f64: no overflow far away).
     let span = |lo_m: f64, origin_m: f64, n: usize| ((lo_m - origin_m) / g.resolution_m).floor().clamp(0.0, n as f64) as usize;

@@ -32,7 +32,7 @@ pub(crate) struct Raster {
 
 impl Raster {
     /// Whether the last channel is alpha.
-    pub fn has_alpha(&self) -> bool {
+    pub(crate) fn has_alpha(&self) -> bool {
         self.channels == 2 || self.channels == 4
     }
 
@@ -55,7 +55,7 @@ impl Raster {
     /// Channel `channel` of pixel `index` (row-major from the top-left) as stored, not
     /// normalised: a DEM's pixel value.
     #[inline]
-    pub fn stored_sample(&self, index: usize, channel: usize) -> f64 {
+    pub(crate) fn stored_sample(&self, index: usize, channel: usize) -> f64 {
         self.stored(index * self.channels + channel)
     }
 

@@ -20,7 +20,7 @@ use std::io::Cursor;
 /// Points read per batch.
 const BATCH_POINTS: u64 = 65_536;
 /// LAZ compresses a real point to a few bytes; a hundred points per byte is beyond any real file.
-pub const LAZ_MAX_POINTS_PER_BYTE: u64 = 100;
+pub(crate) const LAZ_MAX_POINTS_PER_BYTE: u64 = 100;
 
 fn las_err(name: &str, detail: impl Into<String>) -> CloudError {
     CloudError::Las { name: name.to_string(), detail: detail.into() }
@@ -136,7 +136,7 @@ fn check_chunk_table(bytes: &[u8], data_start: u64, name: &str) -> Result<(), Cl
 }
 
 /// Loads a LAS (or, with the `laz` feature, LAZ) point cloud; `name` is used in messages.
-pub fn load_las(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
+pub(crate) fn load_las(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
     let (count, compressed) = preflight(bytes, name)?;
     if compressed && !cfg!(feature = "laz") {
         return Err(CloudError::Unsupported {

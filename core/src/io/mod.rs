@@ -47,8 +47,6 @@ pub fn without_bom_str(text: &str) -> &str {
 
 pub use csv::{load_csv, write_csv};
 pub use image::{write_png_gray8, write_png_rgb8};
-#[cfg(feature = "las")]
-pub use las::load_las;
 pub use map_server::{MapMode, MapThresholds, MapYaml, load_map, load_map_image, save_map};
 pub use pcd::{PcdEncoding, load_pcd, write_pcd};
 pub use ply::{load_ply, write_ply_binary};

@@ -60,7 +60,7 @@ impl Valid<Params> {
     /// These parameters with lethal cells inflated by `radius_m` instead of `robot.radius_m`
     /// (the explorer's tight retries). A smaller radius keeps every range valid, so `radius_m`
     /// is clamped to [0, `robot.radius_m`].
-    pub fn with_robot_radius_m(&self, radius_m: f64) -> Self {
+    pub(crate) fn with_robot_radius_m(&self, radius_m: f64) -> Self {
         Self(self.0.with_robot_radius_m(radius_m.clamp(0.0, self.0.robot.radius_m)))
     }
 
@@ -179,14 +179,14 @@ impl Validate for Params {
 
 /// Most rays a decision casts per candidate (Δθ ≥ 2π / this): far beyond any useful fan, and
 /// a bound on a fan's memory.
-pub const MAX_RAYS: usize = 4096;
+pub(crate) const MAX_RAYS: usize = 4096;
 
 /// Largest radius, in grid cells, of the robot's inflation and of the traversability disc:
 /// 50 m at 0.05 m, and a bound on the kernels' work per cell.
-pub const MAX_RADIUS_CELLS: f64 = 1000.0;
+pub(crate) const MAX_RADIUS_CELLS: f64 = 1000.0;
 
 /// `Ok` when the radius `radius_m` is at most [`MAX_RADIUS_CELLS`] cells of `resolution_m`.
-pub fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
+pub(crate) fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
     let cells = radius_m / resolution_m;
     if cells <= MAX_RADIUS_CELLS {
         Ok(())
@@ -198,7 +198,7 @@ pub fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -> Resul
 
 /// `Ok` when u2's waypoints are at least a cell of `resolution_m` apart (closer ones add nothing
 /// but work: a path of L metres has L / spacing of them).
-pub fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
+pub(crate) fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
     if spacing_m >= resolution_m {
         Ok(())
     } else {
@@ -226,6 +226,6 @@ pub fn check_positive(name: &str, v: f64) -> Result<(), InvalidParam> {
 }
 
 /// `Ok` when `v` is finite and ≥ 0, else a message naming the field `name` (for `validate`s).
-pub fn check_non_negative(name: &str, v: f64) -> Result<(), InvalidParam> {
+pub(crate) fn check_non_negative(name: &str, v: f64) -> Result<(), InvalidParam> {
     if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(InvalidParam::new(name, format!("must be a finite number ≥ 0 (got {})", Num(v)))) }
 }

@@ -75,7 +75,7 @@ impl Params {
 /// own default): a file restating one nested default would then change the others. A file the
 /// merge refuses (a wrong type, an unknown key) is parsed once more straight into `T`, whose
 /// error carries the position in `text`.
-pub fn from_toml_over_default<T: Default + Serialize + DeserializeOwned>(text: &str) -> Result<T, toml::de::Error> {
+pub(crate) fn from_toml_over_default<T: Default + Serialize + DeserializeOwned>(text: &str) -> Result<T, toml::de::Error> {
     let text = crate::io::without_bom_str(text);
     let given: toml::Table = toml::from_str(text)?;
     let mut merged = toml::Table::try_from(T::default()).map_err(<toml::de::Error as serde::de::Error>::custom)?;

@@ -9,12 +9,12 @@ mod file;
 #[cfg(test)]
 mod tests;
 
-pub use check::{
-    InvalidParam, MAX_RADIUS_CELLS, MAX_RAYS, Num, Valid, Validate, check_non_negative, check_positive, check_radius_cells,
-    check_waypoint_spacing,
-};
+pub use check::{InvalidParam, Num, Valid, Validate, check_positive};
+
+pub(crate) use check::{check_non_negative, check_radius_cells, check_waypoint_spacing};
+pub use file::ParamsError;
+pub(crate) use file::from_toml_over_default;
 pub(crate) use file::toml_error_line;
-pub use file::{ParamsError, from_toml_over_default};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;

@@ -1,5 +1,6 @@
 //! Parameter defaults, ranges and files.
 
+use super::check::MAX_RAYS;
 use super::*;
 
 /// Messages print a value as Rust does, but huge and tiny ones in scientific notation.

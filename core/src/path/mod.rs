@@ -8,8 +8,12 @@ mod dijkstra;
 mod setback;
 
 pub use astar::astar;
-pub use dijkstra::{DistanceField, SearchBuffers, dijkstra, dijkstra_to, dijkstra_to_reusing, dijkstra_with_frontiers};
-pub use setback::{GoalSetback, known_around, set_back};
+pub use dijkstra::DistanceField;
+pub(crate) use dijkstra::{SearchBuffers, dijkstra_to_reusing};
+pub use dijkstra::{dijkstra, dijkstra_with_frontiers};
+pub use setback::GoalSetback;
+pub use setback::known_around;
+pub(crate) use setback::set_back;
 
 use crate::grid::{Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
 use serde::{Deserialize, Serialize};
@@ -52,7 +56,7 @@ impl Path {
 
 /// Whether a cell value can be driven through.
 #[inline]
-pub fn passable(value: i8, allow_unknown: bool) -> bool {
+pub(crate) fn passable(value: i8, allow_unknown: bool) -> bool {
     // Branch-free form of "free, or unknown if allowed" (unknown is negative), so scans vectorise.
     if allow_unknown { value < LETHAL_THRESHOLD } else { (value as u8) < LETHAL_THRESHOLD as u8 }
 }

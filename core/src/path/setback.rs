@@ -33,7 +33,7 @@ impl Default for GoalSetback {
 impl GoalSetback {
     /// The margin for a position with variances `var_x_m2` and `var_y_m2` (world axes), metres:
     /// min(sigmas · sqrt(σx² + σy²), max_m); 0 for a non-finite or negative variance sum.
-    pub fn margin_m(&self, var_x_m2: f64, var_y_m2: f64) -> f64 {
+    pub(crate) fn margin_m(&self, var_x_m2: f64, var_y_m2: f64) -> f64 {
         let var = var_x_m2 + var_y_m2;
         if !(var.is_finite() && var > 0.0) {
             return 0.0;
@@ -51,7 +51,7 @@ impl GoalSetback {
 /// `path_m` cut at its last point (sampled at most one cell apart, from the end) whose disc of
 /// radius `margin_m` holds only known cells inside the grid; the path unchanged (bit for bit) if
 /// its end is clear or `margin_m` is not positive; only the start if no point is clear.
-pub fn set_back(path_m: &[[f64; 2]], grid: &OccupancyGrid, margin_m: f64) -> Vec<[f64; 2]> {
+pub(crate) fn set_back(path_m: &[[f64; 2]], grid: &OccupancyGrid, margin_m: f64) -> Vec<[f64; 2]> {
     let Some(&end) = path_m.last() else { return Vec::new() };
     if margin_m.is_nan() || margin_m <= 0.0 || known_around(grid, end, margin_m) {
         return path_m.to_vec();

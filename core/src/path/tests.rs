@@ -1,3 +1,4 @@
+use super::dijkstra::dijkstra_to;
 use super::*;
 use crate::grid::{FREE, Grid, GridGeometry, LETHAL, UNKNOWN};
 use proptest::prelude::*;

@@ -268,7 +268,7 @@ pub fn choose(decision: &mut Decision, chosen: Option<usize>) {
 
 /// A baseline's goal heading ([`BaselineHeading`]): with `arrival`, the chosen path's heading at
 /// its end instead of Θ* (unchanged for a path of no length).
-pub fn set_baseline_heading(decision: &mut Decision, params: &Params) {
+pub(crate) fn set_baseline_heading(decision: &mut Decision, params: &Params) {
     if params.selector.baseline_heading != BaselineHeading::Arrival {
         return;
     }

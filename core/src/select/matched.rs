@@ -15,11 +15,11 @@ use rand_chacha::ChaCha8Rng;
 /// Half-width of the path-length band the draw is made in, relative to FIT-SLAM's ρ*: wide
 /// enough to hold several candidates on a typical map, narrow enough that a mission's distances
 /// stay FIT-SLAM's.
-pub const LENGTH_TOLERANCE: f64 = 0.2;
+pub(crate) const LENGTH_TOLERANCE: f64 = 0.2;
 
 /// Uniform among the candidates at FIT-SLAM's path length.
 #[derive(Clone, Debug)]
-pub struct LengthMatched {
+pub(crate) struct LengthMatched {
     rng: ChaCha8Rng,
     buffers: PlanBuffers,
 }

@@ -17,10 +17,10 @@
 //! use fitslam_core::frontier::Blacklist;
 //! use fitslam_core::select::{make_selector, DecisionInput};
 //! use fitslam_core::utility::LandmarkVoxels;
-//! use fitslam_core::Params;
+//! use fitslam_core::{Params, Valid};
 //!
 //! let world = corridor_two_frontiers(true); // landmarks only east of the robot
-//! let params = Params::default(); // strategy: fit
+//! let params = Valid::new(Params::default())?; // strategy: fit; checked once
 //! let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m)?;
 //! let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
 //! let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
@@ -37,14 +37,14 @@ pub mod greedy;
 pub mod matched;
 pub mod random;
 pub mod report;
-pub mod u1_only;
+pub(crate) mod u1_only;
 
 pub use fit::FitSlam;
 pub use greedy::Greedy;
-pub use matched::LengthMatched;
-pub use random::RandomSelector;
+pub(crate) use matched::LengthMatched;
+pub(crate) use random::RandomSelector;
 pub use report::{CandidateReport, Decision, DropReason};
-pub use u1_only::U1Only;
+pub(crate) use u1_only::U1Only;
 
 use crate::frontier::{Blacklist, Boundary, FrontierError};
 use crate::grid::{Cell, OccupancyGrid};

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 
 /// Uniform among reachable candidates.
 #[derive(Clone, Debug)]
-pub struct RandomSelector {
+pub(crate) struct RandomSelector {
     rng: ChaCha8Rng,
     buffers: PlanBuffers,
 }

@@ -126,9 +126,10 @@ impl Decision {
         self.chosen.and_then(|i| self.candidates.get(i))
     }
 
+    #[cfg(test)]
     /// Positions (metres) of the candidates with no path: the caller blacklists them with
     /// [`BlacklistReason::NoPath`].
-    pub fn unreachable_m(&self) -> Vec<[f64; 2]> {
+    pub(crate) fn unreachable_m(&self) -> Vec<[f64; 2]> {
         self.candidates.iter().filter(|c| c.dropped == Some(DropReason::NoPath)).map(|c| [c.x_m, c.y_m]).collect()
     }
 

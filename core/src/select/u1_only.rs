@@ -7,7 +7,7 @@ use crate::params::{Params, Strategy, Valid};
 
 /// Largest u1.
 #[derive(Clone, Debug, Default)]
-pub struct U1Only {
+pub(crate) struct U1Only {
     buffers: PlanBuffers,
 }
 

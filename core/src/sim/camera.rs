@@ -55,7 +55,7 @@ impl LandmarkIndex {
     }
 
     /// Calls `f` with every landmark index in buckets overlapping the square of half-side `r`.
-    pub fn for_each_near(&self, x: f64, y: f64, r: f64, mut f: impl FnMut(usize)) {
+    pub(crate) fn for_each_near(&self, x: f64, y: f64, r: f64, mut f: impl FnMut(usize)) {
         let idx = |v: f64, o: f64, n: usize| (((v - o) / self.bucket_m).floor().max(0.0) as usize).min(n - 1);
         let (c0, c1) = (idx(x - r, self.origin[0], self.nx), idx(x + r, self.origin[0], self.nx));
         let (r0, r1) = (idx(y - r, self.origin[1], self.ny), idx(y + r, self.origin[1], self.ny));
@@ -145,7 +145,7 @@ pub fn observe_landmarks(
 /// evenly over the field of view from `camera_m`, looking along the body's +x; calls
 /// `on_hit(direction_in_world, depth_m)` for each ray that hits within the depth range, row by
 /// row. O(rays × ray march).
-pub fn depth_ground_hits(
+pub(crate) fn depth_ground_hits(
     field: &Heightfield,
     caster: &RayCaster,
     camera_m: Point3<f64>,

@@ -18,7 +18,7 @@ use crate::math;
 
 /// The marks of one corridor check, reused across calls (no allocation per call).
 #[derive(Clone, Debug, Default)]
-pub struct CorridorCheck {
+pub(crate) struct CorridorCheck {
     /// Per cell, the call that found it not lethal.
     marks: Vec<u32>,
     pass: u32,

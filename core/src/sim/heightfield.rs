@@ -2,7 +2,7 @@
 //! Built from a real DEM image (grey PNG or PGM, value = metres) scaled to rover size, or
 //! procedurally. Lookups O(1).
 
-use crate::grid::{Cell, GridGeometry};
+use crate::grid::GridGeometry;
 use crate::io::MapError;
 use crate::io::image::decode_image;
 use crate::math;
@@ -72,11 +72,6 @@ impl Heightfield {
         let bottom = h(c0, r0) + (h(c1, r0) - h(c0, r0)) * tx;
         let top = h(c0, r1) + (h(c1, r1) - h(c0, r1)) * tx;
         Some(bottom + (top - bottom) * ty)
-    }
-
-    /// Height of a cell's centre.
-    pub fn height_of(&self, cell: Cell) -> Option<f64> {
-        self.geometry.index(cell).map(|i| self.heights_m[i])
     }
 
     /// Builds a rover-scale heightfield from a grey DEM image, PNG (1–16 bits, palette expanded,
@@ -151,7 +146,7 @@ impl Heightfield {
     }
 
     /// Slope magnitude at a world point from central differences, radians.
-    pub fn slope_at(&self, x_m: f64, y_m: f64) -> Option<f64> {
+    pub(crate) fn slope_at(&self, x_m: f64, y_m: f64) -> Option<f64> {
         let e = self.geometry.resolution_m;
         let dzdx = (self.height_at(x_m + e, y_m)? - self.height_at(x_m - e, y_m)?) / (2.0 * e);
         let dzdy = (self.height_at(x_m, y_m + e)? - self.height_at(x_m, y_m - e)?) / (2.0 * e);

@@ -40,7 +40,7 @@ impl Default for LandmarkDensity {
 }
 
 /// The texture richness in [0, 1] at (x, y): where landmarks are dense.
-pub fn texture_richness(x_m: f64, y_m: f64, density: &LandmarkDensity, seed: u64) -> f64 {
+pub(crate) fn texture_richness(x_m: f64, y_m: f64, density: &LandmarkDensity, seed: u64) -> f64 {
     let n = fractal_noise(x_m, y_m, density.texture_wavelength_m, 3, seed ^ 0x7E47);
     // fBm concentrates near 0.5: stretch to [0, 1] before sharpening.
     math::powf(((n - 0.25) / 0.5).clamp(0.0, 1.0), density.contrast)

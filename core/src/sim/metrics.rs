@@ -183,11 +183,6 @@ impl Metrics {
     pub fn ate_rmse_m(&self) -> f64 {
         if self.rows.is_empty() { 0.0 } else { (self.sq_err_sum / self.rows.len() as f64).sqrt() }
     }
-
-    /// Takes the rows out (the trajectories stay).
-    pub fn take_rows(&mut self) -> Vec<MetricsRow> {
-        std::mem::take(&mut self.rows)
-    }
 }
 
 /// Metrics as CSV (without `plan_ms`: byte-identical for a seed).

@@ -377,9 +377,10 @@ impl Mission {
         self.localiser.landmark_map(self.explorer.planner().u2.sigma_landmark_m)
     }
 
+    #[cfg(test)]
     /// The grid the last decision planned on: the robot's map, thresholded, with its footprint
     /// cleared if the robot was blocked in it; `None` before the first decision.
-    pub fn planning_grid(&self) -> Option<&OccupancyGrid> {
+    pub(crate) fn planning_grid(&self) -> Option<&OccupancyGrid> {
         self.planning_grid.as_ref()
     }
 
@@ -398,8 +399,9 @@ impl Mission {
         &self.follower.path_m
     }
 
+    #[cfg(test)]
     /// How far a path planned now ends short of unknown ground, metres.
-    pub fn goal_setback_m(&self) -> f64 {
+    pub(crate) fn goal_setback_m(&self) -> f64 {
         let c = self.localiser.covariance().xy_yaw;
         self.explorer.params().goal_setback.margin_m(c[(0, 0)] + c[(1, 1)], 0.0)
     }

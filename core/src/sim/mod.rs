@@ -23,21 +23,28 @@ pub mod robot;
 mod scan;
 pub mod vision;
 pub mod world;
-pub mod world_sim;
+pub(crate) mod world_sim;
 mod world_spec;
 
 pub use crate::explore::EndReason;
-pub use heightfield::{DemScaling, Heightfield, HeightfieldError};
-pub use landmarks::{LandmarkDensity, scatter_landmarks, texture_richness};
-pub use localisation::{Localisation, Localiser, PoseCovariance};
-pub use metrics::{Metrics, MetricsRow, StampedPose, Summary, metrics_csv, timing_csv, tum};
-pub use mission::{Mission, MissionError, StepOutcome};
-pub use noise::{fractal_noise, hash_unit};
-pub use obstacles::{Rock, scatter_rocks};
+pub use heightfield::HeightfieldError;
+pub use heightfield::{DemScaling, Heightfield};
+pub use landmarks::{LandmarkDensity, scatter_landmarks};
+pub use localisation::Localisation;
+pub use localisation::PoseCovariance;
+pub use metrics::Metrics;
+pub use metrics::{MetricsRow, StampedPose, Summary, metrics_csv, timing_csv, tum};
+pub use mission::MissionError;
+pub use mission::{Mission, StepOutcome};
+pub use noise::hash_unit;
+pub use obstacles::Rock;
+pub use obstacles::scatter_rocks;
 pub use params::MissionParams;
 pub use scan::{line_of_sight, visible_ground_points};
-pub use world::{MAX_WORLD_SEEDS, StartError, World, WorldError, WorldSpec};
-pub use world_sim::{BodyPose, Motion, WorldSim};
+pub use world::{MAX_WORLD_SEEDS, World, WorldSpec};
+pub use world::{StartError, WorldError};
+pub use world_sim::Motion;
+pub use world_sim::WorldSim;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]

@@ -29,7 +29,7 @@ fn value_noise(x: f64, y: f64, seed: u64) -> f64 {
 
 /// Fractal (fBm) value noise in [0, 1): `octaves` layers, each twice the frequency and half the
 /// amplitude of the previous, normalised. `wavelength_m` is the first octave's lattice spacing.
-pub fn fractal_noise(x_m: f64, y_m: f64, wavelength_m: f64, octaves: u32, seed: u64) -> f64 {
+pub(crate) fn fractal_noise(x_m: f64, y_m: f64, wavelength_m: f64, octaves: u32, seed: u64) -> f64 {
     let (mut sum, mut norm, mut amp, mut freq) = (0.0, 0.0, 1.0, 1.0 / wavelength_m);
     for o in 0..octaves.max(1) {
         sum += amp * value_noise(x_m * freq, y_m * freq, seed.wrapping_add(o as u64 * 0x51_7CC1));

@@ -56,7 +56,7 @@ impl OdometryNoise {
     }
 
     /// A measured (δs, δθ) for a true step on a slope of `slope_rad`.
-    pub fn measure(&self, ds_m: f64, dtheta_rad: f64, dt_s: f64, slope_rad: f64, rng: &mut ChaCha8Rng) -> (f64, f64) {
+    pub(crate) fn measure(&self, ds_m: f64, dtheta_rad: f64, dt_s: f64, slope_rad: f64, rng: &mut ChaCha8Rng) -> (f64, f64) {
         let (vs, vt) = self.variances(ds_m, dtheta_rad, dt_s);
         let slip = self.slip_per_rad * slope_rad.abs();
         (ds_m * (1.0 + slip) + vs.sqrt() * gaussian(rng), dtheta_rad + vt.sqrt() * gaussian(rng))

@@ -58,18 +58,18 @@ pub struct MissionParams {
 }
 
 /// Smallest simulation step, seconds: a finer one only multiplies the steps of a mission.
-pub const MIN_DT_S: f64 = 1e-3;
+pub(crate) const MIN_DT_S: f64 = 1e-3;
 /// Largest simulation step, seconds: a control period longer than this is not a control loop
 /// (at the default 0.4 m/s the robot would drive 0.4 m blind between two commands).
-pub const MAX_DT_S: f64 = 1.0;
+pub(crate) const MAX_DT_S: f64 = 1.0;
 /// Most rays in one LiDAR scan or one depth frame (a VLP-16 at 0.2° casts 28,800).
-pub const MAX_RAYS_PER_SENSING: usize = 1 << 20;
+pub(crate) const MAX_RAYS_PER_SENSING: usize = 1 << 20;
 /// Largest [`DriveParams::goal_tolerance_m`], metres: a robot that counts a goal reached from
 /// farther away stops metres short of every frontier it chose, so a larger value is a typo.
-pub const MAX_GOAL_TOLERANCE_M: f64 = 5.0;
+pub(crate) const MAX_GOAL_TOLERANCE_M: f64 = 5.0;
 /// Largest [`DriveParams::body_half_m`], metres (a 10 m body): the footprint adds
 /// (2 · body_half_m / 5 cm + 1)² points to every scan.
-pub const MAX_BODY_HALF_M: f64 = 5.0;
+pub(crate) const MAX_BODY_HALF_M: f64 = 5.0;
 
 impl Default for MissionParams {
     fn default() -> Self {

@@ -57,7 +57,7 @@ pub struct Twist {
 
 /// Follows a polyline path; remembers how far along it is.
 #[derive(Clone, Debug, Default)]
-pub struct PathFollower {
+pub(crate) struct PathFollower {
     pub path_m: Vec<[f64; 2]>,
     /// Index of the path segment the robot is on.
     segment: usize,
@@ -70,7 +70,7 @@ impl PathFollower {
 
     /// The path still ahead of the robot: its projection on the current segment, then the
     /// segment ends after it (the whole path before the first [`Self::command`]).
-    pub fn remaining(&self, pose: Pose2) -> impl Iterator<Item = [f64; 2]> + '_ {
+    pub(crate) fn remaining(&self, pose: Pose2) -> impl Iterator<Item = [f64; 2]> + '_ {
         let rest = self.path_m.get(self.segment + 1..).unwrap_or(&[]);
         let start = match (self.path_m.get(self.segment), rest.first()) {
             (Some(&a), Some(&b)) => {
@@ -153,7 +153,7 @@ fn lookahead_point(a: [f64; 2], b: [f64; 2], c: [f64; 2], r: f64) -> Option<[f64
 }
 
 /// Integrates a unicycle for `dt_s` (exact arc). Returns the new pose.
-pub fn integrate(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
+pub(crate) fn integrate(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
     let dth = cmd.omega_radps * dt_s;
     let ds = cmd.v_mps * dt_s;
     let (x, y) = if dth.abs() < 1e-9 {
@@ -171,7 +171,7 @@ pub fn integrate(pose: Pose2, cmd: Twist, dt_s: f64) -> Pose2 {
 /// The body's 3D pose on the terrain: position on the ground under (x, y) and the rotation
 /// Rz(yaw)·Ry(pitch)·Rx(roll) with pitch and roll from the heights `body_half_m` ahead/behind and
 /// left/right (REP-103: nose up is negative pitch, left side up is positive roll).
-pub fn body_on_terrain(field: &Heightfield, pose: Pose2, body_half_m: f64) -> (Point3<f64>, Rotation3<f64>) {
+pub(crate) fn body_on_terrain(field: &Heightfield, pose: Pose2, body_half_m: f64) -> (Point3<f64>, Rotation3<f64>) {
     let (c, s) = (math::cos(pose.yaw_rad), math::sin(pose.yaw_rad));
     let z = field.height_at(pose.x_m, pose.y_m).unwrap_or(0.0);
     let h = |dx: f64, dy: f64| field.height_at(pose.x_m + dx, pose.y_m + dy).unwrap_or(z);
@@ -184,7 +184,7 @@ pub fn body_on_terrain(field: &Heightfield, pose: Pose2, body_half_m: f64) -> (P
 /// The ground under the body (proprioceptive: where the wheels are, the terrain is known), every
 /// `spacing_m` over the `body_half_m` square footprint at `body_m` with attitude
 /// `world_from_body`, appended to `out`. O((body_half_m / spacing_m)²).
-pub fn footprint_points(
+pub(crate) fn footprint_points(
     field: &Heightfield,
     body_m: Point3<f64>,
     world_from_body: &Rotation3<f64>,

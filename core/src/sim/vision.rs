@@ -89,7 +89,7 @@ impl Default for VisionParams {
 }
 
 /// Largest feature budget (a real extractor's 1000–2000 with a wide margin).
-pub const MAX_FEATURE_BUDGET: usize = 100_000;
+pub(crate) const MAX_FEATURE_BUDGET: usize = 100_000;
 
 impl VisionParams {
     /// Every field finite and in its documented range; the error names the first bad one.
@@ -132,7 +132,7 @@ impl VisionParams {
 
     /// f_d · f_θ · p₀ for a landmark at `range_m` seen `angle_rad` off its normal (`None`: no
     /// single surface), with the camera's maximum depth `max_depth_m`.
-    pub fn detection_probability_at(&self, range_m: f64, angle_rad: Option<f64>, max_depth_m: f64) -> f64 {
+    pub(crate) fn detection_probability_at(&self, range_m: f64, angle_rad: Option<f64>, max_depth_m: f64) -> f64 {
         let f_d = if range_m <= self.full_range_m || max_depth_m <= self.full_range_m {
             1.0
         } else {
@@ -155,7 +155,7 @@ const ON_SURFACE_M: f64 = 0.02;
 /// The surface normal under each landmark: the terrain's (rock sides and walls are steps of the
 /// heightfield, so their normal comes out horizontal), `None` for one standing off the ground.
 /// O(landmarks).
-pub fn landmark_normals(field: &Heightfield, landmarks: &[Point3<f64>]) -> Vec<Option<Vector3<f64>>> {
+pub(crate) fn landmark_normals(field: &Heightfield, landmarks: &[Point3<f64>]) -> Vec<Option<Vector3<f64>>> {
     let h = field.geometry.resolution_m;
     landmarks
         .iter()
@@ -174,7 +174,7 @@ pub fn landmark_normals(field: &Heightfield, landmarks: &[Point3<f64>]) -> Vec<O
 
 /// What the front end did to one frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FrameCounts {
+pub(crate) struct FrameCounts {
     /// Landmarks in view (before detection).
     pub in_view: usize,
     pub detected: usize,
@@ -184,7 +184,7 @@ pub struct FrameCounts {
 }
 
 /// A frame's view of the world for [`select_features`].
-pub struct FrameView<'a> {
+pub(crate) struct FrameView<'a> {
     pub landmarks: &'a [Point3<f64>],
     pub normals: &'a [Option<Vector3<f64>>],
     pub camera_m: Point3<f64>,
@@ -196,7 +196,7 @@ pub struct FrameView<'a> {
 /// Reduces `observations` (every landmark in view, as [`super::camera::observe_landmarks`]
 /// gives them) to what the front end reports, in increasing id order; `candidates` are the
 /// landmark ids in the frustum a wrong match may pick. Draws from `rng`.
-pub fn select_features(
+pub(crate) fn select_features(
     observations: &mut Vec<CameraObservation>,
     candidates: &[usize],
     view: &FrameView,

@@ -29,9 +29,11 @@ use crate::traversability::TraversabilityMap;
 use nalgebra::Point3;
 use thiserror::Error;
 
-pub use super::world_spec::{
-    BoxSpec, LandmarkSpec, MAX_SCATTER_SITES, MAX_WORLD_SEEDS, RampSpec, RockSpec, TerrainSpec, WorldError, WorldSpec,
-};
+pub use super::world_spec::{MAX_WORLD_SEEDS, RockSpec, WorldSpec};
+
+pub use super::world_spec::{BoxSpec, LandmarkSpec, RampSpec, TerrainSpec, WorldError};
+
+pub(crate) use super::world_spec::MAX_SCATTER_SITES;
 
 /// Why a robot cannot start where a world puts it ([`World::check_start`]).
 #[derive(Clone, Debug, Error, PartialEq)]
@@ -68,7 +70,7 @@ pub struct World {
 
 /// Clearance beyond the robot radius around a drawn start ([`World::draw_start`]), metres: room
 /// to turn in place before the first decision.
-pub const START_CLEARANCE_M: f64 = 0.25;
+pub(crate) const START_CLEARANCE_M: f64 = 0.25;
 
 impl World {
     /// Builds a world; `load(name)` returns the bytes of a file the spec names (its error is
@@ -238,7 +240,7 @@ impl World {
 
     /// Distance from (x, y) to the nearest centre of a ground-truth untraversable cell within
     /// `radius_m`, metres, if any (cells of the map only).
-    pub fn nearest_gt_lethal_m(&self, x_m: f64, y_m: f64, radius_m: f64) -> Option<f64> {
+    pub(crate) fn nearest_gt_lethal_m(&self, x_m: f64, y_m: f64, radius_m: f64) -> Option<f64> {
         let occ = &self.gt_occupancy;
         crate::grid::cells_in_disc(&occ.geometry, x_m, y_m, radius_m).filter(|&(i, _)| occ.data[i] != FREE).map(|(_, d)| d).reduce(f64::min)
     }
@@ -266,7 +268,7 @@ impl World {
     /// centre is. A cell is untraversable when its disc (radius `disc_radius_m`) holds a hazard,
     /// so with `reach_m` = robot radius − disc radius the discs of the cells within reach cover
     /// the robot's footprint: a wall its body overhangs is caught, not only one under its centre.
-    pub fn gt_touches_lethal(&self, x_m: f64, y_m: f64, reach_m: f64) -> bool {
+    pub(crate) fn gt_touches_lethal(&self, x_m: f64, y_m: f64, reach_m: f64) -> bool {
         self.gt_lethal_at(x_m, y_m) || (reach_m > 0.0 && self.nearest_gt_lethal_m(x_m, y_m, reach_m).is_some())
     }
 
@@ -310,7 +312,7 @@ fn check_covers_cells(key: &str, geometry: &GridGeometry, min_m: [f64; 2], max_m
 }
 
 /// GT traversability: the estimator on four noise-free points per cell.
-pub fn ground_truth_occupancy(field: &Heightfield, params: &TraversabilityParams, tau: f64) -> Result<OccupancyGrid, WorldError> {
+pub(crate) fn ground_truth_occupancy(field: &Heightfield, params: &TraversabilityParams, tau: f64) -> Result<OccupancyGrid, WorldError> {
     let g = field.geometry;
     let mut map = TraversabilityMap::new(g)?;
     let q = g.resolution_m * 0.25;
@@ -332,7 +334,7 @@ pub fn ground_truth_occupancy(field: &Heightfield, params: &TraversabilityParams
 
 /// GT free cells inside `boundary` 8-connected through GT free cells (inside the boundary) to the
 /// start's cell. O(cells).
-pub fn explorable_cells(gt: &OccupancyGrid, boundary: &Boundary, start: Pose2) -> Vec<bool> {
+pub(crate) fn explorable_cells(gt: &OccupancyGrid, boundary: &Boundary, start: Pose2) -> Vec<bool> {
     let g = gt.geometry;
     let mut seen = vec![false; g.len()];
     let inside = |c: Cell| {

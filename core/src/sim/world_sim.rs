@@ -26,7 +26,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 /// A body position on the terrain and its attitude.
-pub type BodyPose = (Point3<f64>, Rotation3<f64>);
+pub(crate) type BodyPose = (Point3<f64>, Rotation3<f64>);
 
 /// What one motion step did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,7 +109,7 @@ impl WorldSim {
     }
 
     /// The body pose on the terrain under a planar pose (the estimate's, without a 3D one).
-    pub fn body_pose_at(&self, pose: Pose2) -> BodyPose {
+    pub(crate) fn body_pose_at(&self, pose: Pose2) -> BodyPose {
         body_on_terrain(&self.world.field, pose, self.sensors.drive.body_half_m)
     }
 
@@ -129,12 +129,12 @@ impl WorldSim {
     }
 
     /// The wheel odometry's noise model.
-    pub fn odometry_noise(&self) -> &super::odometry::OdometryNoise {
+    pub(crate) fn odometry_noise(&self) -> &super::odometry::OdometryNoise {
         &self.sensors.odometry
     }
 
     /// The observations of the last camera frame ([`Self::observe_landmarks`]).
-    pub fn last_observations(&self) -> &[CameraObservation] {
+    pub(crate) fn last_observations(&self) -> &[CameraObservation] {
         &self.observations
     }
 
@@ -174,7 +174,7 @@ impl WorldSim {
 
     /// Planar wheel odometry + IMU yaw of a motion step: the measured (distance, heading
     /// change) with the odometry's noise and slip ([`super::odometry`]).
-    pub fn planar_odometry(&mut self, motion: &Motion, dt_s: f64) -> (f64, f64) {
+    pub(crate) fn planar_odometry(&mut self, motion: &Motion, dt_s: f64) -> (f64, f64) {
         let slope = self.slope_rad();
         self.sensors.odometry.measure(motion.ds_m, motion.dtheta_rad, dt_s, slope, &mut self.rng)
     }
@@ -184,7 +184,7 @@ impl WorldSim {
     /// travel) with the odometry's noise and slip, the gyro its rotation with σ_g² dt on roll and
     /// pitch (`slam.tilt_gyro_sigma_per_sqrt_s`) and the odometry's yaw noise. The variances are
     /// the ones `slam` attributes to them.
-    pub fn body_increment(&mut self, dt_s: f64, slam: &SlamParams) -> BodyIncrement {
+    pub(crate) fn body_increment(&mut self, dt_s: f64, slam: &SlamParams) -> BodyIncrement {
         let slope = self.slope_rad();
         let (gp, gr) = self.body_pose();
         let now = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
@@ -207,7 +207,7 @@ impl WorldSim {
     }
 
     /// The accelerometer's up direction in the body frame, with tilt noise `sigma_rad` per axis.
-    pub fn gravity_up(&mut self, sigma_rad: f64) -> Vector3<f64> {
+    pub(crate) fn gravity_up(&mut self, sigma_rad: f64) -> Vector3<f64> {
         let (_, gr) = self.body_pose();
         let up_true = gr.inverse() * Vector3::z();
         up_true + Vector3::new(sigma_rad * gaussian(&mut self.rng), sigma_rad * gaussian(&mut self.rng), 0.0)
@@ -230,14 +230,14 @@ impl WorldSim {
         &self.observations
     }
 
-    pub fn vision_params(&self) -> &super::vision::VisionParams {
+    pub(crate) fn vision_params(&self) -> &super::vision::VisionParams {
         &self.sensors.vision
     }
 
     /// What the visual front end reports from the true pose ([`super::vision`]): the landmarks
     /// in view ([`Self::observe_landmarks`]) detected, cut to the budget, some matched to the
     /// wrong landmark ([`Self::last_observations`] after the call).
-    pub fn observe_features(&mut self) -> FrameCounts {
+    pub(crate) fn observe_features(&mut self) -> FrameCounts {
         self.observe_landmarks();
         let (gp, gr) = self.body_pose();
         let cam_in_body = Vector3::new(0.0, 0.0, self.camera_height_m);

@@ -36,7 +36,7 @@ pub enum WorldError {
 
 /// Most rock or landmark sites a world may scatter (spacing against the terrain's area), so that
 /// a tiny spacing is an error rather than an allocation the machine cannot make.
-pub const MAX_SCATTER_SITES: f64 = (1u64 << 22) as f64;
+pub(crate) const MAX_SCATTER_SITES: f64 = (1u64 << 22) as f64;
 
 /// A world file: everything the simulator needs to build the ground truth.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

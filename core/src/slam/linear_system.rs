@@ -52,7 +52,7 @@ pub enum Factorisation {
 
 /// Normal equations of one graph structure, reused across iterations.
 #[derive(Debug)]
-pub struct LinearSystem {
+pub(crate) struct LinearSystem {
     generation: u64,
     fixed: Vec<bool>,
     dims: Vec<usize>,
@@ -216,7 +216,7 @@ impl LinearSystem {
     }
 
     /// First scalar column of a free variable.
-    pub fn column_of(&self, id: VarId) -> Option<usize> {
+    pub(crate) fn column_of(&self, id: VarId) -> Option<usize> {
         self.col_of_var.get(id.0).copied().filter(|&c| c != NONE)
     }
 
@@ -226,7 +226,7 @@ impl LinearSystem {
     }
 
     /// g = Jᵀ Ω e of the last linearisation.
-    pub fn gradient(&self) -> &[f64] {
+    pub(crate) fn gradient(&self) -> &[f64] {
         &self.g
     }
 
@@ -237,7 +237,7 @@ impl LinearSystem {
     }
 
     /// Fills H and g at `values`; returns the active χ².
-    pub fn linearize(&mut self, graph: &FactorGraph, values: &Values) -> Result<f64, FactorError> {
+    pub(crate) fn linearize(&mut self, graph: &FactorGraph, values: &Values) -> Result<f64, FactorError> {
         self.h.fill(0.0);
         self.g.fill(0.0);
         let factors = graph.factors();
@@ -296,7 +296,7 @@ impl LinearSystem {
 
     /// Numeric Cholesky of `H + λ I` with the cached symbolic factorisation, kept for
     /// [`LinearSystem::factor_parts`] and the solves (the same faer calls as its high-level `Llt`).
-    pub fn factorize(&mut self, lambda: f64) -> Result<(), SolveError> {
+    pub(crate) fn factorize(&mut self, lambda: f64) -> Result<(), SolveError> {
         self.scratch.copy_from_slice(&self.h);
         if lambda != 0.0 {
             for &p in &self.diag_pos {
@@ -330,12 +330,12 @@ impl LinearSystem {
 
     /// The factor of the last successful [`LinearSystem::factorize`]: faer's symbolic structure
     /// and the numeric values in its layout.
-    pub fn factor_parts(&self) -> (&SymbolicCholesky<usize>, &[f64]) {
+    pub(crate) fn factor_parts(&self) -> (&SymbolicCholesky<usize>, &[f64]) {
         (&self.cholesky, &self.l_values)
     }
 
     /// Solves `(H + λ I) δ = −g` into `delta` (length [`LinearSystem::dim`]).
-    pub fn solve_step(&mut self, lambda: f64, delta: &mut Vec<f64>) -> Result<(), SolveError> {
+    pub(crate) fn solve_step(&mut self, lambda: f64, delta: &mut Vec<f64>) -> Result<(), SolveError> {
         self.factorize(lambda)?;
         delta.clear();
         delta.extend(self.g.iter().map(|v| -v));
@@ -355,7 +355,7 @@ impl LinearSystem {
     }
 
     /// `values ⊕ δ` for every free variable, written into `out` (which is overwritten).
-    pub fn retract_into(&self, values: &Values, delta: &[f64], out: &mut Values) {
+    pub(crate) fn retract_into(&self, values: &Values, delta: &[f64], out: &mut Values) {
         out.clone_from(values);
         for (v, &c) in self.col_of_var.iter().enumerate() {
             if c != NONE {
@@ -365,7 +365,7 @@ impl LinearSystem {
     }
 
     /// H as a dense symmetric matrix (tests and small problems only).
-    pub fn dense_hessian(&self) -> nalgebra::DMatrix<f64> {
+    pub(crate) fn dense_hessian(&self) -> nalgebra::DMatrix<f64> {
         let mut m = nalgebra::DMatrix::zeros(self.n, self.n);
         let col_ptr = self.symbolic.col_ptr();
         let rows = self.symbolic.row_idx();

@@ -217,7 +217,7 @@ pub(super) fn centre_local(g: &GridGeometry, index: usize) -> (f64, f64) {
 
 /// (dx, dy) offsets of the cells whose centre lies within `radius_m` of a cell's centre
 /// (always including (0, 0)), row-major order.
-pub fn disc_offsets(radius_m: f64, resolution_m: f64) -> Vec<(i32, i32)> {
+pub(crate) fn disc_offsets(radius_m: f64, resolution_m: f64) -> Vec<(i32, i32)> {
     let r = if radius_m.is_finite() && resolution_m > 0.0 { (radius_m / resolution_m).max(0.0) } else { 0.0 };
     // 1e-9 tolerance: a radius that is an exact multiple of the resolution includes that ring.
     let r_cells = (r + 1e-9).floor().min(10_000.0) as i32;

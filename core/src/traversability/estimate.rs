@@ -358,7 +358,7 @@ impl TraversabilityMap {
     /// [`Self::update`] instead when `layers` does not match the map or its parameters (checked
     /// once per call). O(disc cells) per stale cell, O(1) per other index; indices outside the
     /// grid are ignored.
-    pub fn refresh_cells(
+    pub(crate) fn refresh_cells(
         &mut self,
         indices: impl IntoIterator<Item = usize>,
         params: &TraversabilityParams,
@@ -385,7 +385,7 @@ impl TraversabilityMap {
     /// horizontally). Calls `changed(index, known)` for every flag that flipped since the last
     /// call, in row-major order (all cells the first time, or when the disc radius, `min_points` or
     /// `min_spread_ratio` changed). O(cells whose disc changed), O(1) each, plus ordering them.
-    pub fn refresh_known(&mut self, params: &TraversabilityParams, mut changed: impl FnMut(usize, bool)) {
+    pub(crate) fn refresh_known(&mut self, params: &TraversabilityParams, mut changed: impl FnMut(usize, bool)) {
         self.ensure_discs(params.disc_radius_m);
         let key = (params.disc_radius_m.to_bits(), params.min_points, params.min_spread_ratio.to_bits());
         if self.known_with != Some(key) {

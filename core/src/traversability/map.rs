@@ -200,14 +200,16 @@ impl TraversabilityMap {
         self.geometry
     }
 
+    #[cfg(test)]
     /// The local origin (x, y, z) the moments are relative to, metres (z is 0 before the first
     /// point).
-    pub fn local_origin_m(&self) -> [f64; 3] {
+    pub(crate) fn local_origin_m(&self) -> [f64; 3] {
         [self.geometry.origin_x_m, self.geometry.origin_y_m, self.z_origin_m.unwrap_or(0.0)]
     }
 
+    #[cfg(test)]
     /// Per-cell moments, row-major, relative to [`Self::local_origin_m`].
-    pub fn moments(&self) -> &[CellMoments] {
+    pub(crate) fn moments(&self) -> &[CellMoments] {
         &self.moments
     }
 

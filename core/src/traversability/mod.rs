@@ -42,12 +42,11 @@ mod sampling;
 #[cfg(test)]
 mod tests;
 
-pub use crate::grid::MAX_CELLS;
-pub use disc_sums::disc_offsets;
-pub use estimate::{GroundModel, TraversabilityLayers, to_occupancy};
-pub use map::{InsertStats, TraversabilityMap};
-pub use moments::CellMoments;
-pub use plane::{PlaneFit, fit_plane};
+pub(crate) use crate::grid::MAX_CELLS;
+pub use estimate::GroundModel;
+pub use estimate::{TraversabilityLayers, to_occupancy};
+pub use map::InsertStats;
+pub use map::TraversabilityMap;
 pub use render::{UNKNOWN_RGB, score_rgb, score_to_rgb};
 pub use sampling::DiscSampling;
 

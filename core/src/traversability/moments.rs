@@ -14,7 +14,7 @@
 ///
 /// Coordinates (`mean`, `z_min`, `z_max`) are metres relative to the owning map's local origin.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CellMoments {
+pub(crate) struct CellMoments {
     /// Number of points.
     pub count: u64,
     /// Mean position (x, y, z), metres; zero when `count == 0`.
@@ -37,15 +37,10 @@ impl Default for CellMoments {
 
 impl CellMoments {
     /// Moments of no point.
-    pub const EMPTY: Self =
+    pub(crate) const EMPTY: Self =
         Self { count: 0, mean: [0.0; 3], scatter: [0.0; 6], z_min: f64::INFINITY, z_max: f64::NEG_INFINITY, var_sum_m2: 0.0 };
 
-    /// Whether no point has been added.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.count == 0
-    }
-
+    #[cfg(test)]
     /// Adds one point (Welford). The caller guarantees finite coordinates.
     #[inline]
     pub fn add(&mut self, p: [f64; 3]) {
@@ -54,7 +49,7 @@ impl CellMoments {
 
     /// Adds one point whose height has noise variance `var_m2` (see [`Self::var_sum_m2`]).
     #[inline]
-    pub fn add_with_variance(&mut self, p: [f64; 3], var_m2: f64) {
+    pub(crate) fn add_with_variance(&mut self, p: [f64; 3], var_m2: f64) {
         self.var_sum_m2 += var_m2;
         let n = self.count + 1;
         let d = [p[0] - self.mean[0], p[1] - self.mean[1], p[2] - self.mean[2]];
@@ -67,10 +62,11 @@ impl CellMoments {
         self.z_max = self.z_max.max(p[2]);
     }
 
+    #[cfg(test)]
     /// Fuses `other` into `self` (parallel-axis combination): afterwards `self` holds the
     /// moments of the union of both point sets.
     #[inline]
-    pub fn merge(&mut self, other: &CellMoments) {
+    pub(crate) fn merge(&mut self, other: &CellMoments) {
         if other.count == 0 {
             return;
         }

@@ -25,7 +25,7 @@ const COINCIDENT_VAR_M2: f64 = 1e-18;
 
 /// A fitted plane, in the coordinates of the moments it was fitted to.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PlaneFit {
+pub(crate) struct PlaneFit {
     /// Unit normal with n_z ≥ 0.
     pub normal: [f64; 3],
     /// The plane passes through the points' centroid.
@@ -47,7 +47,7 @@ impl PlaneFit {
 
 /// Fits the least-squares plane to the points summarised by `m`; `None` when `m` is empty or
 /// not finite.
-pub fn fit_plane(m: &CellMoments) -> Option<PlaneFit> {
+pub(crate) fn fit_plane(m: &CellMoments) -> Option<PlaneFit> {
     if m.count == 0 {
         return None;
     }

@@ -13,7 +13,7 @@
 use nalgebra::Point3;
 
 /// Mean points per occupied bin at which the density is read.
-pub const POINTS_PER_BIN: f64 = 4.0;
+pub(crate) const POINTS_PER_BIN: f64 = 4.0;
 
 /// The horizontal sampling of a cloud, against the traversability disc.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -4,6 +4,9 @@
 use nalgebra::Point3;
 use proptest::prelude::*;
 
+use super::disc_sums::disc_offsets;
+use super::moments::CellMoments;
+use super::plane::fit_plane;
 use super::*;
 use crate::grid::{Cell, FREE, Grid, GridGeometry, LETHAL, UNKNOWN, inflate_lethal};
 use crate::params::TraversabilityParams;

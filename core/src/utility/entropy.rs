@@ -14,7 +14,7 @@ use crate::math;
 
 /// Binary entropy `H(p)` in bits. Returns 0 outside the open interval (0, 1) and for NaN.
 #[inline]
-pub fn binary_entropy_bits(p: f64) -> f64 {
+pub(crate) fn binary_entropy_bits(p: f64) -> f64 {
     if !(p > 0.0 && p < 1.0) {
         return 0.0;
     }
@@ -24,14 +24,14 @@ pub fn binary_entropy_bits(p: f64) -> f64 {
 /// Expected gain `g(N) = 1 − H((1 + γ^N)/2)` in bits of an unknown cell with `cells_before`
 /// cells between it and the ray's origin cell (paper eqs. 5–6, notes §5).
 #[inline]
-pub fn visibility_gain_bits(gamma: f64, cells_before: u32) -> f64 {
+pub(crate) fn visibility_gain_bits(gamma: f64, cells_before: u32) -> f64 {
     let visibility = math::powf(gamma, f64::from(cells_before));
     1.0 - binary_entropy_bits(0.5 * (1.0 + visibility))
 }
 
 /// `g(N)` for `N = 0, 1, …, len − 1`, precomputed.
 #[derive(Clone, Debug, PartialEq)]
-pub struct GainTable {
+pub(crate) struct GainTable {
     gamma: f64,
     gains_bits: Vec<f64>,
 }
@@ -43,6 +43,7 @@ impl GainTable {
         Self { gamma, gains_bits }
     }
 
+    #[cfg(test)]
     /// γ the table was built for.
     pub fn gamma(&self) -> f64 {
         self.gamma

@@ -20,13 +20,15 @@
 //! Cost: O(1) per landmark; the isotropic trace is a handful of flops, the general trace a 2×2
 //! inverse, the full 6×6 matrix a few hundred flops.
 
-use nalgebra::{Isometry3, Matrix2, Matrix2x3, Matrix3, Matrix3x6, Matrix6, Point3, Vector3};
+#[cfg(test)]
+use nalgebra::{Isometry3, Matrix3x6, Matrix6, Point3};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector3};
 
 /// `tr(I)` for an isotropic landmark covariance `Q = σ_l² I` at camera distance `distance_m`:
 /// `2(1 + 1/d²) / (σ_b² + σ_l²/d²)`. Returns 0 for a non-positive or non-finite distance or a
 /// zero total noise.
 #[inline]
-pub fn trace_information(distance_m: f64, sigma_bearing_rad: f64, landmark_var_m2: f64) -> f64 {
+pub(crate) fn trace_information(distance_m: f64, sigma_bearing_rad: f64, landmark_var_m2: f64) -> f64 {
     let valid = distance_m > 0.0 && distance_m.is_finite();
     if !valid {
         return 0.0;
@@ -39,9 +41,10 @@ pub fn trace_information(distance_m: f64, sigma_bearing_rad: f64, landmark_var_m
     2.0 * (1.0 + inv_d2) / noise
 }
 
+#[cfg(test)]
 /// `[v]×`, the matrix of `v × ·`.
 #[inline]
-pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+pub(crate) fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
 
@@ -53,8 +56,9 @@ fn tangent_basis_t(b: &Vector3<f64>) -> Matrix2x3<f64> {
     Matrix2x3::from_rows(&[t1.transpose(), t2.transpose()])
 }
 
+#[cfg(test)]
 /// `J = (I − bbᵀ)/d · [−I₃, [v_c]×]` for the landmark at `point_in_camera`; `None` at d = 0.
-pub fn bearing_jacobian(point_in_camera: &Vector3<f64>) -> Option<Matrix3x6<f64>> {
+pub(crate) fn bearing_jacobian(point_in_camera: &Vector3<f64>) -> Option<Matrix3x6<f64>> {
     let d = point_in_camera.norm();
     if !(d > 0.0 && d.is_finite()) {
         return None;
@@ -88,7 +92,7 @@ fn tangent_terms(
 
 /// `tr(I)` for a general landmark covariance `Q` (world frame, m²): `(1 + 1/d²) · tr(Σ_t⁻¹)`.
 /// `None` at d = 0 or a singular bearing covariance.
-pub fn trace_information_general(
+pub(crate) fn trace_information_general(
     point_in_camera: &Vector3<f64>,
     camera_from_world_rotation: &Matrix3<f64>,
     q_world_m2: &Matrix3<f64>,
@@ -98,9 +102,10 @@ pub fn trace_information_general(
     Some((1.0 + 1.0 / (d * d)) * inv.trace())
 }
 
+#[cfg(test)]
 /// The full 6×6 information `I = Jᵀ Σ_b⁺ J` of landmark `landmark_in_world` with covariance
 /// `q_world_m2` seen from `camera_from_world`, in the camera-frame perturbation `ξ = (δt, δφ)`.
-pub fn information_matrix(
+pub(crate) fn information_matrix(
     camera_from_world: &Isometry3<f64>,
     landmark_in_world: &Point3<f64>,
     q_world_m2: &Matrix3<f64>,

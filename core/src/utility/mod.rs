@@ -11,21 +11,19 @@
 //! | [`u2`] | waypoints, camera poses, frustum, `I_p`, `u2 = β·u1 + (1 − β)·I_p` | eqs. 10–14 |
 
 pub mod entropy;
-pub mod fim;
+pub(crate) mod fim;
 pub mod rays;
 pub mod theta_star;
 pub mod u1;
 pub mod u2;
 pub mod voxels;
 
-pub use entropy::{GainTable, binary_entropy_bits, visibility_gain_bits};
-pub use fim::{bearing_jacobian, information_matrix, trace_information, trace_information_general};
-pub use rays::{RayFan, ray_count};
-pub use theta_star::{FovWindows, ThetaStar, theta_star};
-pub use u1::u1_scores;
-pub use u2::{
-    Frustum, PathView, Waypoint, WaypointReport, camera_pose, normalise_path_information, path_information, u2_score, waypoints_along,
-};
+pub(crate) use rays::RayFan;
+pub(crate) use theta_star::FovWindows;
+pub use theta_star::{ThetaStar, theta_star};
+pub(crate) use u1::u1_scores;
+pub use u2::WaypointReport;
+pub(crate) use u2::{PathView, normalise_path_information, path_information, u2_score};
 pub use voxels::LandmarkVoxels;
 
 use thiserror::Error;

@@ -30,13 +30,13 @@ use crate::grid::{Cell, CellClass, OccupancyGrid};
 use crate::math;
 
 /// Number of rays `⌈2π/Δθ⌉` of the fan (angles `kΔθ < 2π`).
-pub fn ray_count(delta_theta_rad: f64) -> usize {
+pub(crate) fn ray_count(delta_theta_rad: f64) -> usize {
     (std::f64::consts::TAU / delta_theta_rad - 1e-9).ceil().max(1.0) as usize
 }
 
 /// A precomputed fan of rays: angles, the cell offsets each ray crosses, and `g(N)` per step.
 #[derive(Clone, Debug)]
-pub struct RayFan {
+pub(crate) struct RayFan {
     angles_rad: Vec<f64>,
     /// Offsets (dcol, drow) of every ray, concatenated; ray k is `offsets[ray_start[k]..ray_start[k+1]]`.
     offsets: Vec<[i32; 2]>,
@@ -85,7 +85,7 @@ impl RayFan {
     /// Precomputes the offsets as flat-index offsets for grids `width` cells wide, which
     /// [`Self::cast`] then walks from interior origins on such grids (one add per cell instead
     /// of a 2D index; 0.4 ms of a 404-candidate decision, docs/benchmarks.md).
-    pub fn for_width(mut self, width: usize) -> Self {
+    pub(crate) fn for_width(mut self, width: usize) -> Self {
         let w = width as isize;
         self.flat = self.offsets.iter().map(|o| o[1] as isize * w + o[0] as isize).collect();
         self.flat_width = width;
@@ -93,7 +93,7 @@ impl RayFan {
     }
 
     /// Ray angles `kΔθ`, radians, counter-clockwise from +x.
-    pub fn angles_rad(&self) -> &[f64] {
+    pub(crate) fn angles_rad(&self) -> &[f64] {
         &self.angles_rad
     }
 
@@ -102,12 +102,9 @@ impl RayFan {
         self.angles_rad.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.angles_rad.is_empty()
-    }
-
+    #[cfg(test)]
     /// Cell offsets (dcol, drow) that ray `k` crosses after its origin cell, in order.
-    pub fn ray_offsets(&self, k: usize) -> &[[i32; 2]] {
+    pub(crate) fn ray_offsets(&self, k: usize) -> &[[i32; 2]] {
         &self.offsets[self.ray_start[k]..self.ray_start[k + 1]]
     }
 

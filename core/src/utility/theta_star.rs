@@ -27,14 +27,14 @@ pub struct ThetaStar {
 
 /// Angular distance between two angles, in [0, π].
 #[inline]
-pub fn angular_distance_rad(a_rad: f64, b_rad: f64) -> f64 {
+pub(crate) fn angular_distance_rad(a_rad: f64, b_rad: f64) -> f64 {
     let d = (a_rad - b_rad).rem_euclid(TAU);
     d.min(TAU - d)
 }
 
 /// For each ray of a fan, the circular arc of rays within Φ/2 of it.
 #[derive(Clone, Debug, PartialEq)]
-pub struct FovWindows {
+pub(crate) struct FovWindows {
     start: Vec<u32>,
     len: Vec<u32>,
 }
@@ -78,6 +78,7 @@ impl FovWindows {
         self.start.is_empty()
     }
 
+    #[cfg(test)]
     /// Ray indices in the window of ray `s`, in circular order.
     pub fn window(&self, s: usize) -> impl Iterator<Item = usize> + '_ {
         let n = self.len();
@@ -87,7 +88,7 @@ impl FovWindows {
 
     /// Summed gain of ray `s`'s window.
     #[inline]
-    pub fn window_sum(&self, s: usize, gains_bits: &[f64]) -> f64 {
+    pub(crate) fn window_sum(&self, s: usize, gains_bits: &[f64]) -> f64 {
         let n = self.len();
         let (a, l) = (self.start[s] as usize, self.len[s] as usize);
         if a + l <= n {

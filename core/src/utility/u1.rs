@@ -11,7 +11,7 @@
 /// `rho_m` and `delta_e_bits` must have the same length; `one_cell_m` is the grid resolution
 /// used as the floor of ρ. Non-finite or negative inputs are treated as the worst value of their
 /// term (an infinite ρ gives 0 path term; a NaN ΔE gives 0 entropy term).
-pub fn u1_scores(rho_m: &[f64], delta_e_bits: &[f64], alpha: f64, one_cell_m: f64, out: &mut Vec<f64>) {
+pub(crate) fn u1_scores(rho_m: &[f64], delta_e_bits: &[f64], alpha: f64, one_cell_m: f64, out: &mut Vec<f64>) {
     out.clear();
     debug_assert_eq!(rho_m.len(), delta_e_bits.len());
     let n = rho_m.len().min(delta_e_bits.len());

@@ -30,11 +30,13 @@ use super::voxels::LandmarkVoxels;
 use crate::math;
 use crate::params::{CameraParams, InfoNormalisation};
 pub use crate::traversability::GroundModel;
-use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
+#[cfg(test)]
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use nalgebra::{Matrix3, Point3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Half-length of the chord that estimates a path's tangent, metres.
-pub const TANGENT_HALF_WINDOW_M: f64 = 0.5;
+pub(crate) const TANGENT_HALF_WINDOW_M: f64 = 0.5;
 const MERGE_WITH_GOAL_M: f64 = 1e-3;
 /// An occluding ground must rise this far above the line of sight, metres (a landmark on the
 /// ground is not hidden by the ground it lies on).
@@ -44,7 +46,7 @@ const OCCLUSION_MARGIN_M: f64 = 0.1;
 
 /// Where u2's cameras stand (module doc, step 2).
 #[derive(Clone, Copy, Debug)]
-pub struct CameraGround<'a> {
+pub(crate) struct CameraGround<'a> {
     /// Height of the flat ground assumed where the map does not know it, map frame, metres.
     pub flat_z_m: f64,
     /// The map's known ground; `None`: flat ground everywhere (the paper).
@@ -54,6 +56,7 @@ pub struct CameraGround<'a> {
 }
 
 impl CameraGround<'_> {
+    #[cfg(test)]
     /// Flat ground at `flat_z_m`, no occlusion (the paper).
     pub fn flat(flat_z_m: f64) -> Self {
         Self { flat_z_m, known: None, occlusion: false }
@@ -61,7 +64,7 @@ impl CameraGround<'_> {
 
     /// The body at (`x_m`, `y_m`) heading `yaw_rad`: its origin on the ground and
     /// `world_from_body` (z along the ground's normal, x the heading projected onto the ground).
-    pub fn body_at(&self, x_m: f64, y_m: f64, yaw_rad: f64) -> (Point3<f64>, Rotation3<f64>) {
+    pub(crate) fn body_at(&self, x_m: f64, y_m: f64, yaw_rad: f64) -> (Point3<f64>, Rotation3<f64>) {
         let level = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad);
         let Some((z, [gx, gy])) = self.known.and_then(|g| g.at(x_m, y_m)) else {
             return (Point3::new(x_m, y_m, self.flat_z_m), level);
@@ -77,7 +80,7 @@ impl CameraGround<'_> {
 
 /// A waypoint on a path (map frame).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Waypoint {
+pub(crate) struct Waypoint {
     pub x_m: f64,
     pub y_m: f64,
     /// Camera (and body) yaw, radians, counter-clockwise from +x.
@@ -106,7 +109,7 @@ pub struct WaypointReport {
 
 /// Waypoints along `path_m` (at least one vertex) every `spacing_m`, plus the goal (the last
 /// vertex) with yaw `goal_yaw_rad`. Writes into `out` (cleared).
-pub fn waypoints_along(path_m: &[[f64; 2]], spacing_m: f64, goal_yaw_rad: f64, out: &mut Vec<Waypoint>) {
+pub(crate) fn waypoints_along(path_m: &[[f64; 2]], spacing_m: f64, goal_yaw_rad: f64, out: &mut Vec<Waypoint>) {
     out.clear();
     let Some(&goal) = path_m.last() else { return };
     // Cumulative arc length per vertex.
@@ -151,7 +154,7 @@ pub fn waypoints_along(path_m: &[[f64; 2]], spacing_m: f64, goal_yaw_rad: f64, o
 /// The heading at the end of `path_m`: the chord to its end from the last vertex at least
 /// [`TANGENT_HALF_WINDOW_M`] of arc length before it (the first vertex when the path is shorter);
 /// `None` for a path of no length.
-pub fn arrival_heading_rad(path_m: &[[f64; 2]]) -> Option<f64> {
+pub(crate) fn arrival_heading_rad(path_m: &[[f64; 2]]) -> Option<f64> {
     let &end = path_m.last()?;
     let mut from = end;
     let mut s = 0.0;
@@ -166,23 +169,24 @@ pub fn arrival_heading_rad(path_m: &[[f64; 2]]) -> Option<f64> {
     (dx != 0.0 || dy != 0.0).then(|| math::atan2(dy, dx))
 }
 
+#[cfg(test)]
 /// `world_from_camera` (optical frame: z forward, x right, y down) for a camera at
 /// (`x_m`, `y_m`, `z_m`) with body yaw `yaw_rad`, pitch and roll 0.
-pub fn camera_pose(x_m: f64, y_m: f64, z_m: f64, yaw_rad: f64) -> Isometry3<f64> {
+pub(crate) fn camera_pose(x_m: f64, y_m: f64, z_m: f64, yaw_rad: f64) -> Isometry3<f64> {
     let world_from_body = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_rad);
     Isometry3::from_parts(Translation3::new(x_m, y_m, z_m), UnitQuaternion::from_rotation_matrix(&optical_rotation(&world_from_body)))
 }
 
 /// `world_from_optical` of a camera looking along the body's x: the optical axes in the body
 /// frame are x_opt = −y_body, y_opt = −z_body, z_opt = x_body.
-pub fn optical_rotation(world_from_body: &Rotation3<f64>) -> Rotation3<f64> {
+pub(crate) fn optical_rotation(world_from_body: &Rotation3<f64>) -> Rotation3<f64> {
     let body_from_optical = Rotation3::from_matrix_unchecked(Matrix3::new(0.0, 0.0, 1.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0));
     world_from_body * body_from_optical
 }
 
 /// The camera frustum in the optical frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frustum {
+pub(crate) struct Frustum {
     pub tan_half_hfov: f64,
     pub tan_half_vfov: f64,
     pub min_depth_m: f64,
@@ -191,7 +195,7 @@ pub struct Frustum {
 
 impl Frustum {
     /// From the camera parameters (a horizontal FOV ≥ π leaves x unbounded).
-    pub fn from_params(camera: &CameraParams) -> Self {
+    pub(crate) fn from_params(camera: &CameraParams) -> Self {
         let tan_half = |fov: f64| if fov < std::f64::consts::PI { math::tan(0.5 * fov) } else { f64::INFINITY };
         Self {
             tan_half_hfov: tan_half(camera.hfov_rad),
@@ -211,7 +215,7 @@ impl Frustum {
 /// What a camera at `camera_m` on a body with `world_from_body` (the camera looks along the body's
 /// x) sees: (voxels in the frustum and, with `occluder`, in line of sight over its ground;
 /// `I_w = Σ tr(I_i)`).
-pub fn waypoint_information(
+pub(crate) fn waypoint_information(
     voxels: &LandmarkVoxels,
     camera_m: [f64; 3],
     world_from_body: &Rotation3<f64>,
@@ -284,7 +288,7 @@ fn hidden_by_ground(ground: &GroundModel, cam: &Vector3<f64>, d: &Vector3<f64>) 
 
 /// How u2 looks along a path (module doc): what there is to see, the camera, where it stands.
 #[derive(Clone, Copy, Debug)]
-pub struct PathView<'a> {
+pub(crate) struct PathView<'a> {
     /// The mapped landmarks.
     pub voxels: &'a LandmarkVoxels,
     pub camera: &'a CameraParams,
@@ -300,7 +304,7 @@ pub struct PathView<'a> {
 /// `I_p = Σ_k I_{w_k}` along `path_m` (map frame, metres; from the robot's cell to the candidate),
 /// with the goal's yaw `goal_yaw_rad` (Θ*), seen as `view` says. Writes one report per waypoint
 /// into `out` (cleared) and returns `I_p`.
-pub fn path_information(path_m: &[[f64; 2]], goal_yaw_rad: f64, view: &PathView, out: &mut Vec<WaypointReport>) -> f64 {
+pub(crate) fn path_information(path_m: &[[f64; 2]], goal_yaw_rad: f64, view: &PathView, out: &mut Vec<WaypointReport>) -> f64 {
     out.clear();
     let mut wps = Vec::new();
     waypoints_along(path_m, view.spacing_m, goal_yaw_rad, &mut wps);
@@ -330,7 +334,7 @@ pub fn path_information(path_m: &[[f64; 2]], goal_yaw_rad: f64, view: &PathView,
 
 /// Normalises path informations over the candidates (paper eq. 12: divide by the max; or by the
 /// mean). All zeros (or an empty slice) stay zeros.
-pub fn normalise_path_information(raw: &[f64], mode: InfoNormalisation, out: &mut Vec<f64>) {
+pub(crate) fn normalise_path_information(raw: &[f64], mode: InfoNormalisation, out: &mut Vec<f64>) {
     out.clear();
     let scale = match mode {
         InfoNormalisation::Max => raw.iter().cloned().fold(0.0, f64::max),
@@ -342,7 +346,7 @@ pub fn normalise_path_information(raw: &[f64], mode: InfoNormalisation, out: &mu
 
 /// `u2 = β · u1 + (1 − β) · I_p,normalised` (paper eq. 14).
 #[inline]
-pub fn u2_score(u1: f64, path_info_normalised: f64, beta: f64) -> f64 {
+pub(crate) fn u2_score(u1: f64, path_info_normalised: f64, beta: f64) -> f64 {
     beta * u1 + (1.0 - beta) * path_info_normalised
 }
 

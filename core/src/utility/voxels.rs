@@ -186,20 +186,16 @@ impl LandmarkVoxels {
         self.centroids_m.is_empty()
     }
 
+    #[cfg(test)]
     /// Points of the cloud that were skipped (non-finite position or covariance).
-    pub fn skipped_points(&self) -> usize {
+    pub(crate) fn skipped_points(&self) -> usize {
         self.skipped_points
     }
 
     /// Centroid of voxel `i` in the world frame, metres.
     #[inline]
-    pub fn centroid_m(&self, i: usize) -> [f64; 3] {
+    pub(crate) fn centroid_m(&self, i: usize) -> [f64; 3] {
         self.centroids_m[i]
-    }
-
-    /// All centroids (index order).
-    pub fn centroids_m(&self) -> &[[f64; 3]] {
-        &self.centroids_m
     }
 
     /// Number of landmarks in voxel `i`.
@@ -209,13 +205,13 @@ impl LandmarkVoxels {
 
     /// Covariance `Q` of voxel `i` (world frame, m²).
     #[inline]
-    pub fn covariance_m2(&self, i: usize) -> &Matrix3<f64> {
+    pub(crate) fn covariance_m2(&self, i: usize) -> &Matrix3<f64> {
         &self.covariances_m2[i]
     }
 
     /// `σ²` if voxel `i`'s `Q` is `σ² I` (the fast FIM path applies), else `None`.
     #[inline]
-    pub fn isotropic_variance_m2(&self, i: usize) -> Option<f64> {
+    pub(crate) fn isotropic_variance_m2(&self, i: usize) -> Option<f64> {
         let v = self.isotropic_var_m2[i];
         (!v.is_nan()).then_some(v)
     }
@@ -223,7 +219,7 @@ impl LandmarkVoxels {
     /// Calls `f` with the index of every voxel whose bucket overlaps the box
     /// `[min_x, max_x] × [min_y, max_y]` (metres). Voxels just outside the box may be included
     /// (whole buckets are visited); the caller tests each one.
-    pub fn for_each_in_box(&self, min_x_m: f64, min_y_m: f64, max_x_m: f64, max_y_m: f64, mut f: impl FnMut(usize)) {
+    pub(crate) fn for_each_in_box(&self, min_x_m: f64, min_y_m: f64, max_x_m: f64, max_y_m: f64, mut f: impl FnMut(usize)) {
         if self.is_empty() || !(min_x_m <= max_x_m && min_y_m <= max_y_m) {
             return;
         }

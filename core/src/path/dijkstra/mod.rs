@@ -43,7 +43,7 @@
 //! O(n) in the cells reached (a cell is rescanned only when its cost improves) plus O(grid) to
 //! find the window.
 
-use super::{MOVES, Path, PathError, check_start};
+use super::{MOVES, PathError, check_start};
 use crate::grid::{self, Cell, GridGeometry, LETHAL_THRESHOLD, OccupancyGrid};
 use queue::{BlockOrder, BucketQueue};
 
@@ -156,8 +156,9 @@ impl DistanceField {
         self.settled_index(cell).is_some()
     }
 
+    #[cfg(test)]
     /// Whether the search settled every reachable cell (then "not reached" means unreachable).
-    pub fn is_complete(&self) -> bool {
+    pub(crate) fn is_complete(&self) -> bool {
         self.settled_below == UNREACHED
     }
 
@@ -171,21 +172,22 @@ impl DistanceField {
         self.cost.iter().filter(|&&c| self.is_settled(c)).count()
     }
 
+    #[cfg(test)]
     /// The shortest path from the start to `cell`, if reached (parents recovered by
     /// [`Self::walk_back`]).
-    pub fn path_to(&self, cell: Cell) -> Option<Path> {
+    pub(crate) fn path_to(&self, cell: Cell) -> Option<super::Path> {
         let k = self.settled_index(cell)?;
         let length_m = self.scale.cells(self.cost[k]) * self.geometry.resolution_m;
         let mut cells = vec![cell];
         self.walk_back(k, cell, |at, _| cells.push(at))?;
         cells.reverse();
-        Some(Path { cells, length_m })
+        Some(super::Path { cells, length_m })
     }
 
     /// The corner cells of [`Self::path_to`]'s path: its first and last cells and those where
     /// the move changes (the same polyline; what a planner draws and follows), without
     /// building the whole path.
-    pub fn corners_to(&self, cell: Cell) -> Option<Vec<Cell>> {
+    pub(crate) fn corners_to(&self, cell: Cell) -> Option<Vec<Cell>> {
         let k = self.settled_index(cell)?;
         let mut corners = vec![cell];
         let mut last_move = usize::MAX;
@@ -250,6 +252,7 @@ pub fn dijkstra(grid: &OccupancyGrid, start: Cell, allow_unknown: bool) -> Resul
     search(grid, start, allow_unknown, Goals { targets: None, frontier: None }, SearchBuffers::default())
 }
 
+#[cfg(test)]
 /// Runs Dijkstra from `start` until every passable cell of `targets` is settled (or nothing is
 /// left to settle): their distances and paths are exactly [`dijkstra`]'s.
 pub fn dijkstra_to(grid: &OccupancyGrid, start: Cell, allow_unknown: bool, targets: &[Cell]) -> Result<DistanceField, PathError> {

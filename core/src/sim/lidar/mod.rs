@@ -347,7 +347,7 @@ fn first_root(c0: f64, c1: f64, c2: f64, b: f64) -> f64 {
 }
 
 /// Elevation angle of ring `k`, radians: evenly spaced from −half to +half.
-pub fn ring_elevation_rad(params: &LidarParams, k: usize) -> f64 {
+pub(crate) fn ring_elevation_rad(params: &LidarParams, k: usize) -> f64 {
     if params.rings <= 1 {
         return 0.0;
     }
@@ -400,7 +400,7 @@ pub fn scan(
 }
 
 /// A standard normal sample (Box–Muller; one of the pair).
-pub fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random::<f64>().max(1e-300);
     let u2: f64 = rng.random::<f64>();
     (-2.0 * math::ln(u1)).sqrt() * math::cos(std::f64::consts::TAU * u2)

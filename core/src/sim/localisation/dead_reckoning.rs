@@ -16,7 +16,7 @@ use crate::traversability::TraversabilityMap;
 use nalgebra::{Matrix2, Matrix3, Matrix3x2, Point3};
 
 /// Dead-reckoned odometry.
-pub struct DeadReckoning {
+pub(crate) struct DeadReckoning {
     est: Pose2,
     cov: Matrix3<f64>,
     noise: OdometryNoise,

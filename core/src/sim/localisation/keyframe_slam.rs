@@ -18,7 +18,7 @@ use crate::traversability::TraversabilityMap;
 use nalgebra::{Matrix3, Matrix6, Point3, UnitQuaternion, Vector3};
 
 /// The simulator's SLAM.
-pub struct KeyframeSlamLocaliser {
+pub(crate) struct KeyframeSlamLocaliser {
     frontend: SlamFrontend,
     params: SlamParams,
     est: Pose2,

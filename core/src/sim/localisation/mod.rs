@@ -13,10 +13,10 @@ mod ground_truth;
 mod keyframe_slam;
 mod tracking;
 
-pub use dead_reckoning::DeadReckoning;
+pub(crate) use dead_reckoning::DeadReckoning;
 pub use ground_truth::GroundTruth;
-pub use keyframe_slam::KeyframeSlamLocaliser;
-pub use tracking::{TrackingStats, VisualTracking};
+pub(crate) use keyframe_slam::KeyframeSlamLocaliser;
+pub(crate) use tracking::TrackingStats;
 
 use super::world_sim::{BodyPose, Motion, WorldSim};
 use crate::PointCloud;
@@ -85,7 +85,7 @@ pub struct PoseCovariance {
 
 /// Counters of the SLAM's work (zeros without SLAM).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LocalisationStats {
+pub(crate) struct LocalisationStats {
     pub loop_closures: u64,
     pub keyframes: usize,
     /// Traversability map rebuilds after loop closures.
@@ -102,7 +102,7 @@ pub struct LocalisationStats {
 /// A localisation of the simulated robot. The mission calls, per control tick, [`Self::propagate`]
 /// then [`Self::keyframe`]; per scan [`Self::register`]; per camera period [`Self::observe`];
 /// before a decision [`Self::prepare_decision`] and [`Self::landmark_map`].
-pub trait Localiser {
+pub(crate) trait Localiser {
     /// Which one this is.
     fn kind(&self) -> Localisation;
 
@@ -152,7 +152,7 @@ pub trait Localiser {
 }
 
 /// The localiser of `kind` for a robot whose world simulator is `sim`.
-pub fn new_localiser(
+pub(crate) fn new_localiser(
     kind: Localisation,
     sim: &mut WorldSim,
     slam: &crate::slam::keyframes::SlamParams,

@@ -11,7 +11,7 @@ use crate::sim::vision::VisionParams;
 
 /// Tracking counters of a mission.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct TrackingStats {
+pub(crate) struct TrackingStats {
     /// Times tracking was lost.
     pub losses: u64,
     /// Recoveries by re-observing mapped landmarks.
@@ -26,7 +26,7 @@ pub struct TrackingStats {
 
 /// The tracking state machine; see the module doc.
 #[derive(Clone, Debug)]
-pub struct VisualTracking {
+pub(crate) struct VisualTracking {
     min_tracked: usize,
     relocalise_min: usize,
     new_map_min: usize,
@@ -56,7 +56,7 @@ impl VisualTracking {
 
     /// A keyframe's features: keeps in `features` those the SLAM may use (`is_mapped` tells the
     /// landmarks already in the map).
-    pub fn at_keyframe(&mut self, features: &mut Vec<CameraObservation>, is_mapped: impl Fn(u64) -> bool) {
+    pub(crate) fn at_keyframe(&mut self, features: &mut Vec<CameraObservation>, is_mapped: impl Fn(u64) -> bool) {
         let mapped = features.iter().filter(|o| is_mapped(o.landmark_id)).count();
         if !self.stats.lost {
             if mapped >= self.min_tracked {

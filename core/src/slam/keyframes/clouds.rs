@@ -61,7 +61,7 @@ impl KeyframeClouds {
 
     /// Starts the cloud of a new keyframe (later points belong to it) whose roll/pitch variance
     /// is `tilt_var_rad2`.
-    pub fn start_keyframe(&mut self, tilt_var_rad2: f64) {
+    pub(crate) fn start_keyframe(&mut self, tilt_var_rad2: f64) {
         self.starts.push(self.points.len());
         self.tilt_var_rad2.push(tilt_var_rad2);
         self.occupied.clear();
@@ -95,7 +95,7 @@ impl KeyframeClouds {
     }
 
     /// Keyframe `k`'s points (empty when out of range).
-    pub fn points_of(&self, k: usize) -> &[[f32; 3]] {
+    pub(crate) fn points_of(&self, k: usize) -> &[[f32; 3]] {
         let Some(&a) = self.starts.get(k) else { return &[] };
         let b = self.starts.get(k + 1).copied().unwrap_or(self.points.len());
         &self.points[a..b]
@@ -107,7 +107,7 @@ impl KeyframeClouds {
 /// beyond the shorter of the two are skipped), each point with its height noise
 /// ([`height_variance`]); the next `update` recomputes every cell. Returns the number of points
 /// inserted. O(points).
-pub fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_from_keyframe: &[Se3]) -> usize {
+pub(crate) fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_from_keyframe: &[Se3]) -> usize {
     map.clear();
     let mut n = 0;
     let g = map.geometry();
@@ -130,7 +130,7 @@ pub fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_fr
 /// pitch error δφ moves the point `b` (body frame) by δφ × b, whose vertical part has variance
 /// σ_t²·(b_x² + b_y²) for isotropic roll/pitch variance σ_t². (The pose's own height error is
 /// common to the whole scan and left out: it shifts a scan, it does not make it rough.)
-pub fn height_variance(tilt_var_rad2: f64, point_in_body: &Vector3<f64>) -> f64 {
+pub(crate) fn height_variance(tilt_var_rad2: f64, point_in_body: &Vector3<f64>) -> f64 {
     tilt_var_rad2 * (point_in_body.x * point_in_body.x + point_in_body.y * point_in_body.y)
 }
 

@@ -22,7 +22,7 @@ pub struct CameraObservation {
 
 /// What one keyframe did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct KeyframeOutcome {
+pub(crate) struct KeyframeOutcome {
     /// The update optimised the whole graph (a loop closure).
     pub loop_closure: bool,
     /// The traversability map must be rebuilt ([`SlamFrontend::reregister_map`]).
@@ -97,17 +97,17 @@ impl SlamFrontend {
     }
 
     /// Traversability rebuilds requested so far.
-    pub fn reregistrations(&self) -> u64 {
+    pub(crate) fn reregistrations(&self) -> u64 {
         self.reregistrations
     }
 
     /// One control tick of odometry measured in the body frame ([`propagate_relative`]). O(1).
-    pub fn odometry_step(&mut self, step: &BodyIncrement) {
+    pub(crate) fn odometry_step(&mut self, step: &BodyIncrement) {
         (self.keyframe_from_current, self.relative_cov) = propagate_relative(&self.keyframe_from_current, &self.relative_cov, step);
     }
 
     /// `T_rel`: the odometry since the latest keyframe.
-    pub fn keyframe_from_current(&self) -> Se3 {
+    pub(crate) fn keyframe_from_current(&self) -> Se3 {
         self.keyframe_from_current
     }
 
@@ -122,7 +122,7 @@ impl SlamFrontend {
     }
 
     /// Whether the robot moved or turned enough for a new keyframe.
-    pub fn keyframe_due(&self) -> bool {
+    pub(crate) fn keyframe_due(&self) -> bool {
         let rel = &self.keyframe_from_current;
         let moved = rel.translation.norm();
         let turned = so3_log(&rel.rotation).norm();
@@ -132,7 +132,7 @@ impl SlamFrontend {
     /// Adds a keyframe at the current odometry pose with the camera's observations and the IMU's
     /// measured up direction in the body frame (used when `gravity_sigma_rad > 0`), updates the
     /// graph and the covariances, and decides on re-registration.
-    pub fn add_keyframe(
+    pub(crate) fn add_keyframe(
         &mut self,
         observations: &[CameraObservation],
         up_in_body: Option<Vector3<f64>>,
@@ -199,7 +199,7 @@ impl SlamFrontend {
     /// Stores body-frame points `points_in_body` (taken now) in the latest keyframe's cloud and
     /// appends them, registered with the current estimate, to `world_out`, with their height
     /// variance from the estimate's tilt uncertainty ([`height_variance`]).
-    pub fn register_points(&mut self, points_in_body: &[Vector3<f64>], world_out: &mut Vec<(Point3<f64>, f64)>) {
+    pub(crate) fn register_points(&mut self, points_in_body: &[Vector3<f64>], world_out: &mut Vec<(Point3<f64>, f64)>) {
         let rel = self.keyframe_from_current();
         let est = self.keyframe_pose * rel;
         let tilt_var = tilt_variance(&self.covariance());
@@ -218,13 +218,13 @@ impl SlamFrontend {
     }
 
     /// Rebuilds `map` from the keyframe clouds with the current keyframe poses.
-    pub fn reregister_map(&self, map: &mut TraversabilityMap) -> usize {
+    pub(crate) fn reregister_map(&self, map: &mut TraversabilityMap) -> usize {
         reregister(map, &self.clouds, &self.registered)
     }
 
     /// When `landmark_refresh_keyframes` keyframes were added since the last refresh, recomputes
     /// the exact marginals of the landmarks seen since. Returns whether it did.
-    pub fn refresh_landmark_covariances(&mut self) -> bool {
+    pub(crate) fn refresh_landmark_covariances(&mut self) -> bool {
         let k = self.slam.keyframe_count();
         if k < self.landmark_refreshed_at + self.params.landmark_refresh_keyframes {
             return false;

@@ -67,9 +67,11 @@ mod frontend;
 mod odometry;
 mod params;
 
-pub use clouds::{KeyframeClouds, height_variance, reregister};
-pub use frontend::{CameraObservation, KeyframeOutcome, SlamFrontend};
-pub use odometry::{BodyIncrement, anchored_landmark_covariance, compound_covariance, propagate_relative};
+pub use clouds::KeyframeClouds;
+
+pub(crate) use clouds::{height_variance, reregister};
+pub use frontend::{CameraObservation, SlamFrontend};
+pub(crate) use odometry::{BodyIncrement, anchored_landmark_covariance, compound_covariance, propagate_relative};
 pub use params::SlamParams;
 
 #[cfg(test)]

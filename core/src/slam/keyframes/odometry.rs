@@ -11,7 +11,7 @@ const COV_FLOOR: f64 = 1e-8;
 /// One odometry tick measured in the body frame: distance driven along the body's x axis and
 /// the gyro's rotation increment, with their noise variances.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BodyIncrement {
+pub(crate) struct BodyIncrement {
     /// Distance driven, metres (negative when reversing).
     pub distance_m: f64,
     /// Rotation increment (roll, pitch, yaw axes of the body), radians.
@@ -38,7 +38,7 @@ impl BodyIncrement {
 /// `n = (n_d, n_z, n_φ)` perturbs `ΔT` by `ρ = A (n_d e_x + n_z e_z − (d/2) [e_x]× n_φ)`,
 /// `A = Exp(−δφ/2)`, and `φ = n_φ` (first order; the half-rotation puts half the tick's turn
 /// noise on its lever).
-pub fn propagate_relative(relative: &Se3, covariance: &Matrix6<f64>, step: &BodyIncrement) -> (Se3, Matrix6<f64>) {
+pub(crate) fn propagate_relative(relative: &Se3, covariance: &Matrix6<f64>, step: &BodyIncrement) -> (Se3, Matrix6<f64>) {
     let motion = step.motion();
     let a = so3_exp(&(-0.5 * step.rotation_rad)).to_rotation_matrix().into_inner();
     let mut j = nalgebra::Matrix6x5::zeros();
@@ -59,7 +59,7 @@ pub(super) fn with_floor(covariance: &Matrix6<f64>) -> Matrix6<f64> {
 
 /// Covariance of `T_k · T_rel` (right perturbations) from the keyframe's `Σ_k` and the
 /// relative motion's `Σ_rel`, independent: `Ad(T_rel⁻¹) Σ_k Ad(T_rel⁻¹)ᵀ + Σ_rel`.
-pub fn compound_covariance(keyframe: &Matrix6<f64>, keyframe_from_current: &Se3, relative: &Matrix6<f64>) -> Matrix6<f64> {
+pub(crate) fn compound_covariance(keyframe: &Matrix6<f64>, keyframe_from_current: &Se3, relative: &Matrix6<f64>) -> Matrix6<f64> {
     let ad = keyframe_from_current.inverse().adjoint();
     let s = ad * keyframe * ad.transpose() + relative;
     (s + s.transpose()) * 0.5
@@ -67,7 +67,7 @@ pub fn compound_covariance(keyframe: &Matrix6<f64>, keyframe_from_current: &Se3,
 
 /// A landmark's world covariance from one observation: `R C Rᵀ + G Σ Gᵀ`, `G = R [I, −[p]×]`
 /// (first-order, pose and observation independent).
-pub fn anchored_landmark_covariance(
+pub(crate) fn anchored_landmark_covariance(
     world_from_robot: &Se3,
     pose_covariance: &Matrix6<f64>,
     point_in_robot: &Vector3<f64>,

@@ -1,6 +1,7 @@
 //! Tests of the keyframe SLAM.
 
 use super::clouds::tilt_variance;
+use super::frontend::KeyframeOutcome;
 use super::odometry::with_floor;
 use super::*;
 use crate::grid::GridGeometry;
