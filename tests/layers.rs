@@ -2,7 +2,8 @@
 //! - every top-level module of `core/src` imports only from modules on floors below its own (the
 //!   floors are ARCHITECTURE.md's table under "Core's floors");
 //! - no import loop between the modules of one folder, at any depth of `core/src`, `src`,
-//!   `studio/src` and `robot/src` (files and folders beside each other as the nodes).
+//!   `studio/src`, `robot/src` and `msgs/src` (files and folders beside each other as the nodes);
+//! - no source file (tests apart) over 600 lines.
 //!
 //! Imports are read as text: `crate::a::…` and `super::a::…` paths in code (comments, doc text,
 //! `#[cfg(doc)]` items and test code are left out), resolved to the sibling they name.
@@ -191,8 +192,11 @@ fn module_dirs(src: &Path) -> Vec<PathBuf> {
 #[test]
 fn no_import_loop_between_the_modules_of_a_folder() {
     let mut loops = Vec::new();
-    for krate in ["core/src", "src", "studio/src", "robot/src"] {
+    for krate in ["core/src", "src", "studio/src", "robot/src", "msgs/src"] {
         let src = root().join(krate);
+        if !src.is_dir() {
+            continue;
+        }
         for dir in module_dirs(&src) {
             if let Some(l) = find_loop(&sibling_edges(&src, &dir)) {
                 loops.push(format!("{}: {}", dir.strip_prefix(root()).unwrap().display(), l.join(" → ")));
@@ -235,4 +239,25 @@ fn every_core_module_imports_only_from_floors_below_its_own() {
         }
     }
     assert!(up.is_empty(), "imports that do not go down:\n{}", up.join("\n"));
+}
+
+/// Most lines a source file (tests apart) may have: a file holds one concept.
+const MAX_FILE_LINES: usize = 600;
+
+#[test]
+fn no_source_file_is_longer_than_a_concept() {
+    let mut long = Vec::new();
+    for krate in ["core/src", "src", "studio/src", "robot/src", "msgs/src"] {
+        let dir = root().join(krate);
+        if !dir.is_dir() {
+            continue;
+        }
+        for file in sources(&dir) {
+            let lines = std::fs::read_to_string(&file).unwrap().lines().count();
+            if lines > MAX_FILE_LINES {
+                long.push(format!("{}: {lines} lines", file.strip_prefix(root()).unwrap().display()));
+            }
+        }
+    }
+    assert!(long.is_empty(), "files over {MAX_FILE_LINES} lines:\n{}", long.join("\n"));
 }
