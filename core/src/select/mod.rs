@@ -96,22 +96,53 @@ impl<'a> DecisionInput<'a> {
 /// `None`).
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SelectError {
+    /// A parameter does not suit this map (e.g. the robot radius or the waypoint spacing against
+    /// the map's resolution).
     #[error("invalid parameters: {0}")]
     InvalidParams(#[from] crate::params::InvalidParam),
+    /// The grid's data and geometry disagree.
     #[error("grid has {data_len} values but its geometry has {cells} cells")]
-    GridSizeMismatch { data_len: usize, cells: usize },
+    GridSizeMismatch {
+        /// Values in the grid's data.
+        data_len: usize,
+        /// Cells its geometry has.
+        cells: usize,
+    },
+    /// [`DecisionInput::traversed`] holds an index outside the grid.
     #[error("traversed cell {index} is outside the grid's {cells} cells")]
-    TraversedOutsideGrid { index: usize, cells: usize },
+    TraversedOutsideGrid {
+        /// The flat index.
+        index: usize,
+        /// Cells in the grid.
+        cells: usize,
+    },
+    /// The robot's pose has a NaN or infinite component.
     #[error("robot pose is not finite")]
     RobotPoseNotFinite,
+    /// The robot's position lies outside the grid.
     #[error("robot at ({x_m}, {y_m}) m is outside the map")]
-    RobotOutsideMap { x_m: f64, y_m: f64 },
+    RobotOutsideMap {
+        /// The robot's x in the map frame, metres.
+        x_m: f64,
+        /// The robot's y in the map frame, metres.
+        y_m: f64,
+    },
+    /// The robot's cell is not free after inflation, and no free cell lies within the robot
+    /// radius plus one cell of it.
     #[error("robot cell ({}, {}) is blocked and no free cell lies within {search_radius_m} m", .cell.col, .cell.row)]
-    RobotBlocked { cell: Cell, search_radius_m: f64 },
+    RobotBlocked {
+        /// The robot's cell.
+        cell: Cell,
+        /// How far a free cell was searched for, metres.
+        search_radius_m: f64,
+    },
+    /// Frontier detection failed.
     #[error("frontier detection: {0}")]
     Frontier(#[from] FrontierError),
+    /// Path planning failed.
     #[error("path planning: {0}")]
     Path(#[from] PathError),
+    /// A utility (u1 or u2) could not be computed.
     #[error("utility: {0}")]
     Utility(#[from] UtilityError),
 }

@@ -48,8 +48,10 @@ use std::f64::consts::TAU;
 /// Why a [`Mission`] could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum MissionError {
+    /// The robot's traversability map could not be made on the world's geometry.
     #[error("traversability map: {0}")]
     Map(#[from] crate::traversability::TraversabilityError),
+    /// The SLAM could not start (e.g. a non-finite start pose).
     #[error("SLAM: {0}")]
     Slam(#[from] crate::slam::SlamError),
 }
@@ -57,7 +59,9 @@ pub enum MissionError {
 /// What one [`Mission::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StepOutcome {
+    /// The mission goes on.
     Running,
+    /// The mission has ended, for this reason (every later step answers the same).
     Finished(EndReason),
 }
 
@@ -413,6 +417,7 @@ impl Mission {
         self.explorer.trail().cells(&g)
     }
 
+    /// Mission time, seconds.
     pub fn time_s(&self) -> f64 {
         self.time_s
     }
@@ -432,6 +437,7 @@ impl Mission {
         self.localiser.covariance()
     }
 
+    /// The ground truth.
     pub fn world(&self) -> &World {
         self.sim.world()
     }
@@ -441,18 +447,22 @@ impl Mission {
         self.explorer.planner()
     }
 
+    /// The simulator's parameters.
     pub fn mission_params(&self) -> &MissionParams {
         &self.mission
     }
 
+    /// The goal selector in use.
     pub fn strategy(&self) -> Strategy {
         self.strategy
     }
 
+    /// The localisation in use.
     pub fn localisation(&self) -> Localisation {
         self.localiser.kind()
     }
 
+    /// The mission's seed (sensors and selector).
     pub fn seed(&self) -> u64 {
         self.seed
     }
@@ -467,14 +477,17 @@ impl Mission {
         self.sim.distance_m()
     }
 
+    /// The metrics rows so far, one per `metrics_period_s`.
     pub fn rows(&self) -> &[MetricsRow] {
         self.metrics.rows()
     }
 
+    /// The true trajectory, one pose per metrics row.
     pub fn trajectory_gt(&self) -> &[StampedPose] {
         self.metrics.trajectory_gt()
     }
 
+    /// The estimated trajectory, one pose per metrics row.
     pub fn trajectory_est(&self) -> &[StampedPose] {
         self.metrics.trajectory_est()
     }
