@@ -125,7 +125,10 @@ pub enum Action {
     /// Trapped by its own map: forget the map within `radius_m` of the robot and map that ground
     /// again (turn in place), then decide again. The `NoPath` blacklist entries judged on that
     /// map are already dropped.
-    Recover { radius_m: f64 },
+    Recover {
+        /// Radius of the disc to forget around the robot, metres.
+        radius_m: f64,
+    },
     /// The mission is over.
     Done(EndReason),
 }
@@ -144,6 +147,7 @@ pub struct ExploreStats {
     pub tight_plans: u64,
     /// Recoveries from a trap.
     pub trap_recoveries: u64,
+    /// Goals reached.
     pub goals_reached: u64,
     /// Goals failed (timed out, aborted, rejected, stopped by the bumper): blacklisted.
     pub goals_failed: u64,

@@ -84,6 +84,7 @@ impl Explorer {
         self.clock = Some(clock);
     }
 
+    /// The exploration policy's parameters.
     pub fn params(&self) -> &Valid<ExploreParams> {
         &self.params
     }
@@ -93,14 +94,17 @@ impl Explorer {
         &self.planner
     }
 
+    /// The goals given up on so far.
     pub fn blacklist(&self) -> &Blacklist {
         &self.blacklist
     }
 
+    /// The goal being pursued, if any.
     pub fn goal(&self) -> Option<ActiveGoal> {
         self.goal
     }
 
+    /// Counters of the decisions and goals so far.
     pub fn stats(&self) -> &ExploreStats {
         &self.stats
     }
@@ -377,16 +381,28 @@ pub enum Attempt {
     OpenTrail,
     /// 3. Still none: lethal cells inflated by `tight_inflations_m[index]` = `radius_m`
     ///    ([`ExploreParams::tight_inflations_m`]).
-    TightInflation { index: usize, radius_m: f64 },
+    TightInflation {
+        /// Index into [`ExploreParams::tight_inflations_m`].
+        index: usize,
+        /// The inflation radius, metres.
+        radius_m: f64,
+    },
     /// The goal chosen lay where the robot had been: that goal blacklisted `Reselected`, the
     /// same input again.
-    Reselected { x_m: f64, y_m: f64 },
+    Reselected {
+        /// x of the goal reached before and now blacklisted, map frame, metres.
+        x_m: f64,
+        /// y of that goal, map frame, metres.
+        y_m: f64,
+    },
 }
 
 /// One attempt of a decision and the selector's answer to it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AttemptRecord {
+    /// What was tried.
     pub attempt: Attempt,
+    /// The selector's answer (its whole ranking), or why it gave none.
     pub outcome: Result<Decision, SelectError>,
 }
 

@@ -92,6 +92,7 @@ impl Trail {
         self.points.iter().map(|p| p.at_m)
     }
 
+    /// Whether no position is kept.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }

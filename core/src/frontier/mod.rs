@@ -37,12 +37,21 @@ use thiserror::Error;
 /// Why frontiers could not be detected.
 #[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
 pub enum FrontierError {
+    /// The robot's cell (given) is outside the grid.
     #[error("robot cell ({}, {}) is outside the map", .0.col, .0.row)]
     RobotOutsideMap(Cell),
+    /// The robot's cell (given) is not free, so the search has nowhere to start.
     #[error("robot cell ({}, {}) is not free (lethal, inflated or unknown)", .0.col, .0.row)]
     RobotNotFree(Cell),
+    /// The grid's data and geometry disagree.
     #[error("grid has {data_len} values but its geometry has {cells} cells")]
-    GridSizeMismatch { data_len: usize, cells: usize },
+    GridSizeMismatch {
+        /// Values in the grid's data.
+        data_len: usize,
+        /// Cells its geometry has.
+        cells: usize,
+    },
+    /// [`crate::params::FrontierParams::max_cluster_cells`] is 0.
     #[error("frontier.max_cluster_cells must be ≥ 1")]
     ZeroMaxClusterCells,
 }
@@ -68,6 +77,7 @@ impl FrontierCluster {
         self.cells.len()
     }
 
+    /// Whether the cluster has no cell.
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()
     }

@@ -17,11 +17,14 @@ pub(crate) const MAX_CELLS: usize = 1 << 23;
 /// the grid; [`GridGeometry::index`] says whether it is inside.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Cell {
+    /// Column, along +x from the grid's origin.
     pub col: i32,
+    /// Row, along +y from the grid's origin (row 0 is the bottom).
     pub row: i32,
 }
 
 impl Cell {
+    /// The cell at column `col`, row `row`.
     pub const fn new(col: i32, row: i32) -> Self {
         Self { col, row }
     }
@@ -43,6 +46,8 @@ pub struct GridGeometry {
 }
 
 impl GridGeometry {
+    /// A geometry from its origin (lower-left corner of cell (0, 0), map frame, metres), cell
+    /// edge (metres, > 0) and size in cells; not checked.
     pub fn new(origin_x_m: f64, origin_y_m: f64, resolution_m: f64, width: usize, height: usize) -> Self {
         Self { origin_x_m, origin_y_m, resolution_m, width, height }
     }
@@ -52,6 +57,7 @@ impl GridGeometry {
         self.width * self.height
     }
 
+    /// Whether the grid has no cell.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

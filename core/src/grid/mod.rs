@@ -17,7 +17,9 @@ use serde::{Deserialize, Serialize};
 /// One layer: a value per cell on flat row-major storage (`data.len() == geometry.len()`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Grid<T> {
+    /// Where the cells are.
     pub geometry: GridGeometry,
+    /// One value per cell, row-major from the bottom row (`row * width + col`).
     pub data: Vec<T>,
 }
 

@@ -19,8 +19,11 @@ pub type OccupancyGrid = Grid<i8>;
 /// The three classes a planner distinguishes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CellClass {
+    /// Values 0 to 49: drivable.
     Free,
+    /// Values 50 and above (100 by convention): an obstacle.
     Lethal,
+    /// Negative values (−1 by convention): not observed.
     Unknown,
 }
 

@@ -51,6 +51,7 @@ pub struct MapThresholds {
     pub free_thresh: f64,
     /// Whether white means occupied.
     pub negate: bool,
+    /// How pixel values become cell values.
     pub mode: MapMode,
 }
 
@@ -70,9 +71,13 @@ pub struct MapYaml {
     pub resolution_m: f64,
     /// `[x_m, y_m, yaw_rad]` of the lower-left corner of the lower-left pixel.
     pub origin: [f64; 3],
+    /// Occupancy probability above which a cell is lethal, in (`free_thresh`, 1].
     pub occupied_thresh: f64,
+    /// Occupancy probability below which a cell is free, in [0, `occupied_thresh`).
     pub free_thresh: f64,
+    /// Whether white means occupied.
     pub negate: bool,
+    /// How pixel values become cell values (trinary when the YAML has no `mode`).
     pub mode: MapMode,
 }
 

@@ -78,11 +78,14 @@ impl Valid<Params> {
 #[derive(Clone, Debug, PartialEq, Error)]
 #[error("{key}{}{reason}", if reason.starts_with("must ") || reason.starts_with('(') { " " } else { ": " })]
 pub struct InvalidParam {
+    /// The parameter's path in the file (e.g. `u1.alpha`).
     pub key: String,
+    /// Why the value is wrong.
     pub reason: String,
 }
 
 impl InvalidParam {
+    /// The error for `key` with `reason`.
     pub fn new(key: impl Into<String>, reason: impl Into<String>) -> Self {
         Self { key: key.into(), reason: reason.into() }
     }

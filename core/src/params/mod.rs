@@ -23,14 +23,23 @@ use thiserror::Error;
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
+    /// Map geometry (`[grid]`).
     pub grid: GridParams,
+    /// The robot's size and speed (`[robot]`).
     pub robot: RobotParams,
+    /// The depth camera (`[camera]`).
     pub camera: CameraParams,
+    /// Traversability estimation (`[traversability]`).
     pub traversability: TraversabilityParams,
+    /// Frontier detection and candidates (`[frontier]`).
     pub frontier: FrontierParams,
+    /// Path planning (`[planner]`).
     pub planner: PlannerParams,
+    /// The information utility u1 (`[u1]`).
     pub u1: U1Params,
+    /// The localisation utility u2 (`[u2]`).
     pub u2: U2Params,
+    /// The goal selector: strategy, weights, seed (`[selector]`).
     pub selector: SelectorParams,
 }
 
@@ -290,13 +299,16 @@ impl std::str::FromStr for Strategy {
 #[derive(Clone, Debug, PartialEq, Eq, Error)]
 #[error("unknown {what} `{given}`: expected one of {expected}")]
 pub struct UnknownName {
+    /// What was being named (e.g. `"strategy"`).
     pub what: &'static str,
+    /// The name given.
     pub given: String,
     /// The variants' names, comma-separated.
     pub expected: String,
 }
 
 impl UnknownName {
+    /// The error for `given`, listing `variants` as the names expected.
     pub fn new<T: std::fmt::Display>(what: &'static str, given: &str, variants: &[T]) -> Self {
         let expected = variants.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");
         Self { what, given: given.into(), expected }

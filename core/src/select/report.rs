@@ -30,6 +30,7 @@ pub struct CandidateReport {
     pub cell: Cell,
     /// Candidate cell centre, metres (map frame).
     pub x_m: f64,
+    /// Candidate cell centre y, metres (map frame).
     pub y_m: f64,
     /// Number of frontier cells in the cluster.
     pub cluster_size: usize,
@@ -99,6 +100,7 @@ impl CandidateReport {
 /// One goal decision.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Decision {
+    /// The selector that made it.
     pub strategy: Strategy,
     /// Index into `candidates` of the chosen goal; `None` when no candidate can be ranked (end of
     /// mission: no reachable, non-blacklisted frontier left).

@@ -20,12 +20,16 @@ use crate::params::Params;
 pub struct MissionParams {
     /// Control period, seconds, from [`MIN_DT_S`] (0.001) to [`MAX_DT_S`] (1). Default 0.1.
     pub dt_s: f64,
+    /// Drive limits and controller gains.
     pub drive: DriveParams,
+    /// LiDAR geometry and noise.
     pub lidar: LidarParams,
+    /// Camera observation noise.
     pub camera_noise: CameraNoise,
     /// The visual front end between the camera and the SLAM ([`super::Localisation::Slam`]
     /// only).
     pub vision: VisionParams,
+    /// Wheel odometry and gyro noise.
     pub odometry: OdometryNoise,
     /// Scan when the robot has moved this far since the last scan, metres, > 0. Default 0.25.
     pub scan_every_m: f64,
@@ -43,6 +47,7 @@ pub struct MissionParams {
     /// A goal not reached within factor × (ρ / v_max) + extra seconds has failed; factor > 0,
     /// extra ≥ 0. Defaults 3, 20.
     pub goal_timeout_factor: f64,
+    /// The extra of the goal timeout, seconds (see `goal_timeout_factor`).
     pub goal_timeout_extra_s: f64,
     /// One metrics row (and trajectory pose) every this many seconds, > 0. Default 1.
     pub metrics_period_s: f64,

@@ -51,7 +51,9 @@ impl Default for DriveParams {
 /// A velocity command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Twist {
+    /// Forward speed, m/s.
     pub v_mps: f64,
+    /// Turn rate, rad/s, counter-clockwise.
     pub omega_radps: f64,
 }
 

@@ -63,5 +63,12 @@ pub enum TraversabilityError {
     BadGeometry,
     /// The grid would have more cells than [`MAX_CELLS`].
     #[error("a {width} × {height} grid exceeds the limit of {limit} cells (coarser resolution or smaller extent?)")]
-    TooManyCells { width: usize, height: usize, limit: usize },
+    TooManyCells {
+        /// Columns the grid would have.
+        width: usize,
+        /// Rows the grid would have.
+        height: usize,
+        /// The cell limit, [`MAX_CELLS`].
+        limit: usize,
+    },
 }

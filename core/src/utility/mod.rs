@@ -31,8 +31,20 @@ use thiserror::Error;
 /// Invalid input to a utility.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum UtilityError {
+    /// A parameter is out of range (e.g. not finite and > 0).
     #[error("{name} is out of range (got {})", crate::params::Num(*value))]
-    InvalidParameter { name: &'static str, value: f64 },
+    InvalidParameter {
+        /// The parameter (e.g. `"voxel_m"`).
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// The landmark cloud's covariances, when given, are not one per point.
     #[error("the landmark cloud has {points} points but {covariances} covariances")]
-    CovarianceCountMismatch { points: usize, covariances: usize },
+    CovarianceCountMismatch {
+        /// Points in the cloud.
+        points: usize,
+        /// Covariances given.
+        covariances: usize,
+    },
 }

@@ -94,12 +94,17 @@ pub(crate) struct Waypoint {
 /// A waypoint with what the camera would see there.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WaypointReport {
+    /// Position, map frame, metres.
     pub x_m: f64,
+    /// Position, map frame, metres.
     pub y_m: f64,
     /// Camera height in the map frame, metres.
     pub z_m: f64,
+    /// Camera (and body) yaw, radians, counter-clockwise from +x.
     pub yaw_rad: f64,
+    /// Arc length from the start of the path, metres.
     pub arc_length_m: f64,
+    /// Whether this is the goal (yaw Θ*).
     pub is_goal: bool,
     /// Landmark voxels inside the frustum.
     pub voxels_seen: usize,

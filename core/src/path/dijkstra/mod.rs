@@ -118,7 +118,9 @@ impl Window {
 /// Shortest-path costs from one start, and the paths they imply.
 #[derive(Clone, Debug)]
 pub struct DistanceField {
+    /// The grid's geometry.
     pub geometry: GridGeometry,
+    /// The cell the costs are measured from.
     pub start: Cell,
     window: Window,
     scale: Scale,

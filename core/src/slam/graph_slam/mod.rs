@@ -97,6 +97,7 @@ impl GraphSlam {
         Ok(slam)
     }
 
+    /// Its parameters.
     pub fn params(&self) -> &GraphSlamParams {
         &self.params
     }
@@ -141,6 +142,7 @@ impl GraphSlam {
         v
     }
 
+    /// Number of keyframes, the first included.
     pub fn keyframe_count(&self) -> usize {
         self.keyframes.len()
     }

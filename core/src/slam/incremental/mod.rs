@@ -52,16 +52,22 @@ const NONE: usize = usize::MAX;
 /// re-eliminates the whole graph (GTSAM's `kBatchThreshold` in `ISAM2::update`).
 const BATCH_THRESHOLD: f64 = 0.65;
 
+/// Why an iSAM2 update or query failed.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum IncrementalError {
+    /// Elimination met a non-positive pivot: a gauge freedom or an unobserved variable.
     #[error("the linearised system is not positive definite (a gauge freedom or an unobserved variable?)")]
     NotPositiveDefinite,
+    /// A factor or query names a variable the solver does not hold.
     #[error("factor refers to variable {0:?}, which does not exist")]
     UnknownVariable(VarId),
+    /// A variable added by an update that none of the update's factors constrains.
     #[error("new variable {0:?} is in no new factor")]
     Unconstrained(VarId),
+    /// A factor could not be evaluated at the estimate.
     #[error(transparent)]
     Factor(#[from] FactorError),
+    /// A factor could not be added to the graph.
     #[error(transparent)]
     Graph(#[from] GraphError),
 }
@@ -126,6 +132,7 @@ pub struct Isam2 {
 }
 
 impl Isam2 {
+    /// An empty solver.
     pub fn new(params: Isam2Params) -> Self {
         Self {
             params,
@@ -148,6 +155,7 @@ impl Isam2 {
         }
     }
 
+    /// Its parameters.
     pub fn params(&self) -> &Isam2Params {
         &self.params
     }
@@ -167,6 +175,7 @@ impl Isam2 {
         self.theta.len()
     }
 
+    /// Whether it holds no variable.
     pub fn is_empty(&self) -> bool {
         self.theta.is_empty()
     }

@@ -81,6 +81,7 @@ impl KeyframeClouds {
         true
     }
 
+    /// Number of keyframes started.
     pub fn keyframes(&self) -> usize {
         self.starts.len()
     }
@@ -90,6 +91,7 @@ impl KeyframeClouds {
         self.points.len()
     }
 
+    /// Whether no point is stored.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
