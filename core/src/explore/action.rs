@@ -59,7 +59,7 @@ pub struct Plan {
     /// The goal it serves (for [`Action::Keep`], the current one, its path planned again).
     pub goal: ActiveGoal,
     /// The candidate's path from the robot, metres, ended short of unknown ground by the
-    /// position's uncertainty ([`crate::path::set_back`]); its last point is where a navigation
+    /// position's uncertainty (`set_back`); its last point is where a navigation
     /// stack that plans its own path is sent.
     pub path_m: Vec<[f64; 2]>,
     /// The candidate's path length ρ, metres.
@@ -102,7 +102,7 @@ pub enum EndReason {
     NoFrontier,
     /// No frontier candidate left, but only because the robot's map walls it in: every free
     /// cell it can reach lies within [`super::ExploreParams::trapped_radius_m`]
-    /// ([`crate::frontier::enclosed_within`]; e.g. a ring of registration speckle), still after
+    /// (`enclosed_within`; e.g. a ring of registration speckle), still after
     /// [`super::ExploreParams::trap_recoveries`] recoveries.
     Trapped,
     /// The adapter's time limit (the explorer itself never answers it).

@@ -18,7 +18,7 @@
 //! blacklists that one (`Reselected`) and the decision is made again; a failed goal is
 //! blacklisted `Failed`. At periodic replanning the current goal is kept while the nearest
 //! reachable candidate lies within the blacklist radius of it. Paths end short of unknown ground
-//! by the position's uncertainty ([`crate::path::set_back`]).
+//! by the position's uncertainty (`set_back`).
 //!
 //! Cost: one selector run per attempt (at most 5 + the number of tight radii), plus one
 //! inflation (O(cells · disc)) for the trap check when nothing is found.

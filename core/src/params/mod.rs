@@ -62,7 +62,7 @@ impl Default for GridParams {
 #[serde(default, deny_unknown_fields)]
 pub struct RobotParams {
     /// Radius lethal cells are inflated by for planning, metres. Default 0.25 (LeoRover
-    /// half-width 0.22 m plus a 3 cm margin). At most [`MAX_RADIUS_CELLS`] cells of the grid.
+    /// half-width 0.22 m plus a 3 cm margin). At most 1000 cells of the grid.
     pub radius_m: f64,
     /// Height of the camera's optical centre above the ground, metres. Default 0.2.
     pub camera_height_m: f64,
@@ -183,7 +183,7 @@ pub struct PlannerParams {
 pub struct U1Params {
     /// α: weight of the path-length term; 1 − α weights the entropy term. Default 0.35 (paper).
     pub alpha: f64,
-    /// Δθ: angle between rays, radians, in [2π / [`MAX_RAYS`], 2π]. Default 8.5° (paper).
+    /// Δθ: angle between rays, radians, in [2π / 4096, 2π]. Default 8.5° (paper).
     pub delta_theta_rad: f64,
     /// γ: per-cell visibility degradation along a ray, in (0, 1]. Default 0.99 at 0.05 m.
     pub gamma: f64,

@@ -1,7 +1,7 @@
 //! Shortest paths on the thresholded, inflated grid (notes §4): 8-connected moves, octile costs,
 //! no corner cutting (a diagonal step needs both orthogonal neighbours passable), unknown cells
 //! impassable unless allowed. [`astar`] answers one query; [`dijkstra`] answers every goal at
-//! once with the same optimal lengths. [`set_back`] ends a path short of unknown ground.
+//! once with the same optimal lengths. `set_back` ends a path short of unknown ground.
 
 mod astar;
 mod dijkstra;

@@ -9,7 +9,7 @@
 //! | [`fit`] | FIT-SLAM: u2 over the N best by u1 |
 //! | [`greedy`] | smallest ρ |
 //! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
-//! | [`u1_only`] | ablation: u1 alone |
+//! | `u1_only` | ablation: u1 alone |
 //! | [`matched`] | control: random among the candidates at FIT-SLAM's path length |
 //!
 //! ```
@@ -74,7 +74,7 @@ pub struct DecisionInput<'a> {
     /// ([`crate::params::U2Params::follow_terrain`]). Default `None`: flat.
     pub ground: Option<crate::traversability::GroundModel<'a>>,
     /// Cells (flat indices into `grid`) the robot's centre has driven on: each one free in `grid`
-    /// stays free after inflation ([`crate::grid::free_traversed`]), so the robot can go back the
+    /// stays free after inflation (`free_traversed`), so the robot can go back the
     /// way it came. Default empty.
     pub traversed: &'a [usize],
 }

@@ -112,7 +112,7 @@ pub struct Summary {
     /// Keyframe updates whose optimisation or covariance failed (the keyframe was kept).
     pub slam_errors: u64,
     /// Visual tracking losses, recoveries by relocalisation and by a new map segment, and the
-    /// time spent lost, seconds (SLAM only; [`super::localisation::VisualTracking`]).
+    /// time spent lost, seconds (SLAM only; `VisualTracking`).
     pub tracking_losses: u64,
     /// Tracking recoveries by re-observing mapped landmarks.
     pub relocalisations: u64,

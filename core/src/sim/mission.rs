@@ -2,7 +2,7 @@
 //! → move, one control tick per [`Mission::step`]; [`Mission::run`] loops over it.
 //!
 //! The mission composes four layers: the world simulator ([`WorldSim`]: true motion with the
-//! bumper, the sensors), localisation behind [`Localiser`] (ground truth, odometry, graph SLAM),
+//! bumper, the sensors), localisation behind `Localiser` (ground truth, odometry, graph SLAM),
 //! the exploration policy ([`Explorer`]) and the metrics ([`Metrics`]). What is its own is the
 //! robot's local controller (a carrot follower along the chosen path, turning to Θ* on arrival)
 //! and the schedule:
@@ -12,7 +12,7 @@
 //! with the *estimate* into the traversability map (estimated lazily, below); every
 //! `camera_every_s` the camera observes landmarks. The explorer decides on arrival (after turning
 //! to Θ*), on failure (timeout or bumper → blacklisted `Failed`), when the path ahead is blocked
-//! (checked after each scan, [`super::corridor`]; the part already driven is not checked), and
+//! (checked after each scan, `corridor`; the part already driven is not checked), and
 //! every `replan_period_s` (then the current goal is kept while it is still a reachable frontier
 //! candidate). When it has no plan the robot turns in place for 2 s; when its map traps it, the
 //! robot forgets that map around itself and turns a full circle. The mission ends when the

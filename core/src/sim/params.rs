@@ -18,7 +18,7 @@ use crate::params::Params;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MissionParams {
-    /// Control period, seconds, from [`MIN_DT_S`] (0.001) to [`MAX_DT_S`] (1). Default 0.1.
+    /// Control period, seconds, from 0.001 to 1. Default 0.1.
     pub dt_s: f64,
     /// Drive limits and controller gains.
     pub drive: DriveParams,
@@ -37,7 +37,7 @@ pub struct MissionParams {
     pub scan_every_rad: f64,
     /// … or this much time has passed, seconds, > 0. Default 2.
     pub scan_every_s: f64,
-    /// Depth-camera ground rays per frame: columns × rows, at most [`MAX_RAYS_PER_SENSING`] in
+    /// Depth-camera ground rays per frame: columns × rows, at most 2²⁰ in
     /// all; 0 columns or rows turns the depth camera off. Default 24 × 12.
     pub depth_rays: [usize; 2],
     /// Landmark observation period, seconds, > 0. Default 1.
@@ -52,7 +52,7 @@ pub struct MissionParams {
     /// One metrics row (and trajectory pose) every this many seconds, > 0. Default 1.
     pub metrics_period_s: f64,
     /// Stop before the robot's body touches ground-truth untraversable terrain (a bumper;
-    /// [`super::World::gt_touches_lethal`]). Default true.
+    /// `gt_touches_lethal`). Default true.
     pub safety_stop: bool,
     /// Overrides the world's time limit, seconds, > 0 and finite.
     pub time_limit_s: Option<f64>,
@@ -104,7 +104,7 @@ impl Default for MissionParams {
 
 impl MissionParams {
     /// Parses TOML (unknown keys rejected; keys left out keep [`MissionParams::default`]'s
-    /// values at every depth, [`crate::params::from_toml_over_default`]) and validates; `name` is
+    /// values at every depth, `from_toml_over_default`) and validates; `name` is
     /// quoted in errors, with the line of a TOML error. A key of [`ExploreParams`] at the top
     /// level (where it was before the `[explore]` table) is named with where it moved.
     pub fn from_toml(text: &str, name: &str) -> Result<Valid<Self>, ParamsError> {

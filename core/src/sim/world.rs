@@ -221,7 +221,7 @@ impl World {
     }
 
     /// A start for world seed `world_seed`: the centre of a cell drawn uniformly among those
-    /// where a robot of `robot_radius_m` plus [`START_CLEARANCE_M`] stands on ground-truth
+    /// where a robot of `robot_radius_m` plus 0.25 m stands on ground-truth
     /// traversable ground inside the boundary, in the largest 8-connected region of such cells
     /// (so that the mission does not start in a pocket), with a uniform yaw in [−π, π). `None`
     /// when no cell qualifies. A pure function of the world and the seed; O(cells · disc).

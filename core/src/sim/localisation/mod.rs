@@ -1,6 +1,6 @@
-//! How the simulated robot knows where it is, behind one trait ([`Localiser`]): the true pose
-//! ([`GroundTruth`]), dead-reckoned wheel odometry + IMU yaw ([`DeadReckoning`]), or keyframe
-//! graph SLAM ([`KeyframeSlamLocaliser`], notes §1). Each turns the world simulator's
+//! How the simulated robot knows where it is, behind one trait (`Localiser`): the true pose
+//! ([`GroundTruth`]), dead-reckoned wheel odometry + IMU yaw (`DeadReckoning`), or keyframe
+//! graph SLAM (`KeyframeSlamLocaliser`, notes §1). Each turns the world simulator's
 //! measurements ([`WorldSim`]) into an estimate, registers the sensed points into the robot's map
 //! with it, and keeps the landmark map the planner's u2 reads.
 //!

@@ -10,11 +10,11 @@
 //! 2. The cliques of the variables the new factors touch are marked; the marked cliques and
 //!    their paths to the root (the *top*) are removed. Their subtrees (*orphans*) stay, with the
 //!    marginal factors they pass up.
-//!    When the top holds at least [`BATCH_THRESHOLD`] of the variables, the whole tree is
+//!    When the top holds at least 65 % of the variables, the whole tree is
 //!    removed (GTSAM's batch step), so the ordering is no longer constrained by old subtrees.
 //! 3. The top's factors are relinearised at θ, its variables re-ordered by constrained minimum
-//!    degree with the new factors' variables last ([`ordering`]), eliminated into new cliques
-//!    ([`clique`]), and the orphans re-attached (Alg. 5).
+//!    degree with the new factors' variables last (`ordering`), eliminated into new cliques
+//!    (`clique`), and the orphans re-attached (Alg. 5).
 //! 4. *Partial back-substitution* (Alg. 7): Δ is recomputed from the roots down, into every new
 //!    clique, and below an unchanged clique only where a frontal's step moved by more than
 //!    [`Isam2Params::wildfire_threshold`].
