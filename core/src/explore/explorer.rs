@@ -36,6 +36,36 @@ use crate::select::{Decision, DecisionInput, DropReason, GoalSelector, SelectErr
 use serde::Serialize;
 
 /// The exploration policy's state.
+///
+/// # Examples
+///
+/// One decision in a corridor with a frontier at each end and landmarks only to the east:
+///
+/// ```
+/// use fitslam_core::explore::Attempt;
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{Action, ExploreParams, Explorer, Params, Situation, Valid};
+///
+/// let mut world = corridor_two_frontiers(true);
+/// let planner = Valid::new(Params::default())?; // FIT-SLAM
+/// let voxels = LandmarkVoxels::new(&world.landmarks, planner.u2.voxel_m, planner.u2.sigma_landmark_m)?;
+/// let mut explorer = Explorer::new(Valid::new(ExploreParams::default())?, planner);
+///
+/// let situation = Situation::one_off(&voxels, world.robot, None);
+/// let traced = explorer.decide_traced(&mut world.grid, &situation);
+/// let Action::Goal(plan) = &traced.action else { panic!("expected a goal, got {:?}", traced.action) };
+/// assert!(plan.goal.goal.x_m > world.robot.x_m); // east, towards the landmarks
+/// assert!(plan.rho_m > 0.0 && !plan.path_m.is_empty());
+///
+/// // The plain attempt found the goal: no retry was needed, and its ranking is kept.
+/// assert_eq!(traced.attempts.len(), 1);
+/// assert_eq!(traced.attempts[0].attempt, Attempt::Plain);
+/// let ranking = traced.decision().expect("the plain attempt ranked candidates");
+/// assert_eq!(ranking.chosen, Some(plan.candidate));
+/// assert_eq!(explorer.goal(), Some(plan.goal));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Explorer {
     params: Valid<ExploreParams>,
     /// The planner's parameters (the selector's strategy and seed among them).

@@ -20,6 +20,29 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// All planner parameters. `Params::default()` holds the paper's values (notes §8).
+///
+/// # Examples
+///
+/// A file sets only the keys it changes; the rest keep the paper's values. A value out of range
+/// is refused with its key:
+///
+/// ```
+/// use fitslam_core::params::{ParamsError, Strategy};
+/// use fitslam_core::Params;
+///
+/// let params = Params::from_toml("[u1]\nalpha = 0.5\n[selector]\nstrategy = \"greedy\"\n", "planner.toml")?;
+/// assert_eq!(params.u1.alpha, 0.5);
+/// assert_eq!(params.selector.strategy, Strategy::Greedy);
+/// assert_eq!(params.u2.top_n, Params::default().u2.top_n); // not in the file: the default
+///
+/// match Params::from_toml("[u1]\nalpha = 1.5\n", "planner.toml") {
+///     Err(ParamsError::Invalid { error, .. }) => assert_eq!(error.key, "u1.alpha"),
+///     other => panic!("expected an invalid u1.alpha, got {other:?}"),
+/// }
+/// // A misspelt key is an error too, never a silent default.
+/// assert!(matches!(Params::from_toml("[u1]\nalfa = 0.5\n", "planner.toml"), Err(ParamsError::Toml { .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
