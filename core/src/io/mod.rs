@@ -199,6 +199,25 @@ pub enum MapError {
 
 /// Loads a point cloud, choosing the parser from the extension of `source_name` (.pcd, .ply,
 /// .csv, .las, .laz; case-insensitive).
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::io::CloudError;
+/// use fitslam_core::load_cloud;
+///
+/// let csv = b"x,y,z\n0.0,0.0,0.0\n1.5,-2.0,0.25\n";
+/// let cloud = load_cloud(csv, "scan.CSV")?;
+/// assert_eq!(cloud.len(), 2);
+/// assert_eq!(cloud.points[1].coords.as_slice(), &[1.5, -2.0, 0.25]);
+/// assert!(cloud.covariances.is_none());
+///
+/// // Errors name the source and, in a text file, the line.
+/// let error = load_cloud(b"x,y,z\n1.0,nan,0.0\n", "scan.csv").unwrap_err();
+/// assert!(error.to_string().starts_with("scan.csv"), "{error}");
+/// assert!(matches!(load_cloud(csv, "scan.xyz"), Err(CloudError::UnknownExtension { .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn load_cloud(bytes: &[u8], source_name: &str) -> Result<PointCloud, CloudError> {
     let ext = extension(source_name);
     match ext.as_deref() {

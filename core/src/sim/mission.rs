@@ -79,6 +79,42 @@ enum Phase {
 }
 
 /// A running mission.
+///
+/// # Examples
+///
+/// A tiny procedural world, built without files, explored for a few simulated seconds by the
+/// greedy selector with ground-truth localisation:
+///
+/// ```
+/// use fitslam_core::params::Strategy;
+/// use fitslam_core::sim::{EndReason, StepOutcome};
+/// use fitslam_core::{Localisation, Mission, MissionParams, Params, Valid, World, WorldSpec};
+///
+/// let spec = WorldSpec::from_toml(
+///     "name = \"hills\"\nstart = [2.0, 2.0, 0.0]\n\
+///      [terrain]\nkind = \"procedural\"\nseed = 4\nsize_m = 4.0\nhill_height_m = 0.1\n",
+///     "hills.toml",
+/// )?;
+/// let params = Valid::new(Params::default())?;
+/// let tr = &params.traversability;
+/// // The loader is asked for the files a spec names (a DEM, a map): this one names none.
+/// let world = World::build(&spec, tr, tr.tau, |name| Err(format!("no file {name}")))?;
+///
+/// let sim = Valid::new(MissionParams { time_limit_s: Some(3.0), ..MissionParams::default() })?;
+/// let mut mission = Mission::new(world, params, sim, Strategy::Greedy, 7, Localisation::GroundTruth)?;
+/// let mut steps = 0;
+/// while mission.step() == StepOutcome::Running {
+///     steps += 1;
+/// }
+/// assert_eq!(steps, 30); // 3 s of 0.1 s control ticks
+/// assert!((mission.time_s() - 3.0).abs() < 1e-9);
+/// let summary = mission.summary();
+/// assert_eq!(summary.end_reason, Some(EndReason::TimeLimit));
+/// // The first turn in place has already mapped part of the world.
+/// assert!(summary.unexplored_pct < 100.0);
+/// assert_eq!(mission.rows().len(), mission.trajectory_gt().len());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Mission {
     sim: WorldSim,
     localiser: Box<dyn Localiser>,
