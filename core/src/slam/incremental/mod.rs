@@ -104,6 +104,47 @@ pub struct UpdateReport {
 }
 
 /// The incremental smoother: factors, linearisation point, step and Bayes tree.
+///
+/// # Examples
+///
+/// A planar pose chain grown one pose per update, then closed by a loop: each update
+/// re-eliminates only what the new factors touch, and the last pose's marginal shrinks once the
+/// loop is closed.
+///
+/// ```
+/// use fitslam_core::slam::factors::{BetweenSe2, PriorSe2};
+/// use fitslam_core::slam::{Factor, GaussianNoise, Isam2Params, Se2, VarId, Variable};
+/// use fitslam_core::Isam2;
+/// use std::f64::consts::FRAC_PI_2;
+///
+/// let odometry_noise = GaussianNoise::from_sigmas(&[0.05, 0.05, 0.01])?; // m, m, rad
+/// let mut isam = Isam2::new(Isam2Params::default());
+/// // x0 at the origin, anchored by a prior.
+/// let prior: Box<dyn Factor> = Box::new(PriorSe2::new(VarId(0), Se2::identity(), GaussianNoise::isotropic(3, 1e-3)?));
+/// isam.update(&[Variable::Se2(Se2::identity())], vec![prior])?;
+/// // Three sides of a 1 m square, turning left at each corner; each new pose starts off by 10 cm.
+/// let side = Se2::new(1.0, 0.0, FRAC_PI_2);
+/// for k in 1..4 {
+///     let initial = isam.estimate_of(VarId(k - 1)).and_then(|v| match v {
+///         Variable::Se2(p) => Some(p * side * Se2::new(0.1, 0.0, 0.0)),
+///         _ => None,
+///     });
+///     let initial = initial.ok_or("the previous pose")?;
+///     let odometry: Box<dyn Factor> = Box::new(BetweenSe2::new(VarId(k - 1), VarId(k), side, odometry_noise));
+///     isam.update(&[Variable::Se2(initial)], vec![odometry])?;
+/// }
+/// assert_eq!(isam.len(), 4);
+/// let x3 = VarId(3);
+/// let open_trace = isam.marginal_covariance(x3)?.trace();
+///
+/// // The fourth side closes the square: a factor between existing poses, no new variable.
+/// let closure: Box<dyn Factor> = Box::new(BetweenSe2::new(x3, VarId(0), side, odometry_noise));
+/// isam.update(&[], vec![closure])?;
+/// let Some(Variable::Se2(p3)) = isam.estimate_of(x3) else { panic!("x3 is an SE(2) pose") };
+/// assert!((p3.x_m - 0.0).abs() < 0.05 && (p3.y_m - 1.0).abs() < 0.05); // the square's corner
+/// assert!(isam.marginal_covariance(x3)?.trace() < open_trace);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct Isam2 {
     params: Isam2Params,
