@@ -157,6 +157,37 @@ pub trait GoalSelector {
 }
 
 /// The selector named by `params.strategy` (the random one seeded with `params.seed`).
+///
+/// # Examples
+///
+/// In a corridor with a frontier at each end, 7.5 m to the west and 8.0 m to the east, and
+/// landmarks only to the east, the greedy selector takes the nearer end and FIT-SLAM the one
+/// where the landmarks keep the robot localised:
+///
+/// ```
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::frontier::Blacklist;
+/// use fitslam_core::params::{SelectorParams, Strategy};
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{make_selector, DecisionInput, Params, Valid};
+///
+/// let world = corridor_two_frontiers(true);
+/// let params = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m)?;
+/// let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+/// let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
+///
+/// let goal_x_m = |strategy: Strategy| -> Result<f64, Box<dyn std::error::Error>> {
+///     let mut selector = make_selector(&SelectorParams { strategy, ..params.selector.clone() });
+///     assert_eq!(selector.strategy(), strategy);
+///     let decision = selector.select(&input, &params)?;
+///     assert_eq!(decision.strategy, strategy);
+///     Ok(decision.goal.ok_or("a frontier is left")?.x_m)
+/// };
+/// assert!(goal_x_m(Strategy::Greedy)? < world.robot.x_m); // west: shorter path
+/// assert!(goal_x_m(Strategy::Fit)? > world.robot.x_m); // east: landmarks on the way
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
     match params.strategy {
         Strategy::Fit => Box::new(FitSlam::default()),

@@ -243,6 +243,36 @@ impl Optimizer for GaussNewton {
 }
 
 /// Levenberg-Marquardt with Nielsen's damping update.
+///
+/// # Examples
+///
+/// A planar pose pulled by a prior and by odometry from an anchored one; [`Optimizer::optimize`]
+/// loops [`Optimizer::step`] until a stopping rule holds. (The [`crate::slam`] module's example
+/// reads a pose graph from a g2o file instead.)
+///
+/// ```
+/// use fitslam_core::slam::factors::{BetweenSe2, PriorSe2};
+/// use fitslam_core::slam::{FactorGraph, GaussianNoise, Optimizer, OptimizerParams, Se2, Values, Variable};
+/// use fitslam_core::LevenbergMarquardt;
+///
+/// let mut values = Values::new();
+/// let x0 = values.push(Variable::Se2(Se2::identity()));
+/// let x1 = values.push(Variable::Se2(Se2::new(0.5, 0.3, 0.4))); // a poor initial guess
+/// values.set_fixed(x0, true);
+///
+/// let mut graph = FactorGraph::new();
+/// let noise = GaussianNoise::from_sigmas(&[0.1, 0.1, 0.05])?; // m, m, rad
+/// graph.add(BetweenSe2::new(x0, x1, Se2::new(2.0, 0.0, 0.0), noise))?;
+/// graph.add(PriorSe2::new(x1, Se2::new(2.0, 0.0, 0.0), noise))?;
+///
+/// let mut lm = LevenbergMarquardt::new(OptimizerParams::default());
+/// let summary = lm.optimize(&graph, &mut values)?;
+/// assert!(summary.final_chi2 < 1e-12 && summary.final_chi2 < summary.initial_chi2);
+/// assert!(summary.termination.is_some()); // converged, not out of iterations
+/// let x = values.se2(x1).ok_or("x1 is an SE(2) pose")?;
+/// assert!((x.x_m - 2.0).abs() < 1e-6 && x.y_m.abs() < 1e-6 && x.yaw_rad.abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Default)]
 pub struct LevenbergMarquardt {
     /// Stopping rules and damping.
