@@ -148,6 +148,34 @@ pub enum SelectError {
 }
 
 /// A goal selector: one decision from the current map, landmarks and robot pose.
+///
+/// # Examples
+///
+/// Selectors are chosen by [`make_selector`]; the random ones draw from their own seeded RNG, so
+/// the same seed gives the same goals:
+///
+/// ```
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::frontier::Blacklist;
+/// use fitslam_core::params::{SelectorParams, Strategy};
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{make_selector, DecisionInput, GoalSelector, Params, Valid};
+///
+/// let world = corridor_two_frontiers(false);
+/// let params = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m)?;
+/// let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+/// let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
+///
+/// let random = SelectorParams { strategy: Strategy::Random, seed: 42, ..params.selector.clone() };
+/// let goals = |selector: &mut dyn GoalSelector| -> Result<Vec<Option<usize>>, Box<dyn std::error::Error>> {
+///     (0..3).map(|_| Ok(selector.select(&input, &params)?.chosen)).collect()
+/// };
+/// let first = goals(make_selector(&random).as_mut())?;
+/// assert_eq!(first, goals(make_selector(&random).as_mut())?);
+/// assert!(first.iter().all(Option::is_some));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub trait GoalSelector {
     /// Ranks the frontier candidates and picks one.
     fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError>;
