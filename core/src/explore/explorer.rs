@@ -437,6 +437,34 @@ pub struct AttemptRecord {
 }
 
 /// A decision with every attempt it took ([`Explorer::decide_traced`]).
+///
+/// # Examples
+///
+/// A robot blocked in its own map: the plain attempt fails, clearing the footprint finds a goal.
+///
+/// ```
+/// use fitslam_core::explore::Attempt;
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::grid::{fill_disc, LETHAL};
+/// use fitslam_core::select::SelectError;
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{Action, ExploreParams, Explorer, Params, Situation, Valid};
+///
+/// let mut world = corridor_two_frontiers(true);
+/// let planner = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&world.landmarks, planner.u2.voxel_m, planner.u2.sigma_landmark_m)?;
+/// // Registration speckle all over the robot's footprint blocks the plain decision.
+/// let (x_m, y_m) = (world.robot.x_m, world.robot.y_m);
+/// fill_disc(&mut world.grid, x_m, y_m, 0.3, LETHAL);
+/// let mut explorer = Explorer::new(Valid::new(ExploreParams::default())?, planner);
+/// let traced = explorer.decide_traced(&mut world.grid, &Situation::one_off(&voxels, world.robot, None));
+///
+/// assert!(matches!(traced.attempts[0].outcome, Err(SelectError::RobotBlocked { .. })));
+/// assert_eq!(traced.attempts[1].attempt, Attempt::ClearFootprint);
+/// assert!(matches!(traced.action, Action::Goal(_)), "{:?}", traced.action);
+/// assert!(traced.decision().is_some()); // the ranking the goal came from
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct TracedDecision {
     /// What the explorer answers (what the robot would do).

@@ -10,6 +10,20 @@ use serde::{Deserialize, Serialize};
 pub(crate) const MAX_TIGHT_INFLATIONS: usize = 8;
 
 /// How the explorer chooses, keeps and retries goals (see [`super::Explorer`]).
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{ExploreParams, Valid};
+///
+/// let indoor = ExploreParams { tight_inflations_m: vec![0.20, 0.10], ..ExploreParams::default() };
+/// assert!(Valid::new(indoor).is_ok());
+/// // Radii must shrink: each retry squeezes through narrower gaps than the one before.
+/// let growing = ExploreParams { tight_inflations_m: vec![0.10, 0.20], ..ExploreParams::default() };
+/// let error = Valid::new(growing).unwrap_err();
+/// assert_eq!(error.key, "tight_inflations_m[1]");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ExploreParams {

@@ -15,6 +15,19 @@ pub(crate) const MAX_CELLS: usize = 1 << 23;
 
 /// A cell address: column (x) and row (y). Signed so that neighbour arithmetic may step outside
 /// the grid; [`GridGeometry::index`] says whether it is inside.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Cell, GridGeometry};
+///
+/// let g = GridGeometry::new(0.0, 0.0, 0.5, 4, 3);
+/// let c = Cell::new(3, 2); // the top-right cell
+/// assert_eq!(g.index(c), Some(2 * 4 + 3));
+/// // Neighbour arithmetic may step outside; the geometry says so.
+/// assert_eq!(g.index(Cell::new(c.col + 1, c.row)), None);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Cell {
     /// Column, along +x from the grid's origin.
@@ -31,6 +44,22 @@ impl Cell {
 }
 
 /// Origin, resolution and size of a grid. Every layer of a map shares one geometry.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Cell, GridGeometry};
+///
+/// // 4 × 3 cells of 0.5 m, lower-left corner at (−1, 0) in the map frame.
+/// let g = GridGeometry::new(-1.0, 0.0, 0.5, 4, 3);
+/// assert_eq!(g.len(), 12);
+/// assert_eq!(g.bounds_m(), (-1.0, 0.0, 1.0, 1.5));
+/// let c = g.cell_of(0.3, 1.2).ok_or("inside")?;
+/// assert_eq!(c, Cell::new(2, 2));
+/// assert_eq!(g.center_of(c), (0.25, 1.25));
+/// assert_eq!(g.cell_of(1.2, 0.0), None); // east of the grid
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GridGeometry {
     /// World x of the lower-left corner of cell (0, 0), metres.

@@ -55,6 +55,33 @@ use crate::utility::{LandmarkVoxels, UtilityError};
 use thiserror::Error;
 
 /// Everything one decision needs.
+///
+/// # Examples
+///
+/// A boundary keeps the decision inside it:
+///
+/// ```
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::frontier::{Blacklist, Boundary};
+/// use fitslam_core::params::{SelectorParams, Strategy};
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{make_selector, DecisionInput, Params, Valid};
+///
+/// let world = corridor_two_frontiers(false);
+/// let params = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m)?;
+/// let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+/// let mut greedy = make_selector(&SelectorParams { strategy: Strategy::Greedy, ..params.selector.clone() });
+///
+/// let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
+/// let west = greedy.select(&input, &params)?.goal.ok_or("a goal")?;
+/// assert!(west.x_m < world.robot.x_m); // the nearer end
+/// // Exploration bounded to x ≥ 5 m: the west end lies outside, the east end is what is left.
+/// let east_only = Boundary::from_bounds(5.0, 0.0, 24.0, 4.0);
+/// let bounded = greedy.select(&input.with_boundary(&east_only), &params)?.goal.ok_or("a goal")?;
+/// assert!(bounded.x_m > world.robot.x_m);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct DecisionInput<'a> {
     /// Thresholded traversability grid (0 free, 100 lethal, −1 unknown), NOT yet inflated.

@@ -15,6 +15,25 @@ use serde::{Deserialize, Serialize};
 use crate::params::Params;
 
 /// Simulator parameters.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::params::ParamsError;
+/// use fitslam_core::MissionParams;
+///
+/// let sim = MissionParams::from_toml("dt_s = 0.05\n[explore]\ntrapped_radius_m = 0.0\n", "sim.toml")?;
+/// assert_eq!(sim.dt_s, 0.05);
+/// assert_eq!(sim.explore().trapped_radius_m, 0.0);
+/// assert_eq!(sim.replan_period_s, MissionParams::default().replan_period_s);
+///
+/// // An exploration key outside `[explore]`, where older files had it, is named with its new place.
+/// match MissionParams::from_toml("trapped_radius_m = 0.0\n", "sim.toml") {
+///     Err(ParamsError::Moved { moved_to, .. }) => assert_eq!(moved_to, "[explore] trapped_radius_m"),
+///     other => panic!("expected Moved, got {other:?}"),
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MissionParams {

@@ -75,6 +75,30 @@ pub enum StartError {
 }
 
 /// A built world: ground truth for the simulator and the metrics.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Params, World, WorldSpec};
+///
+/// let text = "start = [0.5, 0.5, 0.0]\n[terrain]\nkind = \"procedural\"\nseed = 1\nsize_m = 4.0\n\
+///             [[boxes]]\nmin_m = [2.0, 1.0]\nmax_m = [2.4, 3.0]\nheight_m = 0.5\n";
+/// let spec = WorldSpec::from_toml(text, "wall.toml")?;
+/// let params = Params::default();
+/// let tr = &params.traversability;
+/// let world = World::build(&spec, tr, tr.tau, |name| Err(format!("no file {name}")))?;
+///
+/// assert!(world.explorable_count > 0);
+/// assert!(world.gt_lethal_at(2.2, 2.0)); // the wall
+/// assert!(!world.gt_lethal_at(1.0, 2.0));
+/// // The default boundary is the terrain inset by 0.5 m: a start at (0.5, 0.5) is on its edge,
+/// // but a robot of 0.25 m radius stands clear of hazards there.
+/// world.check_start(0.25)?;
+/// // A start drawn for another member of the family stands clear too.
+/// let [x, y, _] = world.draw_start(9, 0.25).ok_or("some ground is clear")?;
+/// assert!(!world.gt_lethal_at(x, y));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct World {
     /// The spec it was built from.

@@ -60,6 +60,27 @@ pub enum WorldError {
 pub(crate) const MAX_SCATTER_SITES: f64 = (1u64 << 22) as f64;
 
 /// A world file: everything the simulator needs to build the ground truth.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::sim::WorldError;
+/// use fitslam_core::WorldSpec;
+///
+/// let text = "name = \"ridge\"\nstart = [1.0, 1.0, 0.0]\n\
+///             [terrain]\nkind = \"procedural\"\nseed = 3\nsize_m = 8.0\nridge_height_m = 0.3\n";
+/// let spec = WorldSpec::from_toml(text, "ridge.toml")?;
+/// assert_eq!(spec.cell_m, 0.05); // the default
+/// // Member 2 of the family: same kind of terrain, other seeds.
+/// assert_ne!(spec.with_world_seed(2).terrain, spec.terrain);
+///
+/// // Out-of-range values are refused before anything is built, named by their key.
+/// match WorldSpec::from_toml(&text.replace("size_m = 8.0", "size_m = 800.0"), "ridge.toml") {
+///     Err(WorldError::InvalidFile { error, .. }) => assert_eq!(error.key, "terrain.size_m"),
+///     other => panic!("expected an invalid terrain.size_m, got {other:?}"),
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorldSpec {
