@@ -31,7 +31,9 @@
 
 // Tests compare against the platform's maths library on purpose (see math.rs).
 #![cfg_attr(test, allow(clippy::disallowed_methods))]
+#![deny(missing_docs)]
 
+#[allow(missing_docs)] // documented on the msgs branch
 pub mod bag;
 pub mod cloud;
 pub mod explore;

@@ -7,6 +7,33 @@ use crate::utility::LandmarkVoxels;
 use serde::Serialize;
 
 /// Everything a decision needs besides the map.
+///
+/// # Examples
+///
+/// The same decision with and without position uncertainty: an unsure robot is sent less far
+/// towards unknown ground.
+///
+/// ```
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{Action, ExploreParams, Explorer, Params, Situation, Valid};
+///
+/// let world = corridor_two_frontiers(true);
+/// let planner = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&world.landmarks, planner.u2.voxel_m, planner.u2.sigma_landmark_m)?;
+/// let path_end_x_m = |situation: &Situation| -> Result<f64, Box<dyn std::error::Error>> {
+///     let mut explorer = Explorer::new(Valid::new(ExploreParams::default())?, planner.clone());
+///     match explorer.decide(&mut world.grid.clone(), situation) {
+///         Action::Goal(plan) => Ok(plan.target().x_m),
+///         other => Err(format!("expected a goal, got {other:?}").into()),
+///     }
+/// };
+/// let certain = Situation::one_off(&voxels, world.robot, None);
+/// // σx² + σy² = 0.08 m²: the path stops short of the frontier by a multiple of σ.
+/// let unsure = Situation { position_var_m2: 0.08, ..certain };
+/// assert!(path_end_x_m(&unsure)? < path_end_x_m(&certain)?);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct Situation<'a> {
     /// Landmark voxels of the current landmark map (u2).
@@ -59,7 +86,7 @@ pub struct Plan {
     /// The goal it serves (for [`Action::Keep`], the current one, its path planned again).
     pub goal: ActiveGoal,
     /// The candidate's path from the robot, metres, ended short of unknown ground by the
-    /// position's uncertainty ([`crate::path::set_back`]); its last point is where a navigation
+    /// position's uncertainty (`set_back`); its last point is where a navigation
     /// stack that plans its own path is sent.
     pub path_m: Vec<[f64; 2]>,
     /// The candidate's path length ρ, metres.
@@ -102,7 +129,7 @@ pub enum EndReason {
     NoFrontier,
     /// No frontier candidate left, but only because the robot's map walls it in: every free
     /// cell it can reach lies within [`super::ExploreParams::trapped_radius_m`]
-    /// ([`crate::frontier::enclosed_within`]; e.g. a ring of registration speckle), still after
+    /// (`enclosed_within`; e.g. a ring of registration speckle), still after
     /// [`super::ExploreParams::trap_recoveries`] recoveries.
     Trapped,
     /// The adapter's time limit (the explorer itself never answers it).
@@ -113,6 +140,34 @@ pub enum EndReason {
 }
 
 /// The explorer's answer to one decision.
+///
+/// # Examples
+///
+/// A mapped room has nothing left to explore:
+///
+/// ```
+/// use fitslam_core::explore::EndReason;
+/// use fitslam_core::grid::{FREE, LETHAL};
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{Action, ExploreParams, Explorer, GridGeometry, OccupancyGrid, Params, PointCloud, Pose2, Situation, Valid};
+///
+/// // A 4 m × 4 m room, walls all round, all of it already mapped: no frontier left.
+/// let g = GridGeometry::new(0.0, 0.0, 0.1, 40, 40);
+/// let mut room = OccupancyGrid::filled(g, FREE);
+/// for i in 0..g.len() {
+///     let c = g.cell_at(i);
+///     if c.col == 0 || c.row == 0 || c.col == 39 || c.row == 39 {
+///         room.data[i] = LETHAL;
+///     }
+/// }
+/// let planner = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&PointCloud::default(), planner.u2.voxel_m, planner.u2.sigma_landmark_m)?;
+/// let explore = ExploreParams { trapped_radius_m: 0.0, ..ExploreParams::default() }; // no trap check
+/// let mut explorer = Explorer::new(Valid::new(explore)?, planner);
+/// let situation = Situation::one_off(&voxels, Pose2::new(2.0, 2.0, 0.0), None);
+/// assert_eq!(explorer.decide(&mut room, &situation), Action::Done(EndReason::NoFrontier));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub enum Action {
     /// Drive to a new goal (replacing the current one, if any).
@@ -125,7 +180,10 @@ pub enum Action {
     /// Trapped by its own map: forget the map within `radius_m` of the robot and map that ground
     /// again (turn in place), then decide again. The `NoPath` blacklist entries judged on that
     /// map are already dropped.
-    Recover { radius_m: f64 },
+    Recover {
+        /// Radius of the disc to forget around the robot, metres.
+        radius_m: f64,
+    },
     /// The mission is over.
     Done(EndReason),
 }
@@ -144,6 +202,7 @@ pub struct ExploreStats {
     pub tight_plans: u64,
     /// Recoveries from a trap.
     pub trap_recoveries: u64,
+    /// Goals reached.
     pub goals_reached: u64,
     /// Goals failed (timed out, aborted, rejected, stopped by the bumper): blacklisted.
     pub goals_failed: u64,

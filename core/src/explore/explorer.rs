@@ -18,7 +18,7 @@
 //! blacklists that one (`Reselected`) and the decision is made again; a failed goal is
 //! blacklisted `Failed`. At periodic replanning the current goal is kept while the nearest
 //! reachable candidate lies within the blacklist radius of it. Paths end short of unknown ground
-//! by the position's uncertainty ([`crate::path::set_back`]).
+//! by the position's uncertainty (`set_back`).
 //!
 //! Cost: one selector run per attempt (at most 5 + the number of tight radii), plus one
 //! inflation (O(cells · disc)) for the trap check when nothing is found.
@@ -36,6 +36,36 @@ use crate::select::{Decision, DecisionInput, DropReason, GoalSelector, SelectErr
 use serde::Serialize;
 
 /// The exploration policy's state.
+///
+/// # Examples
+///
+/// One decision in a corridor with a frontier at each end and landmarks only to the east:
+///
+/// ```
+/// use fitslam_core::explore::Attempt;
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{Action, ExploreParams, Explorer, Params, Situation, Valid};
+///
+/// let mut world = corridor_two_frontiers(true);
+/// let planner = Valid::new(Params::default())?; // FIT-SLAM
+/// let voxels = LandmarkVoxels::new(&world.landmarks, planner.u2.voxel_m, planner.u2.sigma_landmark_m)?;
+/// let mut explorer = Explorer::new(Valid::new(ExploreParams::default())?, planner);
+///
+/// let situation = Situation::one_off(&voxels, world.robot, None);
+/// let traced = explorer.decide_traced(&mut world.grid, &situation);
+/// let Action::Goal(plan) = &traced.action else { panic!("expected a goal, got {:?}", traced.action) };
+/// assert!(plan.goal.goal.x_m > world.robot.x_m); // east, towards the landmarks
+/// assert!(plan.rho_m > 0.0 && !plan.path_m.is_empty());
+///
+/// // The plain attempt found the goal: no retry was needed, and its ranking is kept.
+/// assert_eq!(traced.attempts.len(), 1);
+/// assert_eq!(traced.attempts[0].attempt, Attempt::Plain);
+/// let ranking = traced.decision().expect("the plain attempt ranked candidates");
+/// assert_eq!(ranking.chosen, Some(plan.candidate));
+/// assert_eq!(explorer.goal(), Some(plan.goal));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Explorer {
     params: Valid<ExploreParams>,
     /// The planner's parameters (the selector's strategy and seed among them).
@@ -84,6 +114,7 @@ impl Explorer {
         self.clock = Some(clock);
     }
 
+    /// The exploration policy's parameters.
     pub fn params(&self) -> &Valid<ExploreParams> {
         &self.params
     }
@@ -93,14 +124,17 @@ impl Explorer {
         &self.planner
     }
 
+    /// The goals given up on so far.
     pub fn blacklist(&self) -> &Blacklist {
         &self.blacklist
     }
 
+    /// The goal being pursued, if any.
     pub fn goal(&self) -> Option<ActiveGoal> {
         self.goal
     }
 
+    /// Counters of the decisions and goals so far.
     pub fn stats(&self) -> &ExploreStats {
         &self.stats
     }
@@ -377,20 +411,60 @@ pub enum Attempt {
     OpenTrail,
     /// 3. Still none: lethal cells inflated by `tight_inflations_m[index]` = `radius_m`
     ///    ([`ExploreParams::tight_inflations_m`]).
-    TightInflation { index: usize, radius_m: f64 },
+    TightInflation {
+        /// Index into [`ExploreParams::tight_inflations_m`].
+        index: usize,
+        /// The inflation radius, metres.
+        radius_m: f64,
+    },
     /// The goal chosen lay where the robot had been: that goal blacklisted `Reselected`, the
     /// same input again.
-    Reselected { x_m: f64, y_m: f64 },
+    Reselected {
+        /// x of the goal reached before and now blacklisted, map frame, metres.
+        x_m: f64,
+        /// y of that goal, map frame, metres.
+        y_m: f64,
+    },
 }
 
 /// One attempt of a decision and the selector's answer to it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AttemptRecord {
+    /// What was tried.
     pub attempt: Attempt,
+    /// The selector's answer (its whole ranking), or why it gave none.
     pub outcome: Result<Decision, SelectError>,
 }
 
 /// A decision with every attempt it took ([`Explorer::decide_traced`]).
+///
+/// # Examples
+///
+/// A robot blocked in its own map: the plain attempt fails, clearing the footprint finds a goal.
+///
+/// ```
+/// use fitslam_core::explore::Attempt;
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::grid::{fill_disc, LETHAL};
+/// use fitslam_core::select::SelectError;
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{Action, ExploreParams, Explorer, Params, Situation, Valid};
+///
+/// let mut world = corridor_two_frontiers(true);
+/// let planner = Valid::new(Params::default())?;
+/// let voxels = LandmarkVoxels::new(&world.landmarks, planner.u2.voxel_m, planner.u2.sigma_landmark_m)?;
+/// // Registration speckle all over the robot's footprint blocks the plain decision.
+/// let (x_m, y_m) = (world.robot.x_m, world.robot.y_m);
+/// fill_disc(&mut world.grid, x_m, y_m, 0.3, LETHAL);
+/// let mut explorer = Explorer::new(Valid::new(ExploreParams::default())?, planner);
+/// let traced = explorer.decide_traced(&mut world.grid, &Situation::one_off(&voxels, world.robot, None));
+///
+/// assert!(matches!(traced.attempts[0].outcome, Err(SelectError::RobotBlocked { .. })));
+/// assert_eq!(traced.attempts[1].attempt, Attempt::ClearFootprint);
+/// assert!(matches!(traced.action, Action::Goal(_)), "{:?}", traced.action);
+/// assert!(traced.decision().is_some()); // the ranking the goal came from
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct TracedDecision {
     /// What the explorer answers (what the robot would do).

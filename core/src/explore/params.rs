@@ -10,11 +10,25 @@ use serde::{Deserialize, Serialize};
 pub(crate) const MAX_TIGHT_INFLATIONS: usize = 8;
 
 /// How the explorer chooses, keeps and retries goals (see [`super::Explorer`]).
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{ExploreParams, Valid};
+///
+/// let indoor = ExploreParams { tight_inflations_m: vec![0.20, 0.10], ..ExploreParams::default() };
+/// assert!(Valid::new(indoor).is_ok());
+/// // Radii must shrink: each retry squeezes through narrower gaps than the one before.
+/// let growing = ExploreParams { tight_inflations_m: vec![0.10, 0.20], ..ExploreParams::default() };
+/// let error = Valid::new(growing).unwrap_err();
+/// assert_eq!(error.key, "tight_inflations_m[1]");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ExploreParams {
     /// Each path ends short of unknown ground by a multiple of the position estimate's standard
-    /// deviation ([`crate::path::set_back`]): a robot unsure of its position could otherwise
+    /// deviation (`set_back`): a robot unsure of its position could otherwise
     /// drive past a frontier goal into ground no sensor has seen (docs/decisions/0004). 0 with a
     /// pose without covariance. Defaults 2 σ, at most 1 m.
     pub goal_setback: GoalSetback,
@@ -43,7 +57,7 @@ pub struct ExploreParams {
     /// holds a hazard, so that still keeps the body off hazards in a perfect map) passes 0.7 m,
     /// but on open terrain it also chases scraps of ground at drops the map does not show yet
     /// (docs/decisions/0003): add it for indoor maps with narrow doors. Each > 0 and smaller
-    /// than the one before, at most [`MAX_TIGHT_INFLATIONS`]; radii at least `robot.radius_m`
+    /// than the one before, at most 8; radii at least `robot.radius_m`
     /// are skipped; empty turns the retry off. Default [0.20].
     pub tight_inflations_m: Vec<f64>,
     /// Decisions in a row without a plan before the mission ends as
@@ -57,7 +71,7 @@ pub struct ExploreParams {
     pub trapped_radius_m: f64,
     /// Times a trapped robot recovers before the mission ends [`super::EndReason::Trapped`]: as
     /// Nav2's clear-costmap recovery does, it forgets its map within
-    /// [`crate::frontier::recovery_radius_m`] of itself and maps it again (docs/decisions/0005).
+    /// `recovery_radius_m` of itself and maps it again (docs/decisions/0005).
     /// 0: no recovery. Default 2.
     pub trap_recoveries: u32,
 }

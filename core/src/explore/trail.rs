@@ -1,12 +1,12 @@
 //! The robot's trail: the cells its centre has driven on, which the explorer opens to the planner
-//! again after inflation ([`crate::grid::free_traversed`]) so that the robot can go back the way it
+//! again after inflation (`free_traversed`) so that the robot can go back the way it
 //! came ([`super::ExploreParams::reuse_trail`]).
 //!
 //! Positions are kept in world coordinates (the map frame), so the trail lands on the same ground
 //! in a map whose geometry changes between decisions (a robot's growing map). A segment between
 //! two consecutive positions is sampled every half cell and made 4-connected (a diagonal step adds
 //! the cell beside it, as the frontier flood is 4-connected); a segment longer than
-//! [`MAX_TRAIL_STEP_M`] is a jump of the estimate (a loop closure, a pose gap), not ground driven
+//! 0.25 m is a jump of the estimate (a loop closure, a pose gap), not ground driven
 //! on, and adds only its end cell.
 //!
 //! Cost: O(1) per position; the cells on one geometry are kept and extended incrementally
@@ -92,6 +92,7 @@ impl Trail {
         self.points.iter().map(|p| p.at_m)
     }
 
+    /// Whether no position is kept.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }

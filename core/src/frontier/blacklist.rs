@@ -30,8 +30,11 @@ pub enum BlacklistReason {
 /// One blacklisted goal position (map frame, metres).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BlacklistEntry {
+    /// Goal x, map frame, metres.
     pub x_m: f64,
+    /// Goal y, map frame, metres.
     pub y_m: f64,
+    /// Why it was blacklisted.
     pub reason: BlacklistReason,
 }
 
@@ -96,10 +99,12 @@ impl Blacklist {
         &self.entries
     }
 
+    /// Number of entries.
     pub fn len(&self) -> usize {
         self.entries.len()
     }
 
+    /// Whether there is no entry.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }

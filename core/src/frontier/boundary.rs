@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 /// back to the first (do not repeat it). Fewer than 3 vertices contain nothing.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Boundary {
+    /// The vertices [x, y], map frame, metres, in order around the polygon.
     pub vertices_m: Vec<[f64; 2]>,
 }
 

@@ -1,17 +1,17 @@
 //! Frontiers (notes §3, paper §II-C): where the known, traversable map meets the unknown.
 //!
 //! Pipeline, one algorithm per file:
-//! 1. [`wfd`] — wavefront frontier detection: a BFS over free cells from the robot finds the
+//! 1. `wfd` — wavefront frontier detection: a BFS over free cells from the robot finds the
 //!    reachable frontier cells (free, with an unknown 4-neighbour, centre inside the [`Boundary`]).
-//! 2. [`cluster`] — frontier cells are linked 8-connected, each linked chain is ordered along
+//! 2. `cluster` — frontier cells are linked 8-connected, each linked chain is ordered along
 //!    itself and split into nearly equal pieces of at most `max_cluster_cells`; pieces under
 //!    `min_cluster_cells` are dropped; the median cell of a piece is its candidate goal C_i.
-//! 3. [`blacklist`] — goals matched within a radius (no path, failed, re-selected) and the end
+//! 3. `blacklist` — goals matched within a radius (no path, failed, re-selected) and the end
 //!    of mission: no non-blacklisted candidate left.
-//! 4. [`enclosed_within`] — whether a robot with no frontier left is walled in by its map
+//! 4. `enclosed_within` — whether a robot with no frontier left is walled in by its map
 //!    (trapped) rather than done.
 //!
-//! [`detect_frontiers`] runs 1 and 2. The grid it takes is the thresholded *and inflated*
+//! `detect_frontiers` runs 1 and 2. The grid it takes is the thresholded *and inflated*
 //! occupancy grid (notes §2): inflated lethal cells are not free, so candidates keep the robot's
 //! footprint off obstacles.
 
@@ -37,12 +37,21 @@ use thiserror::Error;
 /// Why frontiers could not be detected.
 #[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
 pub enum FrontierError {
+    /// The robot's cell (given) is outside the grid.
     #[error("robot cell ({}, {}) is outside the map", .0.col, .0.row)]
     RobotOutsideMap(Cell),
+    /// The robot's cell (given) is not free, so the search has nowhere to start.
     #[error("robot cell ({}, {}) is not free (lethal, inflated or unknown)", .0.col, .0.row)]
     RobotNotFree(Cell),
+    /// The grid's data and geometry disagree.
     #[error("grid has {data_len} values but its geometry has {cells} cells")]
-    GridSizeMismatch { data_len: usize, cells: usize },
+    GridSizeMismatch {
+        /// Values in the grid's data.
+        data_len: usize,
+        /// Cells its geometry has.
+        cells: usize,
+    },
+    /// [`crate::params::FrontierParams::max_cluster_cells`] is 0.
     #[error("frontier.max_cluster_cells must be ≥ 1")]
     ZeroMaxClusterCells,
 }
@@ -50,7 +59,7 @@ pub enum FrontierError {
 /// One cluster of frontier cells and its candidate goal C_i.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct FrontierCluster {
-    /// The cluster's cells, ordered along the frontier chain (see [`cluster`]).
+    /// The cluster's cells, ordered along the frontier chain (see `cluster`).
     pub cells: Vec<Cell>,
     /// The candidate goal C_i: the median cell `cells[cells.len() / 2]`.
     pub candidate: Cell,
@@ -68,6 +77,7 @@ impl FrontierCluster {
         self.cells.len()
     }
 
+    /// Whether the cluster has no cell.
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()
     }

@@ -97,8 +97,8 @@ pub(super) fn wavefront(
     Ok(frontier)
 }
 
-/// The reachable frontier cells (step 1 of [`detect_frontiers`]), in increasing flat index
-/// (row-major from the bottom-left). Errors as [`detect_frontiers`].
+/// The reachable frontier cells (step 1 of `detect_frontiers`), in increasing flat index
+/// (row-major from the bottom-left). Errors as `detect_frontiers`.
 pub fn frontier_cells(grid: &OccupancyGrid, robot: Cell, boundary: Option<&Boundary>) -> Result<Vec<Cell>, FrontierError> {
     let frontier = wavefront(grid, robot, boundary, &mut Vec::new())?;
     Ok(frontier.into_iter().map(|i| grid.geometry.cell_at(i)).collect())
@@ -139,10 +139,10 @@ pub(crate) fn detect_frontiers_with(
     Ok(cluster_frontier(&grid.geometry, state, &frontier, params))
 }
 
-/// Step 2 of [`detect_frontiers_with`] on frontier cells found by another flood of the same
+/// Step 2 of `detect_frontiers_with` on frontier cells found by another flood of the same
 /// reachable set (the planner's [`crate::path::dijkstra_with_frontiers`], which saves the WFD
 /// flood): cells whose centre is outside `boundary` are dropped, the rest clustered exactly as
-/// [`detect_frontiers`] does. `frontier`: flat indices in increasing order (others are ignored);
+/// `detect_frontiers` does. `frontier`: flat indices in increasing order (others are ignored);
 /// `state` is reused storage.
 pub fn cluster_frontier_cells(
     geometry: &GridGeometry,

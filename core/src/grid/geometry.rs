@@ -15,19 +15,51 @@ pub(crate) const MAX_CELLS: usize = 1 << 23;
 
 /// A cell address: column (x) and row (y). Signed so that neighbour arithmetic may step outside
 /// the grid; [`GridGeometry::index`] says whether it is inside.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Cell, GridGeometry};
+///
+/// let g = GridGeometry::new(0.0, 0.0, 0.5, 4, 3);
+/// let c = Cell::new(3, 2); // the top-right cell
+/// assert_eq!(g.index(c), Some(2 * 4 + 3));
+/// // Neighbour arithmetic may step outside; the geometry says so.
+/// assert_eq!(g.index(Cell::new(c.col + 1, c.row)), None);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Cell {
+    /// Column, along +x from the grid's origin.
     pub col: i32,
+    /// Row, along +y from the grid's origin (row 0 is the bottom).
     pub row: i32,
 }
 
 impl Cell {
+    /// The cell at column `col`, row `row`.
     pub const fn new(col: i32, row: i32) -> Self {
         Self { col, row }
     }
 }
 
 /// Origin, resolution and size of a grid. Every layer of a map shares one geometry.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Cell, GridGeometry};
+///
+/// // 4 × 3 cells of 0.5 m, lower-left corner at (−1, 0) in the map frame.
+/// let g = GridGeometry::new(-1.0, 0.0, 0.5, 4, 3);
+/// assert_eq!(g.len(), 12);
+/// assert_eq!(g.bounds_m(), (-1.0, 0.0, 1.0, 1.5));
+/// let c = g.cell_of(0.3, 1.2).ok_or("inside")?;
+/// assert_eq!(c, Cell::new(2, 2));
+/// assert_eq!(g.center_of(c), (0.25, 1.25));
+/// assert_eq!(g.cell_of(1.2, 0.0), None); // east of the grid
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GridGeometry {
     /// World x of the lower-left corner of cell (0, 0), metres.
@@ -43,6 +75,8 @@ pub struct GridGeometry {
 }
 
 impl GridGeometry {
+    /// A geometry from its origin (lower-left corner of cell (0, 0), map frame, metres), cell
+    /// edge (metres, > 0) and size in cells; not checked.
     pub fn new(origin_x_m: f64, origin_y_m: f64, resolution_m: f64, width: usize, height: usize) -> Self {
         Self { origin_x_m, origin_y_m, resolution_m, width, height }
     }
@@ -52,6 +86,7 @@ impl GridGeometry {
         self.width * self.height
     }
 
+    /// Whether the grid has no cell.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

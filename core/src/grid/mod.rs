@@ -15,9 +15,26 @@ pub(crate) use occupancy::{LETHAL_THRESHOLD, cells_in_disc};
 use serde::{Deserialize, Serialize};
 
 /// One layer: a value per cell on flat row-major storage (`data.len() == geometry.len()`).
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Cell, Grid, GridGeometry};
+///
+/// let g = GridGeometry::new(0.0, 0.0, 0.1, 3, 2);
+/// let mut height_m = Grid::filled(g, 0.0f32);
+/// *height_m.get_mut(Cell::new(1, 1)).ok_or("inside")? = 0.4;
+/// assert_eq!(height_m.data[1 * 3 + 1], 0.4); // row-major from the bottom row
+/// assert_eq!(height_m.at_world(0.15, 0.15), Some(&0.4));
+/// assert_eq!(height_m.get(Cell::new(3, 0)), None);
+/// assert!(Grid::from_vec(g, vec![0u8; 5]).is_none()); // 5 values for 6 cells
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Grid<T> {
+    /// Where the cells are.
     pub geometry: GridGeometry,
+    /// One value per cell, row-major from the bottom row (`row * width + col`).
     pub data: Vec<T>,
 }
 

@@ -14,13 +14,34 @@ pub const UNKNOWN: i8 = -1;
 pub(crate) const LETHAL_THRESHOLD: i8 = 50;
 
 /// An occupancy layer in the ROS convention.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::grid::{inflate_lethal, CellClass, FREE, LETHAL, UNKNOWN};
+/// use fitslam_core::{Cell, GridGeometry, OccupancyGrid};
+///
+/// let mut map = OccupancyGrid::filled(GridGeometry::new(0.0, 0.0, 0.1, 5, 5), FREE);
+/// *map.get_mut(Cell::new(2, 2)).ok_or("inside")? = LETHAL;
+/// *map.get_mut(Cell::new(0, 0)).ok_or("inside")? = UNKNOWN;
+/// assert_eq!(CellClass::of(map.data[0]), CellClass::Unknown);
+///
+/// // Inflating by a 0.15 m robot radius makes the lethal cell's neighbours lethal too.
+/// let inflated = inflate_lethal(&map, 0.15);
+/// assert_eq!(inflated.get(Cell::new(3, 3)).map(|&v| CellClass::of(v)), Some(CellClass::Lethal));
+/// assert_eq!(inflated.get(Cell::new(4, 4)).map(|&v| CellClass::of(v)), Some(CellClass::Free));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub type OccupancyGrid = Grid<i8>;
 
 /// The three classes a planner distinguishes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum CellClass {
+    /// Values 0 to 49: drivable.
     Free,
+    /// Values 50 and above (100 by convention): an obstacle.
     Lethal,
+    /// Negative values (−1 by convention): not observed.
     Unknown,
 }
 

@@ -7,7 +7,7 @@
 //! Before handing the bytes to the crate, the public header is checked here, because the crate
 //! trusts it: the point records (offset + count × record length) must lie inside the input for
 //! LAS, an extended VLR must fit in the input, and for LAZ the declared count may not exceed
-//! [`LAZ_MAX_POINTS_PER_BYTE`] × the file size and the chunk table (which the `laz` crate
+//! 100 × the file size and the chunk table (which the `laz` crate
 //! reserves for up front) may not declare more chunks than the file has bytes; and the x, y, z
 //! scale factors must be finite and non-zero and the offsets finite. Points are then read in
 //! batches, so memory follows the points actually present.

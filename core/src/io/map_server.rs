@@ -51,6 +51,7 @@ pub struct MapThresholds {
     pub free_thresh: f64,
     /// Whether white means occupied.
     pub negate: bool,
+    /// How pixel values become cell values.
     pub mode: MapMode,
 }
 
@@ -70,9 +71,13 @@ pub struct MapYaml {
     pub resolution_m: f64,
     /// `[x_m, y_m, yaw_rad]` of the lower-left corner of the lower-left pixel.
     pub origin: [f64; 3],
+    /// Occupancy probability above which a cell is lethal, in (`free_thresh`, 1].
     pub occupied_thresh: f64,
+    /// Occupancy probability below which a cell is free, in [0, `occupied_thresh`).
     pub free_thresh: f64,
+    /// Whether white means occupied.
     pub negate: bool,
+    /// How pixel values become cell values (trinary when the YAML has no `mode`).
     pub mode: MapMode,
 }
 
@@ -167,6 +172,33 @@ fn describe(v: &Value) -> String {
 
 /// Loads a map_server map: the YAML's bytes and file name, the image's bytes and file name
 /// (read the image named by [`MapYaml::parse`]`(..).image`).
+///
+/// # Examples
+///
+/// A 3 × 2 map at 0.5 m whose lower-left corner is at (−1, −1): image row 0 is the map's top
+/// row; black is occupied, white free, mid-grey unknown.
+///
+/// ```
+/// use fitslam_core::grid::{Cell, FREE, LETHAL, UNKNOWN};
+/// use fitslam_core::io::MapError;
+/// use fitslam_core::load_map;
+///
+/// let yaml = b"image: map.pgm\nresolution: 0.5\norigin: [-1.0, -1.0, 0.0]\n\
+///     occupied_thresh: 0.65\nfree_thresh: 0.196\nnegate: 0\n";
+/// let mut pgm = b"P5\n3 2\n255\n".to_vec();
+/// pgm.extend_from_slice(&[0, 254, 128, 254, 254, 254]); // top row, then bottom row
+/// let grid = load_map(yaml, "map.yaml", &pgm, "map.pgm")?;
+///
+/// assert_eq!((grid.geometry.width, grid.geometry.height), (3, 2));
+/// assert_eq!(grid.get(Cell::new(0, 1)), Some(&LETHAL)); // top-left pixel
+/// assert_eq!(grid.get(Cell::new(2, 1)), Some(&UNKNOWN));
+/// assert_eq!(grid.at_world(-0.75, -0.75), Some(&FREE)); // bottom-left cell's centre
+///
+/// // A YAML without a required key names it.
+/// let error = load_map(b"image: map.pgm\nresolution: 0.5\n", "map.yaml", &pgm, "map.pgm").unwrap_err();
+/// assert!(matches!(error, MapError::MissingKey { key: "origin", .. }), "{error}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn load_map(yaml_bytes: &[u8], yaml_name: &str, image_bytes: &[u8], image_name: &str) -> Result<OccupancyGrid, MapError> {
     let yaml = MapYaml::parse(yaml_bytes, yaml_name)?;
     let yaw_rad = yaml.origin[2];

@@ -60,31 +60,82 @@ use thiserror::Error;
 pub enum CloudError {
     /// The extension is not one of .pcd, .ply, .csv, .las, .laz.
     #[error("{name}: unknown point-cloud extension (expected .pcd, .ply, .csv, .las or .laz)")]
-    UnknownExtension { name: String },
+    UnknownExtension {
+        /// The source name (file name) given to the loader.
+        name: String,
+    },
     /// The header is malformed or inconsistent (the detail says how).
     #[error("{name}: {detail}")]
-    Header { name: String, detail: String },
+    Header {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// What is wrong.
+        detail: String,
+    },
     /// A required field or property is missing (e.g. "vertex element has no 'z' property").
     #[error("{name}: {detail}")]
-    MissingField { name: String, detail: String },
+    MissingField {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// Which field is missing, and where.
+        detail: String,
+    },
     /// The header declares a number of points the data does not hold.
     #[error("{name}: header says {keyword} {declared} but the data holds {found} points")]
-    WrongPointCount { name: String, keyword: &'static str, declared: u64, found: u64 },
+    WrongPointCount {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// The header keyword that declares the count (e.g. `POINTS`, `element vertex`).
+        keyword: &'static str,
+        /// Points the header declares.
+        declared: u64,
+        /// Points the data holds.
+        found: u64,
+    },
     /// A point whose x, y or z is NaN or infinite (`index` counts from 0 in file order).
     #[error("{name}: point {index}: non-finite coordinate")]
-    NonFinitePoint { name: String, index: usize },
+    NonFinitePoint {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// 0-based index of the point in file order.
+        index: usize,
+    },
     /// A text line that cannot be read (1-based line number).
     #[error("{name}: line {line}: {detail}")]
-    Line { name: String, line: usize, detail: String },
+    Line {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        detail: String,
+    },
     /// A point's attribute is invalid (bad classification, negative variance, …).
     #[error("{name}: point {index}: {detail}")]
-    Attribute { name: String, index: usize, detail: String },
+    Attribute {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// 0-based index of the point in file order.
+        index: usize,
+        /// What is wrong.
+        detail: String,
+    },
     /// A valid file using a feature this build does not support.
     #[error("{name}: {what} is not supported")]
-    Unsupported { name: String, what: String },
+    Unsupported {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// The unsupported feature.
+        what: String,
+    },
     /// An error reported by the `las` crate.
     #[error("{name}: LAS: {detail}")]
-    Las { name: String, detail: String },
+    Las {
+        /// The source name (file name) given to the loader.
+        name: String,
+        /// The `las` crate's message.
+        detail: String,
+    },
 }
 
 /// Why an occupancy map could not be loaded or written. Every message starts with the file name.
@@ -92,26 +143,81 @@ pub enum CloudError {
 pub enum MapError {
     /// The YAML text does not parse (or is not a mapping).
     #[error("{name}: invalid YAML: {detail}")]
-    Yaml { name: String, detail: String },
+    Yaml {
+        /// The file name given to the loader or writer.
+        name: String,
+        /// The YAML parser's message.
+        detail: String,
+    },
     /// A key map_server requires is absent.
     #[error("{name}: missing required key '{key}'")]
-    MissingKey { name: String, key: &'static str },
+    MissingKey {
+        /// The file name given to the loader or writer.
+        name: String,
+        /// The missing key.
+        key: &'static str,
+    },
     /// A key has a value of the wrong type or out of range.
     #[error("{name}: key '{key}': {detail}")]
-    BadValue { name: String, key: &'static str, detail: String },
+    BadValue {
+        /// The file name given to the loader or writer.
+        name: String,
+        /// The key.
+        key: &'static str,
+        /// What is wrong with its value.
+        detail: String,
+    },
     /// The origin has a non-zero yaw: the grid type is axis-aligned.
     #[error("{name}: origin yaw {yaw_rad} rad is not zero: rotated maps are not supported (rotate the image instead)")]
-    RotatedOrigin { name: String, yaw_rad: f64 },
+    RotatedOrigin {
+        /// The file name given to the loader or writer.
+        name: String,
+        /// The origin's yaw, radians.
+        yaw_rad: f64,
+    },
     /// The image bytes are not a readable PGM or PNG.
     #[error("{name}: {detail}")]
-    Image { name: String, detail: String },
+    Image {
+        /// The file name given to the loader or writer.
+        name: String,
+        /// What is wrong.
+        detail: String,
+    },
     /// Writer input whose size does not match the data.
     #[error("image of {width} × {height} pixels needs {expected} bytes, got {got}")]
-    ImageSize { width: usize, height: usize, expected: usize, got: usize },
+    ImageSize {
+        /// Image width, pixels.
+        width: usize,
+        /// Image height, pixels.
+        height: usize,
+        /// Bytes the image needs (one per pixel in gray, three in RGB).
+        expected: usize,
+        /// Bytes given.
+        got: usize,
+    },
 }
 
 /// Loads a point cloud, choosing the parser from the extension of `source_name` (.pcd, .ply,
 /// .csv, .las, .laz; case-insensitive).
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::io::CloudError;
+/// use fitslam_core::load_cloud;
+///
+/// let csv = b"x,y,z\n0.0,0.0,0.0\n1.5,-2.0,0.25\n";
+/// let cloud = load_cloud(csv, "scan.CSV")?;
+/// assert_eq!(cloud.len(), 2);
+/// assert_eq!(cloud.points[1].coords.as_slice(), &[1.5, -2.0, 0.25]);
+/// assert!(cloud.covariances.is_none());
+///
+/// // Errors name the source and, in a text file, the line.
+/// let error = load_cloud(b"x,y,z\n1.0,nan,0.0\n", "scan.csv").unwrap_err();
+/// assert!(error.to_string().starts_with("scan.csv"), "{error}");
+/// assert!(matches!(load_cloud(csv, "scan.xyz"), Err(CloudError::UnknownExtension { .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn load_cloud(bytes: &[u8], source_name: &str) -> Result<PointCloud, CloudError> {
     let ext = extension(source_name);
     match ext.as_deref() {

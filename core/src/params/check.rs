@@ -17,6 +17,25 @@ pub trait Validate {
 
 /// A `T` that passed [`Validate::validate`]: made only by [`Valid::new`] (or, inside the crate,
 /// from a part of a valid whole), read through `Deref`. Serialises as `T`.
+///
+/// # Examples
+///
+/// Parameters are checked once, where they enter; whatever takes a `Valid<Params>` relies on it.
+/// To change a checked value, take it out and check it again:
+///
+/// ```
+/// use fitslam_core::{Params, Valid};
+///
+/// let checked = Valid::new(Params::default())?;
+/// assert_eq!(checked.robot.radius_m, Params::default().robot.radius_m); // read through Deref
+///
+/// let mut edited = checked.into_inner();
+/// edited.robot.radius_m = -0.1;
+/// let error = Valid::new(edited).unwrap_err();
+/// assert_eq!(error.key, "robot.radius_m");
+/// println!("{error}"); // the key and why its value is wrong
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(transparent)]
 pub struct Valid<T>(T);
@@ -78,11 +97,14 @@ impl Valid<Params> {
 #[derive(Clone, Debug, PartialEq, Error)]
 #[error("{key}{}{reason}", if reason.starts_with("must ") || reason.starts_with('(') { " " } else { ": " })]
 pub struct InvalidParam {
+    /// The parameter's path in the file (e.g. `u1.alpha`).
     pub key: String,
+    /// Why the value is wrong.
     pub reason: String,
 }
 
 impl InvalidParam {
+    /// The error for `key` with `reason`.
     pub fn new(key: impl Into<String>, reason: impl Into<String>) -> Self {
         Self { key: key.into(), reason: reason.into() }
     }

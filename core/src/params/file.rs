@@ -10,16 +10,46 @@ use super::{InvalidParam, Params, Valid};
 /// A parameter file that could not be read.
 #[derive(Debug, Error)]
 pub enum ParamsError {
+    /// Not valid TOML for the parameters (syntax, unknown key, wrong type).
     #[error("{source_name}: invalid TOML: {message}")]
-    Toml { source_name: String, message: String },
+    Toml {
+        /// The source name (usually the file name) given to the parser.
+        source_name: String,
+        /// The parser's message, with the line when known.
+        message: String,
+    },
+    /// Not valid YAML for the parameters.
     #[error("{source_name}: invalid YAML: {message}")]
-    Yaml { source_name: String, message: String },
+    Yaml {
+        /// The source name (usually the file name) given to the parser.
+        source_name: String,
+        /// The parser's message.
+        message: String,
+    },
+    /// Parsed, but a value is out of range.
     #[error("{source_name}: {error}")]
-    Invalid { source_name: String, error: InvalidParam },
+    Invalid {
+        /// The source name (usually the file name) given to the parser.
+        source_name: String,
+        /// The key and why it is wrong.
+        error: InvalidParam,
+    },
+    /// The bytes are not UTF-8 text.
     #[error("{source_name}: not UTF-8 text")]
-    NotUtf8 { source_name: String },
+    NotUtf8 {
+        /// The source name (usually the file name) given to the parser.
+        source_name: String,
+    },
+    /// A key written where an older version of the file had it.
     #[error("{source_name}: `{key}` has moved: write it as `{moved_to}`")]
-    Moved { source_name: String, key: String, moved_to: String },
+    Moved {
+        /// The source name (usually the file name) given to the parser.
+        source_name: String,
+        /// The key as written.
+        key: String,
+        /// Where to write it now (e.g. `[explore] max_failed_decisions`).
+        moved_to: String,
+    },
 }
 
 /// A TOML error `e` of `text` in one line, "line N: message" (the crate's own Display draws a

@@ -20,17 +20,49 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// All planner parameters. `Params::default()` holds the paper's values (notes §8).
+///
+/// # Examples
+///
+/// A file sets only the keys it changes; the rest keep the paper's values. A value out of range
+/// is refused with its key:
+///
+/// ```
+/// use fitslam_core::params::{ParamsError, Strategy};
+/// use fitslam_core::Params;
+///
+/// let params = Params::from_toml("[u1]\nalpha = 0.5\n[selector]\nstrategy = \"greedy\"\n", "planner.toml")?;
+/// assert_eq!(params.u1.alpha, 0.5);
+/// assert_eq!(params.selector.strategy, Strategy::Greedy);
+/// assert_eq!(params.u2.top_n, Params::default().u2.top_n); // not in the file: the default
+///
+/// match Params::from_toml("[u1]\nalpha = 1.5\n", "planner.toml") {
+///     Err(ParamsError::Invalid { error, .. }) => assert_eq!(error.key, "u1.alpha"),
+///     other => panic!("expected an invalid u1.alpha, got {other:?}"),
+/// }
+/// // A misspelt key is an error too, never a silent default.
+/// assert!(matches!(Params::from_toml("[u1]\nalfa = 0.5\n", "planner.toml"), Err(ParamsError::Toml { .. })));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
+    /// Map geometry (`[grid]`).
     pub grid: GridParams,
+    /// The robot's size and speed (`[robot]`).
     pub robot: RobotParams,
+    /// The depth camera (`[camera]`).
     pub camera: CameraParams,
+    /// Traversability estimation (`[traversability]`).
     pub traversability: TraversabilityParams,
+    /// Frontier detection and candidates (`[frontier]`).
     pub frontier: FrontierParams,
+    /// Path planning (`[planner]`).
     pub planner: PlannerParams,
+    /// The information utility u1 (`[u1]`).
     pub u1: U1Params,
+    /// The localisation utility u2 (`[u2]`).
     pub u2: U2Params,
+    /// The goal selector: strategy, weights, seed (`[selector]`).
     pub selector: SelectorParams,
 }
 
@@ -53,7 +85,7 @@ impl Default for GridParams {
 #[serde(default, deny_unknown_fields)]
 pub struct RobotParams {
     /// Radius lethal cells are inflated by for planning, metres. Default 0.25 (LeoRover
-    /// half-width 0.22 m plus a 3 cm margin). At most [`MAX_RADIUS_CELLS`] cells of the grid.
+    /// half-width 0.22 m plus a 3 cm margin). At most 1000 cells of the grid.
     pub radius_m: f64,
     /// Height of the camera's optical centre above the ground, metres. Default 0.2.
     pub camera_height_m: f64,
@@ -174,7 +206,7 @@ pub struct PlannerParams {
 pub struct U1Params {
     /// α: weight of the path-length term; 1 − α weights the entropy term. Default 0.35 (paper).
     pub alpha: f64,
-    /// Δθ: angle between rays, radians, in [2π / [`MAX_RAYS`], 2π]. Default 8.5° (paper).
+    /// Δθ: angle between rays, radians, in [2π / 4096, 2π]. Default 8.5° (paper).
     pub delta_theta_rad: f64,
     /// γ: per-cell visibility degradation along a ray, in (0, 1]. Default 0.99 at 0.05 m.
     pub gamma: f64,
@@ -290,13 +322,16 @@ impl std::str::FromStr for Strategy {
 #[derive(Clone, Debug, PartialEq, Eq, Error)]
 #[error("unknown {what} `{given}`: expected one of {expected}")]
 pub struct UnknownName {
+    /// What was being named (e.g. `"strategy"`).
     pub what: &'static str,
+    /// The name given.
     pub given: String,
     /// The variants' names, comma-separated.
     pub expected: String,
 }
 
 impl UnknownName {
+    /// The error for `given`, listing `variants` as the names expected.
     pub fn new<T: std::fmt::Display>(what: &'static str, given: &str, variants: &[T]) -> Self {
         let expected = variants.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ");
         Self { what, given: given.into(), expected }

@@ -1,7 +1,7 @@
 //! Shortest paths on the thresholded, inflated grid (notes §4): 8-connected moves, octile costs,
 //! no corner cutting (a diagonal step needs both orthogonal neighbours passable), unknown cells
 //! impassable unless allowed. [`astar`] answers one query; [`dijkstra`] answers every goal at
-//! once with the same optimal lengths. [`set_back`] ends a path short of unknown ground.
+//! once with the same optimal lengths. `set_back` ends a path short of unknown ground.
 
 mod astar;
 mod dijkstra;
@@ -22,14 +22,19 @@ use thiserror::Error;
 /// Why no path could be planned.
 #[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
 pub enum PathError {
+    /// The start cell is outside the grid.
     #[error("start is outside the map")]
     StartOutsideMap,
+    /// The start cell is lethal (or unknown, when unknown cells are impassable).
     #[error("start is in a lethal or unknown cell")]
     StartLethal,
+    /// The goal cell is outside the grid.
     #[error("goal is outside the map")]
     GoalOutsideMap,
+    /// The goal cell is lethal (or unknown, when unknown cells are impassable).
     #[error("goal is in a lethal or unknown cell")]
     GoalLethal,
+    /// No passable 8-connected route joins start and goal.
     #[error("no path to the goal")]
     NoPath,
 }
@@ -37,7 +42,9 @@ pub enum PathError {
 /// A planned path: cells from start to goal and its length in metres.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Path {
+    /// The cells, start and goal included, each an 8-neighbour of the next.
     pub cells: Vec<Cell>,
+    /// Length of the polyline through the cell centres, metres.
     pub length_m: f64,
 }
 

@@ -2,7 +2,7 @@
 //! decision ranks the candidates as FIT-SLAM does (u1, u2 over the N best), takes the path
 //! length ρ* of the goal FIT-SLAM would choose, and draws uniformly (seeded ChaCha8, one draw per
 //! decision, as [`super::random`]) among the reachable, non-blacklisted candidates whose ρ lies
-//! within ±[`LENGTH_TOLERANCE`] · ρ* (FIT-SLAM's own goal always does). Over a mission its path
+//! within ±0.2 · ρ* (FIT-SLAM's own goal always does). Over a mission its path
 //! lengths follow FIT-SLAM's; what its paths see does not. The drawn candidate gets rank 1, the
 //! others none; u1, I_p and u2 stay reported.
 

@@ -30,6 +30,7 @@ pub struct CandidateReport {
     pub cell: Cell,
     /// Candidate cell centre, metres (map frame).
     pub x_m: f64,
+    /// Candidate cell centre y, metres (map frame).
     pub y_m: f64,
     /// Number of frontier cells in the cluster.
     pub cluster_size: usize,
@@ -97,8 +98,40 @@ impl CandidateReport {
 }
 
 /// One goal decision.
+///
+/// # Examples
+///
+/// The whole ranking, not only the winner:
+///
+/// ```
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::frontier::Blacklist;
+/// use fitslam_core::utility::LandmarkVoxels;
+/// use fitslam_core::{make_selector, DecisionInput, Params, Valid};
+///
+/// let world = corridor_two_frontiers(true);
+/// let params = Valid::new(Params::default())?; // FIT-SLAM
+/// let voxels = LandmarkVoxels::new(&world.landmarks, params.u2.voxel_m, params.u2.sigma_landmark_m)?;
+/// let blacklist = Blacklist::new(params.frontier.blacklist_radius_m);
+/// let input = DecisionInput::new(&world.grid, &voxels, world.robot, &blacklist);
+/// let decision = make_selector(&params.selector).select(&input, &params)?;
+///
+/// assert!(decision.candidates.len() >= 2); // a frontier at each end of the corridor
+/// let ranking = decision.ranking();
+/// assert_eq!(ranking.first().copied(), decision.chosen);
+/// let best = decision.chosen_candidate().ok_or("a candidate is chosen")?;
+/// assert_eq!(best.rank, Some(1));
+/// for &i in &ranking {
+///     let c = &decision.candidates[i];
+///     // Every ranked candidate carries its path length, u1 and (FIT-SLAM) u2.
+///     assert!(c.rho_m.is_some() && c.u1.is_some() && c.u2.is_some());
+///     assert!(c.u2 <= best.u2);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Decision {
+    /// The selector that made it.
     pub strategy: Strategy,
     /// Index into `candidates` of the chosen goal; `None` when no candidate can be ranked (end of
     /// mission: no reachable, non-blacklisted frontier left).

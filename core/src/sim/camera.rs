@@ -42,6 +42,8 @@ pub struct LandmarkIndex {
 }
 
 impl LandmarkIndex {
+    /// An index of `landmarks` (world frame) on square buckets of `bucket_m` metres covering
+    /// `bounds_m` = (min_x, min_y, max_x, max_y); landmarks outside go to the border buckets.
     pub fn new(landmarks: &[Point3<f64>], bounds_m: (f64, f64, f64, f64), bucket_m: f64) -> Self {
         let nx = (((bounds_m.2 - bounds_m.0) / bucket_m).ceil() as usize).max(1);
         let ny = (((bounds_m.3 - bounds_m.1) / bucket_m).ceil() as usize).max(1);
@@ -80,8 +82,11 @@ fn in_frustum(v: &Vector3<f64>, params: &CameraParams, th: f64, tv: f64) -> bool
 /// frustum index.
 #[derive(Clone, Copy, Debug)]
 pub struct LandmarkScene<'a> {
+    /// The terrain that can hide a landmark.
     pub field: &'a Heightfield,
+    /// Landmark positions, world frame, metres (the index is the id).
     pub landmarks: &'a [Point3<f64>],
+    /// `landmarks` bucketed ([`LandmarkIndex::new`] on the same slice).
     pub index: &'a LandmarkIndex,
 }
 
@@ -89,8 +94,11 @@ pub struct LandmarkScene<'a> {
 /// (the camera looks along the body's +x).
 #[derive(Clone, Copy, Debug)]
 pub struct CameraPose {
+    /// The optical centre, world frame, metres.
     pub camera_m: Point3<f64>,
+    /// The body's origin, world frame, metres.
     pub body_m: Point3<f64>,
+    /// The body's attitude.
     pub world_from_body: Rotation3<f64>,
 }
 

@@ -18,7 +18,9 @@ pub const MATCHED_COVERAGE_PCT: MatchedLevels = MatchedLevels { from_pct: 25.0, 
 /// Where a coverage level was first reached.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Milestone {
+    /// Mission time, seconds.
     pub time_s: f64,
+    /// Distance driven, metres.
     pub distance_m: f64,
 }
 
@@ -44,8 +46,11 @@ fn first_reaching(rows: &[MetricsRow], level_pct: f64) -> Option<&MetricsRow> {
 /// Evenly spaced coverage levels, both ends included.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MatchedLevels {
+    /// The first level, %.
     pub from_pct: f64,
+    /// The last level, %.
     pub to_pct: f64,
+    /// Spacing of the levels, %, > 0.
     pub step_pct: f64,
 }
 

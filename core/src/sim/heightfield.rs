@@ -11,16 +11,30 @@ use thiserror::Error;
 /// A DEM that could not be read.
 #[derive(Debug, Error)]
 pub enum HeightfieldError {
+    /// The bytes are not a readable PNG or PGM image.
     #[error("{name}: not a readable DEM image: {message}")]
-    Png { name: String, message: String },
+    Png {
+        /// The image's name.
+        name: String,
+        /// The decoder's message.
+        message: String,
+    },
+    /// The scaling or the image's size is unusable.
     #[error("{name}: {message}")]
-    Invalid { name: String, message: String },
+    Invalid {
+        /// The image's name.
+        name: String,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 /// Ground heights on `geometry`'s cell centres, row-major bottom-up like every layer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Heightfield {
+    /// The cells (origin, resolution, size) in the map frame.
     pub geometry: GridGeometry,
+    /// Height of each cell centre, metres, `geometry.len()` of them.
     pub heights_m: Vec<f64>,
 }
 

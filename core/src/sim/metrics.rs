@@ -16,15 +16,21 @@ use serde::Serialize;
 /// One metrics row.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct MetricsRow {
+    /// Mission time, seconds.
     pub time_s: f64,
     /// Explorable cells still unknown in the robot's map, % of the explorable cells.
     pub unexplored_pct: f64,
+    /// Trace of the whole pose covariance: `pos_cov_trace + rot_cov_trace` (m² plus rad²).
     pub cov_trace: f64,
+    /// Trace of the pose covariance's position block, m².
     pub pos_cov_trace: f64,
+    /// Trace of the pose covariance's rotation block, rad².
     pub rot_cov_trace: f64,
     /// |estimated − true| position, metres.
     pub ate_m: f64,
+    /// Distance driven so far, metres.
     pub distance_m: f64,
+    /// Loop closures so far (0 without SLAM).
     pub loop_closures: u64,
     /// Wall time of the decisions since the previous row, ms (0 without a clock). Not
     /// deterministic: keep it out of byte-compared files.
@@ -34,9 +40,11 @@ pub struct MetricsRow {
 /// A timestamped 3D pose for TUM trajectories.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct StampedPose {
+    /// Mission time, seconds.
     pub time_s: f64,
+    /// Body position (x, y, z) in the world frame, metres.
     pub position_m: [f64; 3],
-    /// Quaternion (x, y, z, w).
+    /// Body-to-world rotation as a unit quaternion (x, y, z, w).
     pub quaternion_xyzw: [f64; 4],
 }
 
@@ -47,34 +55,55 @@ impl StampedPose {
     }
 }
 
-/// Final figures.
+/// A mission's figures so far (final once it has ended).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Summary {
+    /// The world's name.
     pub world: String,
+    /// The goal selector used.
     pub strategy: Strategy,
+    /// The localisation used.
     pub localisation: Localisation,
+    /// The mission's RNG seed.
     pub seed: u64,
+    /// Why the mission ended; `None` while it runs.
     pub end_reason: Option<EndReason>,
+    /// Mission time, seconds.
     pub time_s: f64,
+    /// Explorable cells still unknown at the last row, % (100 before the first row).
     pub unexplored_pct: f64,
+    /// Ground-truth explorable cells of the world.
     pub explorable_cells: usize,
+    /// Distance driven, metres.
     pub distance_m: f64,
+    /// Root mean square of the rows' position error, metres.
     pub ate_rmse_m: f64,
+    /// [`MetricsRow::cov_trace`] at the last row (0 before the first row).
     pub final_cov_trace: f64,
+    /// Loop closures (0 without SLAM).
     pub loop_closures: u64,
+    /// Selector runs (every retry counts).
     pub decisions: u64,
+    /// Goals reached.
     pub goals_reached: u64,
+    /// Goals failed (timed out, aborted, rejected, stopped by the bumper).
     pub goals_failed: u64,
+    /// Blacklisted goal cells at the end.
     pub blacklist_len: usize,
+    /// Times the body entered ground-truth untraversable terrain.
     pub gt_violations: u64,
+    /// Times the bumper stopped the robot.
     pub safety_stops: u64,
     /// Recoveries from a trap ([`crate::explore::ExploreParams::trap_recoveries`]).
     pub trap_recoveries: u64,
     /// Paths planned with a tight inflation ([`crate::explore::ExploreParams::tight_inflations_m`]):
     /// to a new goal, or to the current one when periodic replanning found it only so.
     pub tight_plans: u64,
+    /// Selector runs that failed even after footprint clearing.
     pub planning_errors: u64,
+    /// Landmarks in the robot's landmark map (the SLAM's landmarks with SLAM).
     pub landmarks_mapped: usize,
+    /// Lidar scans taken.
     pub scans: u64,
     /// SLAM keyframes (0 without SLAM).
     pub keyframes: usize,
@@ -83,25 +112,34 @@ pub struct Summary {
     /// Keyframe updates whose optimisation or covariance failed (the keyframe was kept).
     pub slam_errors: u64,
     /// Visual tracking losses, recoveries by relocalisation and by a new map segment, and the
-    /// time spent lost, seconds (SLAM only; [`super::localisation::VisualTracking`]).
+    /// time spent lost, seconds (SLAM only; `VisualTracking`).
     pub tracking_losses: u64,
+    /// Tracking recoveries by re-observing mapped landmarks.
     pub relocalisations: u64,
+    /// Tracking recoveries by a new map segment.
     pub new_maps: u64,
+    /// Time spent lost, seconds.
     pub lost_s: f64,
     /// Features matched to the wrong landmark (SLAM only; [`super::vision`]).
     pub wrong_associations: u64,
+    /// Wall time of every selector run, ms (0 without a clock; not deterministic).
     pub total_plan_ms: f64,
 }
 
 /// What one row records.
 #[derive(Clone, Copy, Debug)]
 pub struct Sample {
+    /// Mission time, seconds.
     pub time_s: f64,
+    /// The localisation's pose covariance.
     pub covariance: PoseCovariance,
-    /// The true and the estimated body pose.
+    /// The true body pose: position in the world frame (metres) and body-to-world rotation.
     pub truth: BodyPose,
+    /// The estimated body pose, as `truth`.
     pub estimate: BodyPose,
+    /// Distance driven so far, metres.
     pub distance_m: f64,
+    /// Loop closures so far (0 without SLAM).
     pub loop_closures: u64,
     /// Wall time of every decision so far, ms.
     pub total_plan_ms: f64,
@@ -166,15 +204,17 @@ impl Metrics {
         if n == 0 { 0.0 } else { 100.0 * (n - self.known_explorable) as f64 / n as f64 }
     }
 
+    /// The rows recorded, in time order.
     pub fn rows(&self) -> &[MetricsRow] {
         &self.rows
     }
 
-    /// The true and the estimated trajectory, one pose per row.
+    /// The true trajectory, one pose per row.
     pub fn trajectory_gt(&self) -> &[StampedPose] {
         &self.trajectory_gt
     }
 
+    /// The estimated trajectory, one pose per row.
     pub fn trajectory_est(&self) -> &[StampedPose] {
         &self.trajectory_est
     }

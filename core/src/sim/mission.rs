@@ -2,7 +2,7 @@
 //! → move, one control tick per [`Mission::step`]; [`Mission::run`] loops over it.
 //!
 //! The mission composes four layers: the world simulator ([`WorldSim`]: true motion with the
-//! bumper, the sensors), localisation behind [`Localiser`] (ground truth, odometry, graph SLAM),
+//! bumper, the sensors), localisation behind `Localiser` (ground truth, odometry, graph SLAM),
 //! the exploration policy ([`Explorer`]) and the metrics ([`Metrics`]). What is its own is the
 //! robot's local controller (a carrot follower along the chosen path, turning to Θ* on arrival)
 //! and the schedule:
@@ -12,7 +12,7 @@
 //! with the *estimate* into the traversability map (estimated lazily, below); every
 //! `camera_every_s` the camera observes landmarks. The explorer decides on arrival (after turning
 //! to Θ*), on failure (timeout or bumper → blacklisted `Failed`), when the path ahead is blocked
-//! (checked after each scan, [`super::corridor`]; the part already driven is not checked), and
+//! (checked after each scan, `corridor`; the part already driven is not checked), and
 //! every `replan_period_s` (then the current goal is kept while it is still a reachable frontier
 //! candidate). When it has no plan the robot turns in place for 2 s; when its map traps it, the
 //! robot forgets that map around itself and turns a full circle. The mission ends when the
@@ -48,8 +48,10 @@ use std::f64::consts::TAU;
 /// Why a [`Mission`] could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum MissionError {
+    /// The robot's traversability map could not be made on the world's geometry.
     #[error("traversability map: {0}")]
     Map(#[from] crate::traversability::TraversabilityError),
+    /// The SLAM could not start (e.g. a non-finite start pose).
     #[error("SLAM: {0}")]
     Slam(#[from] crate::slam::SlamError),
 }
@@ -57,7 +59,9 @@ pub enum MissionError {
 /// What one [`Mission::step`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum StepOutcome {
+    /// The mission goes on.
     Running,
+    /// The mission has ended, for this reason (every later step answers the same).
     Finished(EndReason),
 }
 
@@ -75,6 +79,42 @@ enum Phase {
 }
 
 /// A running mission.
+///
+/// # Examples
+///
+/// A tiny procedural world, built without files, explored for a few simulated seconds by the
+/// greedy selector with ground-truth localisation:
+///
+/// ```
+/// use fitslam_core::params::Strategy;
+/// use fitslam_core::sim::{EndReason, StepOutcome};
+/// use fitslam_core::{Localisation, Mission, MissionParams, Params, Valid, World, WorldSpec};
+///
+/// let spec = WorldSpec::from_toml(
+///     "name = \"hills\"\nstart = [2.0, 2.0, 0.0]\n\
+///      [terrain]\nkind = \"procedural\"\nseed = 4\nsize_m = 4.0\nhill_height_m = 0.1\n",
+///     "hills.toml",
+/// )?;
+/// let params = Valid::new(Params::default())?;
+/// let tr = &params.traversability;
+/// // The loader is asked for the files a spec names (a DEM, a map): this one names none.
+/// let world = World::build(&spec, tr, tr.tau, |name| Err(format!("no file {name}")))?;
+///
+/// let sim = Valid::new(MissionParams { time_limit_s: Some(3.0), ..MissionParams::default() })?;
+/// let mut mission = Mission::new(world, params, sim, Strategy::Greedy, 7, Localisation::GroundTruth)?;
+/// let mut steps = 0;
+/// while mission.step() == StepOutcome::Running {
+///     steps += 1;
+/// }
+/// assert_eq!(steps, 30); // 3 s of 0.1 s control ticks
+/// assert!((mission.time_s() - 3.0).abs() < 1e-9);
+/// let summary = mission.summary();
+/// assert_eq!(summary.end_reason, Some(EndReason::TimeLimit));
+/// // The first turn in place has already mapped part of the world.
+/// assert!(summary.unexplored_pct < 100.0);
+/// assert_eq!(mission.rows().len(), mission.trajectory_gt().len());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Mission {
     sim: WorldSim,
     localiser: Box<dyn Localiser>,
@@ -413,6 +453,7 @@ impl Mission {
         self.explorer.trail().cells(&g)
     }
 
+    /// Mission time, seconds.
     pub fn time_s(&self) -> f64 {
         self.time_s
     }
@@ -432,6 +473,7 @@ impl Mission {
         self.localiser.covariance()
     }
 
+    /// The ground truth.
     pub fn world(&self) -> &World {
         self.sim.world()
     }
@@ -441,18 +483,22 @@ impl Mission {
         self.explorer.planner()
     }
 
+    /// The simulator's parameters.
     pub fn mission_params(&self) -> &MissionParams {
         &self.mission
     }
 
+    /// The goal selector in use.
     pub fn strategy(&self) -> Strategy {
         self.strategy
     }
 
+    /// The localisation in use.
     pub fn localisation(&self) -> Localisation {
         self.localiser.kind()
     }
 
+    /// The mission's seed (sensors and selector).
     pub fn seed(&self) -> u64 {
         self.seed
     }
@@ -467,14 +513,17 @@ impl Mission {
         self.sim.distance_m()
     }
 
+    /// The metrics rows so far, one per `metrics_period_s`.
     pub fn rows(&self) -> &[MetricsRow] {
         self.metrics.rows()
     }
 
+    /// The true trajectory, one pose per metrics row.
     pub fn trajectory_gt(&self) -> &[StampedPose] {
         self.metrics.trajectory_gt()
     }
 
+    /// The estimated trajectory, one pose per metrics row.
     pub fn trajectory_est(&self) -> &[StampedPose] {
         self.metrics.trajectory_est()
     }

@@ -1,6 +1,6 @@
 //! The simulator (notes §8): ground-truth worlds (procedural, real DEM or map_server terrain,
 //! rocks, boxes, ramps, landmarks; [`world`]), the robot ([`robot`]) and its sensors
-//! ([`lidar`], [`camera`] and its visual front end [`vision`], [`odometry`]) in one world simulator ([`world_sim`]), localisation
+//! ([`lidar`], [`camera`] and its visual front end [`vision`], [`odometry`]) in one world simulator (`world_sim`), localisation
 //! ([`localisation`]: ground truth, odometry, keyframe SLAM), metrics ([`metrics`]; coverage
 //! milestones and figures at matched coverage: [`coverage`]) and whole missions ([`mission`])
 //! driven by the core's exploration policy ([`crate::explore`]), plus the asset-building helpers

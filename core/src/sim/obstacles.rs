@@ -7,12 +7,17 @@ use super::noise::hash_unit;
 use crate::math;
 use serde::{Deserialize, Serialize};
 
-/// One rock: a vertical cylinder standing on the terrain.
+/// One rock: a half-ellipsoid dome standing on the terrain (its top `height_m` above the ground
+/// at its centre).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rock {
+    /// Centre x, map frame, metres.
     pub x_m: f64,
+    /// Centre y, map frame, metres.
     pub y_m: f64,
+    /// Radius of its footprint, metres.
     pub radius_m: f64,
+    /// Height of its top above the ground at its centre, metres.
     pub height_m: f64,
 }
 

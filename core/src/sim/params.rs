@@ -15,17 +15,40 @@ use serde::{Deserialize, Serialize};
 use crate::params::Params;
 
 /// Simulator parameters.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::params::ParamsError;
+/// use fitslam_core::MissionParams;
+///
+/// let sim = MissionParams::from_toml("dt_s = 0.05\n[explore]\ntrapped_radius_m = 0.0\n", "sim.toml")?;
+/// assert_eq!(sim.dt_s, 0.05);
+/// assert_eq!(sim.explore().trapped_radius_m, 0.0);
+/// assert_eq!(sim.replan_period_s, MissionParams::default().replan_period_s);
+///
+/// // An exploration key outside `[explore]`, where older files had it, is named with its new place.
+/// match MissionParams::from_toml("trapped_radius_m = 0.0\n", "sim.toml") {
+///     Err(ParamsError::Moved { moved_to, .. }) => assert_eq!(moved_to, "[explore] trapped_radius_m"),
+///     other => panic!("expected Moved, got {other:?}"),
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MissionParams {
-    /// Control period, seconds, from [`MIN_DT_S`] (0.001) to [`MAX_DT_S`] (1). Default 0.1.
+    /// Control period, seconds, from 0.001 to 1. Default 0.1.
     pub dt_s: f64,
+    /// Drive limits and controller gains.
     pub drive: DriveParams,
+    /// LiDAR geometry and noise.
     pub lidar: LidarParams,
+    /// Camera observation noise.
     pub camera_noise: CameraNoise,
     /// The visual front end between the camera and the SLAM ([`super::Localisation::Slam`]
     /// only).
     pub vision: VisionParams,
+    /// Wheel odometry and gyro noise.
     pub odometry: OdometryNoise,
     /// Scan when the robot has moved this far since the last scan, metres, > 0. Default 0.25.
     pub scan_every_m: f64,
@@ -33,7 +56,7 @@ pub struct MissionParams {
     pub scan_every_rad: f64,
     /// … or this much time has passed, seconds, > 0. Default 2.
     pub scan_every_s: f64,
-    /// Depth-camera ground rays per frame: columns × rows, at most [`MAX_RAYS_PER_SENSING`] in
+    /// Depth-camera ground rays per frame: columns × rows, at most 2²⁰ in
     /// all; 0 columns or rows turns the depth camera off. Default 24 × 12.
     pub depth_rays: [usize; 2],
     /// Landmark observation period, seconds, > 0. Default 1.
@@ -43,11 +66,12 @@ pub struct MissionParams {
     /// A goal not reached within factor × (ρ / v_max) + extra seconds has failed; factor > 0,
     /// extra ≥ 0. Defaults 3, 20.
     pub goal_timeout_factor: f64,
+    /// The extra of the goal timeout, seconds (see `goal_timeout_factor`).
     pub goal_timeout_extra_s: f64,
     /// One metrics row (and trajectory pose) every this many seconds, > 0. Default 1.
     pub metrics_period_s: f64,
     /// Stop before the robot's body touches ground-truth untraversable terrain (a bumper;
-    /// [`super::World::gt_touches_lethal`]). Default true.
+    /// `gt_touches_lethal`). Default true.
     pub safety_stop: bool,
     /// Overrides the world's time limit, seconds, > 0 and finite.
     pub time_limit_s: Option<f64>,
@@ -99,7 +123,7 @@ impl Default for MissionParams {
 
 impl MissionParams {
     /// Parses TOML (unknown keys rejected; keys left out keep [`MissionParams::default`]'s
-    /// values at every depth, [`crate::params::from_toml_over_default`]) and validates; `name` is
+    /// values at every depth, `from_toml_over_default`) and validates; `name` is
     /// quoted in errors, with the line of a TOML error. A key of [`ExploreParams`] at the top
     /// level (where it was before the `[explore]` table) is named with where it moved.
     pub fn from_toml(text: &str, name: &str) -> Result<Valid<Self>, ParamsError> {

@@ -27,10 +27,10 @@ pub struct DriveParams {
     /// Proportional gain from heading error to turn rate, 1/s, > 0. Default 2.
     pub heading_gain: f64,
     /// Distance to the last path point at which the goal is reached, metres, in
-    /// (0, [`super::mission::MAX_GOAL_TOLERANCE_M`] = 5]. Default 0.15.
+    /// (0, 5]. Default 0.15.
     pub goal_tolerance_m: f64,
     /// Half of the body's length/width used to read roll and pitch from the terrain, metres, in
-    /// (0, [`super::mission::MAX_BODY_HALF_M`] = 5]. Default 0.2.
+    /// (0, 5]. Default 0.2.
     pub body_half_m: f64,
 }
 
@@ -51,7 +51,9 @@ impl Default for DriveParams {
 /// A velocity command.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Twist {
+    /// Forward speed, m/s.
     pub v_mps: f64,
+    /// Turn rate, rad/s, counter-clockwise.
     pub omega_radps: f64,
 }
 

@@ -38,26 +38,80 @@ pub(crate) use super::world_spec::MAX_SCATTER_SITES;
 /// Why a robot cannot start where a world puts it ([`World::check_start`]).
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum StartError {
+    /// The start lies outside the exploration boundary.
     #[error("start ({x_m:.2}, {y_m:.2}) is outside the exploration boundary {boundary_m:?}{}", if *.default_boundary { " (by default the terrain inset by 0.5 m)" } else { "" })]
-    OutsideBoundary { x_m: f64, y_m: f64, boundary_m: [f64; 4], default_boundary: bool },
+    OutsideBoundary {
+        /// The start's x in the map frame, metres.
+        x_m: f64,
+        /// The start's y in the map frame, metres.
+        y_m: f64,
+        /// The boundary [min_x, min_y, max_x, max_y], metres.
+        boundary_m: [f64; 4],
+        /// Whether the boundary is the default one (the spec gives none).
+        default_boundary: bool,
+    },
+    /// The start's cell is ground-truth untraversable (no explorable cell).
     #[error("start ({x_m:.2}, {y_m:.2}) is not on ground-truth traversable terrain")]
-    NotTraversable { x_m: f64, y_m: f64 },
+    NotTraversable {
+        /// The start's x in the map frame, metres.
+        x_m: f64,
+        /// The start's y in the map frame, metres.
+        y_m: f64,
+    },
+    /// Ground-truth untraversable ground lies within the robot's radius of the start.
     #[error(
         "start ({x_m:.2}, {y_m:.2}): untraversable ground {distance_m:.2} m away, within the robot radius {robot_radius_m} m; move the start"
     )]
-    TooClose { x_m: f64, y_m: f64, distance_m: f64, robot_radius_m: f64 },
+    TooClose {
+        /// The start's x in the map frame, metres.
+        x_m: f64,
+        /// The start's y in the map frame, metres.
+        y_m: f64,
+        /// Distance to the nearest untraversable cell centre, metres.
+        distance_m: f64,
+        /// The robot's radius, metres.
+        robot_radius_m: f64,
+    },
 }
 
 /// A built world: ground truth for the simulator and the metrics.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::{Params, World, WorldSpec};
+///
+/// let text = "start = [0.5, 0.5, 0.0]\n[terrain]\nkind = \"procedural\"\nseed = 1\nsize_m = 4.0\n\
+///             [[boxes]]\nmin_m = [2.0, 1.0]\nmax_m = [2.4, 3.0]\nheight_m = 0.5\n";
+/// let spec = WorldSpec::from_toml(text, "wall.toml")?;
+/// let params = Params::default();
+/// let tr = &params.traversability;
+/// let world = World::build(&spec, tr, tr.tau, |name| Err(format!("no file {name}")))?;
+///
+/// assert!(world.explorable_count > 0);
+/// assert!(world.gt_lethal_at(2.2, 2.0)); // the wall
+/// assert!(!world.gt_lethal_at(1.0, 2.0));
+/// // The default boundary is the terrain inset by 0.5 m: a start at (0.5, 0.5) is on its edge,
+/// // but a robot of 0.25 m radius stands clear of hazards there.
+/// world.check_start(0.25)?;
+/// // A start drawn for another member of the family stands clear too.
+/// let [x, y, _] = world.draw_start(9, 0.25).ok_or("some ground is clear")?;
+/// assert!(!world.gt_lethal_at(x, y));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct World {
+    /// The spec it was built from.
     pub spec: WorldSpec,
     /// Ground heights including every obstacle.
     pub field: Heightfield,
+    /// The rocks scattered on it (none without `rocks` in the spec).
     pub rocks: Vec<Rock>,
     /// Landmark positions (their index is their id).
     pub landmarks: Vec<Point3<f64>>,
+    /// The spec's start pose, map frame.
     pub start: Pose2,
+    /// The exploration boundary as a polygon, map frame.
     pub boundary: Boundary,
     /// Boundary as [min_x, min_y, max_x, max_y].
     pub boundary_box_m: [f64; 4],
@@ -65,6 +119,7 @@ pub struct World {
     pub gt_occupancy: OccupancyGrid,
     /// GT free, inside the boundary, connected to the start.
     pub explorable: Vec<bool>,
+    /// How many cells of `explorable` are true.
     pub explorable_count: usize,
 }
 
@@ -190,7 +245,7 @@ impl World {
     }
 
     /// A start for world seed `world_seed`: the centre of a cell drawn uniformly among those
-    /// where a robot of `robot_radius_m` plus [`START_CLEARANCE_M`] stands on ground-truth
+    /// where a robot of `robot_radius_m` plus 0.25 m stands on ground-truth
     /// traversable ground inside the boundary, in the largest 8-connected region of such cells
     /// (so that the mission does not start in a pocket), with a uniform yaw in [−π, π). `None`
     /// when no cell qualifies. A pure function of the world and the seed; O(cells · disc).

@@ -94,6 +94,7 @@ impl WorldSim {
         }
     }
 
+    /// The ground truth it simulates.
     pub fn world(&self) -> &World {
         &self.world
     }

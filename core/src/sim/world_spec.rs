@@ -16,20 +16,41 @@ use thiserror::Error;
 /// Why a world could not be built.
 #[derive(Debug, Error)]
 pub enum WorldError {
+    /// The world file is not valid TOML for a [`WorldSpec`] (syntax, unknown key, wrong type).
     #[error("{name}: invalid TOML: {message}")]
-    Toml { name: String, message: String },
+    Toml {
+        /// The name given to [`WorldSpec::from_toml`].
+        name: String,
+        /// The parser's message, with the line.
+        message: String,
+    },
     /// A value out of range, or a world the machine cannot hold (named by the file when parsed
     /// from one).
     #[error("{0}")]
     Invalid(InvalidParam),
+    /// [`Self::Invalid`] in a parsed world file.
     #[error("{name}: {error}")]
-    InvalidFile { name: String, error: InvalidParam },
+    InvalidFile {
+        /// The name given to [`WorldSpec::from_toml`].
+        name: String,
+        /// The key and why it is wrong.
+        error: InvalidParam,
+    },
+    /// A file the spec names (DEM, map_server YAML or image) could not be loaded.
     #[error("{name}: {message}")]
-    Load { name: String, message: String },
+    Load {
+        /// The file's name, as the spec gives it.
+        name: String,
+        /// The loader's error.
+        message: String,
+    },
+    /// The DEM image is unreadable or its scaling invalid.
     #[error(transparent)]
     Heightfield(#[from] HeightfieldError),
+    /// The map_server terrain's YAML or image is invalid.
     #[error(transparent)]
     Map(#[from] MapError),
+    /// The ground-truth traversability map could not be built.
     #[error(transparent)]
     Traversability(#[from] TraversabilityError),
 }
@@ -39,6 +60,27 @@ pub enum WorldError {
 pub(crate) const MAX_SCATTER_SITES: f64 = (1u64 << 22) as f64;
 
 /// A world file: everything the simulator needs to build the ground truth.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::sim::WorldError;
+/// use fitslam_core::WorldSpec;
+///
+/// let text = "name = \"ridge\"\nstart = [1.0, 1.0, 0.0]\n\
+///             [terrain]\nkind = \"procedural\"\nseed = 3\nsize_m = 8.0\nridge_height_m = 0.3\n";
+/// let spec = WorldSpec::from_toml(text, "ridge.toml")?;
+/// assert_eq!(spec.cell_m, 0.05); // the default
+/// // Member 2 of the family: same kind of terrain, other seeds.
+/// assert_ne!(spec.with_world_seed(2).terrain, spec.terrain);
+///
+/// // Out-of-range values are refused before anything is built, named by their key.
+/// match WorldSpec::from_toml(&text.replace("size_m = 8.0", "size_m = 800.0"), "ridge.toml") {
+///     Err(WorldError::InvalidFile { error, .. }) => assert_eq!(error.key, "terrain.size_m"),
+///     other => panic!("expected an invalid terrain.size_m, got {other:?}"),
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct WorldSpec {
@@ -51,6 +93,7 @@ pub struct WorldSpec {
     /// Heightfield cell, metres. Default 0.05 (map_server terrains use the map's resolution).
     #[serde(default = "default_cell")]
     pub cell_m: f64,
+    /// Where the ground comes from (required).
     pub terrain: TerrainSpec,
     /// Rocks scattered by the seed; none if absent.
     #[serde(default)]
@@ -99,31 +142,41 @@ fn default_time_limit() -> f64 {
 pub enum TerrainSpec {
     /// Seeded value-noise hills and ridges on a tilted plane, `size_m` square.
     Procedural {
+        /// Seed of the noise.
         seed: u64,
+        /// Edge of the square terrain, metres, in (0, 500].
         size_m: f64,
         /// Peak-to-trough height of the hills, metres.
         #[serde(default)]
         hill_height_m: f64,
+        /// Wavelength of the hills, metres, > 0. Default 8.
         #[serde(default = "default_hill_wavelength")]
         hill_wavelength_m: f64,
         /// Height of the ridges (sharp crests of ridged noise), metres.
         #[serde(default)]
         ridge_height_m: f64,
+        /// Wavelength of the ridges, metres, > 0. Default 6.
         #[serde(default = "default_ridge_wavelength")]
         ridge_wavelength_m: f64,
-        /// Global tilt along +x and +y, degrees.
+        /// Global tilt along +x, degrees, in (-90, 90): the ground rises by tan(tilt) per metre of x.
         #[serde(default)]
         tilt_x_deg: f64,
+        /// Global tilt along +y, degrees, in (-90, 90).
         #[serde(default)]
         tilt_y_deg: f64,
     },
     /// A grey DEM image, PNG or PGM (pixel value = metres; grey saved as RGB(A) is accepted),
     /// central crop scaled to `size_m`.
     Dem {
+        /// The image's name, as passed to [`super::World::build`]'s loader.
         file: String,
+        /// Ground size of one DEM pixel along x (columns), metres.
         pixel_x_m: f64,
+        /// Ground size of one DEM pixel along y (rows), metres.
         pixel_y_m: f64,
+        /// Edge of the square world the crop is mapped onto, metres, in (0, 500].
         size_m: f64,
+        /// Fraction of the DEM's shorter side the central crop spans, (0, 1]. Default 0.1.
         #[serde(default = "default_crop")]
         crop_fraction: f64,
         /// Vertical scale relative to the horizontal one. Default 1.
@@ -132,7 +185,10 @@ pub enum TerrainSpec {
     },
     /// A map_server map (YAML naming a PGM/PNG): occupied and unknown pixels become walls.
     MapServer {
+        /// The YAML's name, as passed to [`super::World::build`]'s loader (its image is named
+        /// relative to it).
         file: String,
+        /// Height of the walls, metres, > 0 (free pixels are at 0). Default 1.
         #[serde(default = "default_wall_height")]
         wall_height_m: f64,
     },
@@ -182,18 +238,25 @@ pub struct RampSpec {
     /// Height of the high end above the ground at `min_m`, metres, > 0 (a ramp only raises the
     /// terrain).
     pub height_m: f64,
+    /// The direction the ramp rises along: "x", "-x", "y" or "-y".
     pub rises_along: String,
 }
 
-/// Serde mirror of [`LandmarkDensity`].
+/// Serde mirror of [`LandmarkDensity`]; every key defaults to [`LandmarkDensity::default`]'s value.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LandmarkSpec {
+    /// Lattice spacing of candidate positions, metres, > 0. Default 0.1.
     pub spacing_m: f64,
+    /// Probability of a landmark at a candidate in the richest texture, [0, 1]. Default 0.5.
     pub max_probability: f64,
+    /// Exponent sharpening the texture field (higher: starker rich/poor contrast). Default 4.
     pub contrast: f64,
+    /// Wavelength of the texture field, metres, > 0. Default 6.
     pub texture_wavelength_m: f64,
+    /// Landmarks per square metre of rock side, ≥ 0. Default 25.
     pub rock_density_per_m2: f64,
+    /// Landmarks stand up to this high above the ground, metres, ≥ 0. Default 0.4.
     pub max_height_m: f64,
 }
 
@@ -212,6 +275,7 @@ impl Default for LandmarkSpec {
 }
 
 impl LandmarkSpec {
+    /// The density these keys describe.
     pub fn density(&self) -> LandmarkDensity {
         LandmarkDensity {
             spacing_m: self.spacing_m,

@@ -17,6 +17,7 @@ use super::optimizer::{OptError, Summary};
 /// optionally, the IMU's gravity direction at the new keyframe.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Odometry {
+    /// The new keyframe's body pose in the previous keyframe's body frame (metres).
     pub previous_from_current: Se3,
     /// Covariance in the tangent of `previous_from_current`, ξ = (δt, δφ), body frame.
     pub covariance: Matrix6<f64>,
@@ -28,6 +29,7 @@ pub struct Odometry {
 /// The accelerometer's "up" direction in the body frame and its angular noise.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Gravity {
+    /// The "up" direction in the body frame (normalised by the factor; any non-zero length).
     pub up_in_body: Vector3<f64>,
     /// σ of the tilt, radians (per body axis).
     pub sigma_rad: f64,
@@ -36,7 +38,9 @@ pub struct Gravity {
 /// A landmark seen from the current keyframe.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LandmarkObservation {
+    /// The landmark's id (data association is the caller's).
     pub landmark_id: u64,
+    /// The landmark in the current keyframe's body frame, metres.
     pub point_in_robot: Vector3<f64>,
     /// Covariance of `point_in_robot`, m².
     pub covariance: Matrix3<f64>,
@@ -45,7 +49,9 @@ pub struct LandmarkObservation {
 /// A landmark's estimate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LandmarkEstimate {
+    /// The landmark's id, as observed.
     pub landmark_id: u64,
+    /// The landmark in the world frame, metres.
     pub position_in_world: Vector3<f64>,
     /// Marginal covariance, m² (world frame).
     pub covariance: Matrix3<f64>,
@@ -71,11 +77,14 @@ pub struct KeyframeUpdate {
 pub struct CovarianceTraces {
     /// Trace of the whole block (m² + rad², what the paper plots).
     pub cov_trace: f64,
+    /// Trace of the position block, m².
     pub pos_cov_trace: f64,
+    /// Trace of the rotation block, rad².
     pub rot_cov_trace: f64,
 }
 
 impl CovarianceTraces {
+    /// The traces of a covariance in (δt, δφ) order.
     pub fn of(covariance: &Matrix6<f64>) -> Self {
         let pos = covariance[(0, 0)] + covariance[(1, 1)] + covariance[(2, 2)];
         let rot = covariance[(3, 3)] + covariance[(4, 4)] + covariance[(5, 5)];
@@ -83,19 +92,26 @@ impl CovarianceTraces {
     }
 }
 
+/// Why a SLAM back end could not take a keyframe or answer a query.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SlamError {
+    /// An odometry, gravity or observation covariance cannot make a noise model.
     #[error("odometry or observation covariance: {0}")]
     Noise(#[from] NoiseError),
+    /// A factor could not be added to the graph.
     #[error(transparent)]
     Graph(#[from] GraphError),
     /// The estimate holds the best values found.
     #[error("optimisation: {0}")]
     Optimization(#[from] OptError),
+    /// The marginal covariances could not be computed.
     #[error("marginals: {0}")]
     Marginal(#[from] MarginalError),
+    /// The incremental solver (iSAM2) failed.
     #[error("incremental solver: {0}")]
     Incremental(#[from] IncrementalError),
+    /// An odometry, gravity direction or observation has a NaN or infinite entry (or a
+    /// gravity direction of zero length).
     #[error("non-finite odometry or observation")]
     NonFinite,
 }

@@ -7,12 +7,16 @@ use thiserror::Error;
 use super::factors::{Factor, FactorError, MAX_FACTOR_KEYS};
 use super::values::{Values, VarId};
 
+/// Why a factor could not be added.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum GraphError {
+    /// The factor connects more than [`MAX_FACTOR_KEYS`] variables (how many).
     #[error("factor connects {0} variables; at most {MAX_FACTOR_KEYS} are supported")]
     TooManyKeys(usize),
+    /// The factor connects no variable.
     #[error("factor connects no variable")]
     NoKeys,
+    /// The factor names this variable twice.
     #[error("factor connects variable {0:?} twice")]
     DuplicateKey(VarId),
 }
@@ -35,6 +39,7 @@ struct FactorKeys {
 }
 
 impl FactorGraph {
+    /// No factor.
     pub fn new() -> Self {
         Self::default()
     }
@@ -44,6 +49,7 @@ impl FactorGraph {
         self.add_boxed(Box::new(factor))
     }
 
+    /// Adds a boxed factor and returns its index.
     pub fn add_boxed(&mut self, factor: Box<dyn Factor>) -> Result<usize, GraphError> {
         let keys = factor.keys();
         if keys.is_empty() {
@@ -65,14 +71,17 @@ impl FactorGraph {
         Ok(self.factors.len() - 1)
     }
 
+    /// Number of factors.
     pub fn len(&self) -> usize {
         self.factors.len()
     }
 
+    /// Whether there is no factor.
     pub fn is_empty(&self) -> bool {
         self.factors.is_empty()
     }
 
+    /// The factors, by index.
     pub fn factors(&self) -> &[Box<dyn Factor>] {
         &self.factors
     }

@@ -107,7 +107,9 @@ fn se3_q(rho: &Vector3<f64>, phi: &Vector3<f64>) -> Matrix3<f64> {
 /// A rigid transform in 3D, `parent_from_child`: `p_parent = rotation · p_child + translation`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Se3 {
+    /// Rotation taking child-frame vectors to the parent frame.
     pub rotation: UnitQuaternion<f64>,
+    /// The child frame's origin in the parent frame, metres.
     pub translation: Vector3<f64>,
 }
 
@@ -118,10 +120,12 @@ impl Default for Se3 {
 }
 
 impl Se3 {
+    /// The identity transform.
     pub fn identity() -> Self {
         Self { rotation: UnitQuaternion::identity(), translation: Vector3::zeros() }
     }
 
+    /// A transform from its rotation and translation (metres).
     pub fn new(rotation: UnitQuaternion<f64>, translation: Vector3<f64>) -> Self {
         Self { rotation, translation }
     }
@@ -140,6 +144,7 @@ impl Se3 {
         Vector6::new(rho.x, rho.y, rho.z, phi.x, phi.y, phi.z)
     }
 
+    /// `child_from_parent`.
     pub fn inverse(&self) -> Self {
         let r_inv = self.rotation.inverse();
         Self { rotation: r_inv, translation: -(r_inv * self.translation) }
@@ -160,14 +165,17 @@ impl Se3 {
         self.between(other).log()
     }
 
+    /// A child-frame point in the parent frame.
     pub fn transform_point(&self, p: &Vector3<f64>) -> Vector3<f64> {
         self.rotation * p + self.translation
     }
 
+    /// A parent-frame point in the child frame.
     pub fn inverse_transform_point(&self, p: &Vector3<f64>) -> Vector3<f64> {
         self.rotation.inverse() * (p - self.translation)
     }
 
+    /// The rotation as a 3×3 matrix.
     pub fn rotation_matrix(&self) -> Matrix3<f64> {
         self.rotation.to_rotation_matrix().into_inner()
     }
@@ -227,8 +235,11 @@ pub fn se3_right_jacobian_inv(xi: &Vector6<f64>) -> Matrix6<f64> {
 /// A rigid transform in the plane, `parent_from_child`, yaw wrapped to (−π, π].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Se2 {
+    /// The child frame's origin along the parent's x axis, metres.
     pub x_m: f64,
+    /// The child frame's origin along the parent's y axis, metres.
     pub y_m: f64,
+    /// Angle from the parent's x axis to the child's, counter-clockwise, radians.
     pub yaw_rad: f64,
 }
 
@@ -254,14 +265,17 @@ impl Se2 {
         Self { x_m, y_m, yaw_rad: wrap_pi(yaw_rad) }
     }
 
+    /// The identity transform.
     pub fn identity() -> Self {
         Self { x_m: 0.0, y_m: 0.0, yaw_rad: 0.0 }
     }
 
+    /// `(x_m, y_m)`.
     pub fn translation(&self) -> Vector2<f64> {
         Vector2::new(self.x_m, self.y_m)
     }
 
+    /// The rotation by `yaw_rad` as a 2×2 matrix.
     pub fn rotation_matrix(&self) -> Matrix2<f64> {
         let (s, c) = math::sin_cos(self.yaw_rad);
         Matrix2::new(c, -s, s, c)
@@ -287,6 +301,7 @@ impl Se2 {
         Vector3::new(self.x_m, self.y_m, self.yaw_rad)
     }
 
+    /// `child_from_parent` (yaw wrapped).
     pub fn inverse(&self) -> Self {
         let (s, c) = math::sin_cos(self.yaw_rad);
         Self::new(-(c * self.x_m + s * self.y_m), s * self.x_m - c * self.y_m, -self.yaw_rad)
@@ -302,14 +317,17 @@ impl Se2 {
         *self * Self::exp(xi)
     }
 
+    /// A child-frame point in the parent frame.
     pub fn transform_point(&self, p: &Vector2<f64>) -> Vector2<f64> {
         self.rotation_matrix() * p + self.translation()
     }
 
+    /// A parent-frame point in the child frame.
     pub fn inverse_transform_point(&self, p: &Vector2<f64>) -> Vector2<f64> {
         self.rotation_matrix().transpose() * (p - self.translation())
     }
 
+    /// Whether x, y and yaw are all finite.
     pub fn is_finite(&self) -> bool {
         self.x_m.is_finite() && self.y_m.is_finite() && self.yaw_rad.is_finite()
     }

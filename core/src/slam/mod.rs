@@ -31,14 +31,14 @@
 //! | [`values`] | variables and their fixed flags |
 //! | [`factors`] | `Factor` trait, noise models, prior / between / landmark factors |
 //! | [`graph`] | the factor graph |
-//! | [`linear_system`] | sparse normal equations, Cholesky with cached symbolic analysis |
+//! | `linear_system` | sparse normal equations, Cholesky with cached symbolic analysis |
 //! | [`optimizer`] | Gauss-Newton and Levenberg-Marquardt (`step` / `optimize`) |
 //! | [`incremental`] | iSAM2: Bayes tree, fluid relinearisation, wildfire back-substitution, marginals from the tree |
 //! | [`marginals`] | marginal covariances by solving `H X = E` |
 //! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
 //! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
 //! | [`backend`] | `SlamBackend`: what the simulator and the robot ask of a SLAM back end (keyframes in; poses, landmarks, covariances out) |
-//! | [`graph_slam`] | `GraphSlam`, the keyframe graph SLAM back end: incremental (iSAM2) or batch (sliding window + full), covariances |
+//! | `graph_slam` | `GraphSlam`, the keyframe graph SLAM back end: incremental (iSAM2) or batch (sliding window + full), covariances |
 //! | [`keyframes`] | keyframe SLAM front end: odometry in SE(3), landmark and gravity factors, keyframe clouds and re-registration |
 
 pub mod backend;

@@ -83,7 +83,9 @@ impl Default for OptimizerParams {
 /// Why the loop stopped successfully.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Termination {
+    /// An accepted step lowered χ² by at most `relative_tolerance` of its value.
     RelativeDecrease,
+    /// χ² fell to `absolute_tolerance` or below.
     AbsoluteChi2,
     /// No step from the last linearisation lowered χ² (a minimum to numerical precision).
     NoDecrease,
@@ -96,6 +98,7 @@ pub struct StepReport {
     pub chi2_before: f64,
     /// χ² after the step (equal to `chi2_before` when rejected).
     pub chi2_after: f64,
+    /// Whether the step lowered χ² and `values` were updated.
     pub accepted: bool,
     /// Damping used for the accepted (or last tried) step; 0 for Gauss-Newton.
     pub lambda: f64,
@@ -106,7 +109,9 @@ pub struct StepReport {
 /// The outcome of [`Optimizer::optimize`].
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
+    /// χ² at the initial values.
     pub initial_chi2: f64,
+    /// χ² at the final values.
     pub final_chi2: f64,
     /// Number of linearisations (calls to `step`).
     pub iterations: usize,
@@ -116,12 +121,16 @@ pub struct Summary {
     pub steps: Vec<StepReport>,
 }
 
+/// Why an optimisation failed.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum OptError {
+    /// A factor could not be evaluated at the values.
     #[error(transparent)]
     Factor(#[from] FactorError),
+    /// The linear system could not be solved (e.g. an unconstrained variable or gauge freedom).
     #[error(transparent)]
     Solve(#[from] SolveError),
+    /// χ² at the initial values is NaN or infinite.
     #[error("the initial χ² is not finite")]
     NonFiniteChi2,
     /// The values hold the best estimate found.
@@ -131,6 +140,7 @@ pub enum OptError {
 
 /// A nonlinear least-squares optimiser over a [`FactorGraph`].
 pub trait Optimizer {
+    /// The stopping rules and damping in use.
     fn params(&self) -> &OptimizerParams;
 
     /// One linearisation and (possibly damped) solve; updates `values` when the step is
@@ -193,6 +203,7 @@ fn ensure_system<'a>(
 /// Undamped Gauss-Newton.
 #[derive(Debug, Default)]
 pub struct GaussNewton {
+    /// Stopping rules (the damping fields are unused).
     pub params: OptimizerParams,
     system: Option<LinearSystem>,
     delta: Vec<f64>,
@@ -200,6 +211,7 @@ pub struct GaussNewton {
 }
 
 impl GaussNewton {
+    /// An optimiser with these parameters.
     pub fn new(params: OptimizerParams) -> Self {
         Self { params, ..Self::default() }
     }
@@ -231,8 +243,39 @@ impl Optimizer for GaussNewton {
 }
 
 /// Levenberg-Marquardt with Nielsen's damping update.
+///
+/// # Examples
+///
+/// A planar pose pulled by a prior and by odometry from an anchored one; [`Optimizer::optimize`]
+/// loops [`Optimizer::step`] until a stopping rule holds. (The [`crate::slam`] module's example
+/// reads a pose graph from a g2o file instead.)
+///
+/// ```
+/// use fitslam_core::slam::factors::{BetweenSe2, PriorSe2};
+/// use fitslam_core::slam::{FactorGraph, GaussianNoise, Optimizer, OptimizerParams, Se2, Values, Variable};
+/// use fitslam_core::LevenbergMarquardt;
+///
+/// let mut values = Values::new();
+/// let x0 = values.push(Variable::Se2(Se2::identity()));
+/// let x1 = values.push(Variable::Se2(Se2::new(0.5, 0.3, 0.4))); // a poor initial guess
+/// values.set_fixed(x0, true);
+///
+/// let mut graph = FactorGraph::new();
+/// let noise = GaussianNoise::from_sigmas(&[0.1, 0.1, 0.05])?; // m, m, rad
+/// graph.add(BetweenSe2::new(x0, x1, Se2::new(2.0, 0.0, 0.0), noise))?;
+/// graph.add(PriorSe2::new(x1, Se2::new(2.0, 0.0, 0.0), noise))?;
+///
+/// let mut lm = LevenbergMarquardt::new(OptimizerParams::default());
+/// let summary = lm.optimize(&graph, &mut values)?;
+/// assert!(summary.final_chi2 < 1e-12 && summary.final_chi2 < summary.initial_chi2);
+/// assert!(summary.termination.is_some()); // converged, not out of iterations
+/// let x = values.se2(x1).ok_or("x1 is an SE(2) pose")?;
+/// assert!((x.x_m - 2.0).abs() < 1e-6 && x.y_m.abs() < 1e-6 && x.yaw_rad.abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Default)]
 pub struct LevenbergMarquardt {
+    /// Stopping rules and damping.
     pub params: OptimizerParams,
     system: Option<LinearSystem>,
     lambda: Option<f64>,
@@ -242,6 +285,7 @@ pub struct LevenbergMarquardt {
 }
 
 impl LevenbergMarquardt {
+    /// An optimiser with these parameters.
     pub fn new(params: OptimizerParams) -> Self {
         Self { params, ..Self::default() }
     }

@@ -20,7 +20,10 @@ pub enum Gauge {
     FixFirst,
     /// Add a prior at its initial value on the pose with the smallest id, with standard deviation
     /// `sigma` on every tangent component (GTSAM's convention).
-    PriorOnFirst { sigma: f64 },
+    PriorOnFirst {
+        /// Standard deviation on every tangent component (metres and radians), > 0.
+        sigma: f64,
+    },
     /// Leave the gauge free (H is then singular unless other factors fix it).
     Free,
 }
@@ -28,7 +31,9 @@ pub enum Gauge {
 /// A problem read from a file.
 #[derive(Debug, Default)]
 pub struct Problem {
+    /// The factors (with a gauge prior once [`Self::apply_gauge`] adds one).
     pub graph: FactorGraph,
+    /// The variables at their initial values, with their fixed flags.
     pub values: Values,
     /// (file id, variable) of every pose, by increasing file id.
     pub poses: Vec<(u64, VarId)>,
@@ -36,10 +41,13 @@ pub struct Problem {
     pub landmarks: Vec<(u64, VarId)>,
 }
 
+/// Why the gauge could not be applied.
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum GaugeError {
+    /// [`Gauge::PriorOnFirst`]'s sigma cannot make a noise model (not finite or not > 0).
     #[error("gauge prior: {0}")]
     Noise(#[from] NoiseError),
+    /// The prior could not be added to the graph.
     #[error(transparent)]
     Graph(#[from] GraphError),
 }

@@ -15,9 +15,13 @@ pub struct VarId(pub usize);
 /// perturbed on the right (`x · Exp(ξ)`, ξ = (δt, δφ)), points additively.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Variable {
+    /// A planar pose, `world_from_body`.
     Se2(Se2),
+    /// A 3D pose, `world_from_body`.
     Se3(Se3),
+    /// A 2D point (landmark) in the world frame, metres.
     Point2(Vector2<f64>),
+    /// A 3D point (landmark) in the world frame, metres.
     Point3(Vector3<f64>),
 }
 
@@ -52,6 +56,7 @@ impl Variable {
         }
     }
 
+    /// Whether every component is finite.
     pub fn is_finite(&self) -> bool {
         match self {
             Variable::Se2(p) => p.is_finite(),
@@ -70,6 +75,7 @@ pub struct Values {
 }
 
 impl Values {
+    /// No variable.
     pub fn new() -> Self {
         Self::default()
     }
@@ -81,14 +87,17 @@ impl Values {
         VarId(self.vars.len() - 1)
     }
 
+    /// Number of variables, fixed ones included.
     pub fn len(&self) -> usize {
         self.vars.len()
     }
 
+    /// Whether there is no variable.
     pub fn is_empty(&self) -> bool {
         self.vars.is_empty()
     }
 
+    /// The variable `id`, if it exists.
     pub fn get(&self, id: VarId) -> Option<&Variable> {
         self.vars.get(id.0)
     }
@@ -104,6 +113,7 @@ impl Values {
         }
     }
 
+    /// The variable `id` if it is an SE(2) pose.
     pub fn se2(&self, id: VarId) -> Option<Se2> {
         match self.vars.get(id.0) {
             Some(Variable::Se2(p)) => Some(*p),
@@ -111,6 +121,7 @@ impl Values {
         }
     }
 
+    /// The variable `id` if it is an SE(3) pose.
     pub fn se3(&self, id: VarId) -> Option<Se3> {
         match self.vars.get(id.0) {
             Some(Variable::Se3(p)) => Some(*p),
@@ -118,6 +129,7 @@ impl Values {
         }
     }
 
+    /// The variable `id` if it is a 2D point, metres.
     pub fn point2(&self, id: VarId) -> Option<Vector2<f64>> {
         match self.vars.get(id.0) {
             Some(Variable::Point2(p)) => Some(*p),
@@ -125,6 +137,7 @@ impl Values {
         }
     }
 
+    /// The variable `id` if it is a 3D point, metres.
     pub fn point3(&self, id: VarId) -> Option<Vector3<f64>> {
         match self.vars.get(id.0) {
             Some(Variable::Point3(p)) => Some(*p),

@@ -25,22 +25,68 @@ use super::problem::{Gauge, GaugeError, Problem};
 use super::values::{VarId, Variable};
 use crate::math;
 
+/// Why a Victoria Park file could not be read or turned into a [`Problem`].
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum VictoriaError {
+    /// A line is not valid UTF-8.
     #[error("line {line}: not valid UTF-8")]
-    NotUtf8 { line: usize },
+    NotUtf8 {
+        /// 1-based line number.
+        line: usize,
+    },
+    /// A line starts with a tag other than `ODOMETRY` and `LANDMARK`.
     #[error("line {line}: unknown tag `{tag}`")]
-    UnknownTag { line: usize, tag: String },
+    UnknownTag {
+        /// 1-based line number.
+        line: usize,
+        /// The tag.
+        tag: String,
+    },
+    /// A line has the wrong number of fields after its tag.
     #[error("line {line}: {tag} needs {expected} fields, found {found}")]
-    FieldCount { line: usize, tag: &'static str, expected: usize, found: usize },
+    FieldCount {
+        /// 1-based line number.
+        line: usize,
+        /// The line's tag.
+        tag: &'static str,
+        /// Fields the tag needs after it.
+        expected: usize,
+        /// Fields the line has after its tag.
+        found: usize,
+    },
+    /// A field is not a finite number (or, where an id is expected, not an unsigned integer).
     #[error("line {line}: field {field} (`{text}`) is not a finite number or id")]
-    BadNumber { line: usize, field: usize, text: String },
+    BadNumber {
+        /// 1-based line number.
+        line: usize,
+        /// 1-based position of the field after the tag.
+        field: usize,
+        /// The field's text.
+        text: String,
+    },
+    /// An `ODOMETRY` covariance in neither of GTSAM's COV and GRAPH layouts.
     #[error("line {line}: unrecognised covariance layout (neither GTSAM COV nor GRAPH)")]
-    UnknownNoiseFormat { line: usize },
+    UnknownNoiseFormat {
+        /// 1-based line number.
+        line: usize,
+    },
+    /// The covariance or sigmas cannot make a noise model (not positive definite, not finite).
     #[error("line {line}: noise: {source}")]
-    Noise { line: usize, source: NoiseError },
+    Noise {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the noise.
+        source: NoiseError,
+    },
+    /// An `ODOMETRY` line from a pose to itself.
     #[error("line {line}: odometry connects pose {id} to itself")]
-    SelfLoop { line: usize, id: u64 },
+    SelfLoop {
+        /// 1-based line number.
+        line: usize,
+        /// The pose id.
+        id: u64,
+    },
+    /// The gauge (which variables are held fixed) could not be applied.
     #[error("gauge: {0}")]
     Gauge(#[from] GaugeError),
 }
@@ -48,13 +94,36 @@ pub enum VictoriaError {
 /// One line of the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum VictoriaRecord {
-    Odometry { from: u64, to: u64, measurement: Se2, noise: GaussianNoise },
-    Landmark { pose: u64, landmark: u64, bearing_rad: f64, range_m: f64, noise: GaussianNoise },
+    /// `ODOMETRY`: a relative pose between two poses.
+    Odometry {
+        /// The pose the measurement is taken from.
+        from: u64,
+        /// The pose measured.
+        to: u64,
+        /// Pose of `to` in the frame of `from` (x, y in metres, θ in radians).
+        measurement: Se2,
+        /// Its noise, from the line's covariance.
+        noise: GaussianNoise,
+    },
+    /// `LANDMARK`: a landmark seen from a pose, as bearing and range in the robot frame.
+    Landmark {
+        /// The pose id.
+        pose: u64,
+        /// The landmark id.
+        landmark: u64,
+        /// Bearing from the robot's x axis, radians.
+        bearing_rad: f64,
+        /// Range, metres.
+        range_m: f64,
+        /// Noise of (bearing, range) (see the module doc).
+        noise: GaussianNoise,
+    },
 }
 
 /// The records in file order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VictoriaPark {
+    /// One record per `ODOMETRY` or `LANDMARK` line, in file order.
     pub records: Vec<VictoriaRecord>,
 }
 

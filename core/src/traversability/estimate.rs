@@ -145,7 +145,9 @@ pub fn to_occupancy(score: &Grid<f32>, tau: f64) -> OccupancyGrid {
 /// ([`TraversabilityLayers::ground_z_m`], [`TraversabilityLayers::ground_gradient`]).
 #[derive(Clone, Copy, Debug)]
 pub struct GroundModel<'a> {
+    /// Ground height per cell, map frame, metres (NaN where unknown).
     pub z_m: &'a Grid<f32>,
+    /// Ground gradient (∂z/∂x, ∂z/∂y) per cell (NaN where unknown).
     pub gradient: &'a Grid<[f32; 2]>,
 }
 

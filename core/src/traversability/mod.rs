@@ -1,7 +1,7 @@
 //! Traversability from registered 3D points (notes §2, paper §II-B).
 //!
 //! Points (LiDAR scans registered with the SLAM keyframe poses) are binned into a grid whose
-//! cells keep moments ([`CellMoments`]); over a disc around each cell the moments are fused and
+//! cells keep moments (`CellMoments`); over a disc around each cell the moments are fused and
 //! a plane is fitted, giving slope, step and roughness; their worst ratio to the robot's limits is
 //! the hazard, and score = 1 − hazard. Thresholding the score by the risk acceptance τ gives the
 //! ROS occupancy grid (0 free, 100 lethal, −1 unknown) that [`crate::grid::inflate_lethal`]
@@ -61,7 +61,14 @@ pub enum TraversabilityError {
     /// Resolution not finite and > 0, or origin not finite.
     #[error("grid geometry needs a finite resolution > 0 and a finite origin")]
     BadGeometry,
-    /// The grid would have more cells than [`MAX_CELLS`].
+    /// The grid would have more cells than 2²³ (8 388 608).
     #[error("a {width} × {height} grid exceeds the limit of {limit} cells (coarser resolution or smaller extent?)")]
-    TooManyCells { width: usize, height: usize, limit: usize },
+    TooManyCells {
+        /// Columns the grid would have.
+        width: usize,
+        /// Rows the grid would have.
+        height: usize,
+        /// The cell limit, 2²³ (8 388 608).
+        limit: usize,
+    },
 }

@@ -7,7 +7,7 @@
 //!   ray crossed before the cell, and a fully visible cell (`γ^N = 1`) ends certain, so it yields
 //!   its whole bit; `g` falls towards 0 as `N` grows. γ is per cell (default 0.99 at 0.05 m).
 //!
-//! O(1) per evaluation; [`GainTable`] precomputes `g(0..n)` once so ray casting never calls
+//! O(1) per evaluation; `GainTable` precomputes `g(0..n)` once so ray casting never calls
 //! `log₂` per cell.
 
 use crate::math;

@@ -2,9 +2,9 @@
 //! `ΔE^θ` of each ray of the fan `Θ = {kΔθ : kΔθ < 2π}`.
 //!
 //! Every ray leaves the *centre* of the candidate cell, so the sequence of cells a ray crosses,
-//! as offsets from the origin cell, is the same for every candidate. [`RayFan::new`] traces each
+//! as offsets from the origin cell, is the same for every candidate. `RayFan::new` traces each
 //! ray once with the Amanatides–Woo voxel traversal (DDA) in cell units and stores its offsets;
-//! [`RayFan::cast`] then walks those offsets on the grid. Amanatides–Woo enters the cells the ray
+//! `RayFan::cast` then walks those offsets on the grid. Amanatides–Woo enters the cells the ray
 //! passes through in order of the parameter `t` at which it enters them, and a line meets a
 //! convex cell in one segment, so each cell is visited exactly once per ray (a 4-connected
 //! chain). Where the ray passes exactly through a cell corner the x-step is taken first, so the

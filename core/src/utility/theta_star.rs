@@ -5,7 +5,7 @@
 //! wraps around 2π (a gain block straddling 0 is one window). Ties go to the smallest ray index.
 //!
 //! The rays within Φ/2 of a sorted fan's ray form a contiguous circular arc of indices;
-//! [`FovWindows`] stores that arc (start, length) per ray once, and [`FovWindows::best`] sums each
+//! `FovWindows` stores that arc (start, length) per ray once, and `FovWindows::best` sums each
 //! window: O(R · W) per candidate for R rays and W rays per window, no allocation. A 1e-12 rad
 //! tolerance on Φ/2 keeps rays exactly on the window's edge inside despite rounding.
 
@@ -115,7 +115,7 @@ impl FovWindows {
     }
 }
 
-/// One-shot Θ* (builds the windows; prefer [`FovWindows`] when casting many candidates).
+/// One-shot Θ* (builds the windows; prefer `FovWindows` when casting many candidates).
 pub fn theta_star(angles_rad: &[f64], gains_bits: &[f64], hfov_rad: f64) -> Option<ThetaStar> {
     FovWindows::new(angles_rad, hfov_rad).best(angles_rad, gains_bits)
 }

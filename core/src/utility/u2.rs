@@ -4,26 +4,26 @@
 //!    `d_max` of arc length (`Params::waypoint_spacing_m`, by default the camera's max depth),
 //!    starting at `d_max` (the robot already sees what it sees from where it is), plus the goal.
 //!    A waypoint closer than 1 mm to the goal is merged with it.
-//! 2. Camera pose at a waypoint ([`CameraGround`]): where the map knows the ground under the
+//! 2. Camera pose at a waypoint (`CameraGround`): where the map knows the ground under the
 //!    waypoint (the fitted plane's height and gradient, [`GroundModel`]), the body stands on that
 //!    plane, its z axis along the plane's normal, and the camera sits `camera_height_m` up that
 //!    axis (pitch and roll from the local plane, as the simulated robot's); elsewhere, or with
 //!    `follow_terrain` off (the paper), at `ground_z_m + camera_height_m`, level. Yaw along the
 //!    path tangent. A grid path is a chain of 8-connected cells whose segment
 //!    directions are quantised to 45°, so the tangent is taken as the chord over
-//!    ±[`TANGENT_HALF_WINDOW_M`] of arc length (clamped to the path). At the goal the yaw is Θ*.
+//!    ±0.5 m of arc length (clamped to the path). At the goal the yaw is Θ*.
 //!    Body frame REP-103 (x forward, y left, z up) → camera optical frame (z forward, x right,
 //!    y down).
 //! 3. Frustum: a voxel centroid `p_c` in the optical frame is seen when
 //!    `min_depth ≤ z ≤ max_depth`, `|x| ≤ z·tan(Φ/2)`, `|y| ≤ z·tan(Φ_v/2)` (depth along the optical
 //!    axis, as a depth camera reports it). With `occlusion` on, a voxel whose line of sight dips
 //!    below the known ground is hidden (not in the paper; optional in the notes).
-//! 4. `I_{w_k} = Σ_{voxels seen from w_k} tr(I_i)` (T-optimality, [`super::fim`]);
+//! 4. `I_{w_k} = Σ_{voxels seen from w_k} tr(I_i)` (T-optimality, `fim`);
 //!    `I_{p_i} = Σ_k I_{w_k}`; normalised over the N candidates by the max (paper eq. 12) or the
 //!    mean; `u2 = β · u1 + (1 − β) · I_p,normalised`.
 //!
 //! Cost per candidate: O(P + K · V) for P path vertices, K waypoints and V voxels in the
-//! buckets under a frustum's footprint ([`LandmarkVoxels::for_each_in_box`]).
+//! buckets under a frustum's footprint (`LandmarkVoxels::for_each_in_box`).
 
 use super::fim::{trace_information, trace_information_general};
 use super::voxels::LandmarkVoxels;
@@ -94,12 +94,17 @@ pub(crate) struct Waypoint {
 /// A waypoint with what the camera would see there.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WaypointReport {
+    /// Position, map frame, metres.
     pub x_m: f64,
+    /// Position, map frame, metres.
     pub y_m: f64,
     /// Camera height in the map frame, metres.
     pub z_m: f64,
+    /// Camera (and body) yaw, radians, counter-clockwise from +x.
     pub yaw_rad: f64,
+    /// Arc length from the start of the path, metres.
     pub arc_length_m: f64,
+    /// Whether this is the goal (yaw Θ*).
     pub is_goal: bool,
     /// Landmark voxels inside the frustum.
     pub voxels_seen: usize,

@@ -182,6 +182,7 @@ impl LandmarkVoxels {
         self.centroids_m.len()
     }
 
+    /// Whether no voxel is occupied.
     pub fn is_empty(&self) -> bool {
         self.centroids_m.is_empty()
     }

@@ -386,7 +386,9 @@ pub(crate) fn lzf_decompress(input: &[u8], out_len: usize) -> Option<Vec<u8>> {
 /// How [`write_pcd`] stores the points.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PcdEncoding {
+    /// `DATA ascii`: one text line per point.
     Ascii,
+    /// `DATA binary`: little-endian records, uncompressed.
     Binary,
 }
 

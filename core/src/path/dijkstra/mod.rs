@@ -118,7 +118,9 @@ impl Window {
 /// Shortest-path costs from one start, and the paths they imply.
 #[derive(Clone, Debug)]
 pub struct DistanceField {
+    /// The grid's geometry.
     pub geometry: GridGeometry,
+    /// The cell the costs are measured from.
     pub start: Cell,
     window: Window,
     scale: Scale,
@@ -146,7 +148,7 @@ impl DistanceField {
     }
 
     /// Path length from the start to `cell` in metres, if it was reached. After an early stop
-    /// ([`dijkstra_to`]) cells farther than the last target are not reached.
+    /// (`dijkstra_to`) cells farther than the last target are not reached.
     pub fn distance_m(&self, cell: Cell) -> Option<f64> {
         self.settled_index(cell).map(|p| self.scale.cells(self.cost[p]) * self.geometry.resolution_m)
     }
@@ -162,7 +164,7 @@ impl DistanceField {
         self.settled_below == UNREACHED
     }
 
-    /// The search's storage, for the next search to reuse ([`dijkstra_to_reusing`]).
+    /// The search's storage, for the next search to reuse (`dijkstra_to_reusing`).
     pub fn into_buffers(self) -> SearchBuffers {
         SearchBuffers { cost: self.cost, arrivals: self.arrivals, queue: self.queue }
     }
@@ -276,7 +278,7 @@ pub fn dijkstra_to_reusing(
 /// flood: reached cells with an unknown 4-neighbour inside the grid, as flat grid indices in
 /// increasing order. WFD's 4-connected flood over free cells reaches exactly the cells this
 /// 8-connected, no-corner-cutting search settles (a legal diagonal is two orthogonal moves), so
-/// one flood gives both the frontiers and every distance. `buffers` as in [`dijkstra_to_reusing`].
+/// one flood gives both the frontiers and every distance. `buffers` as in `dijkstra_to_reusing`.
 pub fn dijkstra_with_frontiers(
     grid: &OccupancyGrid,
     start: Cell,

@@ -14,6 +14,7 @@ pub struct GroundTruth {
 }
 
 impl GroundTruth {
+    /// Starts at the simulated robot's true pose.
     pub fn new(sim: &WorldSim) -> Self {
         Self { est: sim.pose(), landmarks: LandmarkAverages::default() }
     }

@@ -1,6 +1,6 @@
-//! How the simulated robot knows where it is, behind one trait ([`Localiser`]): the true pose
-//! ([`GroundTruth`]), dead-reckoned wheel odometry + IMU yaw ([`DeadReckoning`]), or keyframe
-//! graph SLAM ([`KeyframeSlamLocaliser`], notes §1). Each turns the world simulator's
+//! How the simulated robot knows where it is, behind one trait (`Localiser`): the true pose
+//! ([`GroundTruth`]), dead-reckoned wheel odometry + IMU yaw (`DeadReckoning`), or keyframe
+//! graph SLAM (`KeyframeSlamLocaliser`, notes §1). Each turns the world simulator's
 //! measurements ([`WorldSim`]) into an estimate, registers the sensed points into the robot's map
 //! with it, and keeps the landmark map the planner's u2 reads.
 //!
@@ -27,6 +27,20 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// How the robot knows where it is.
+///
+/// # Examples
+///
+/// ```
+/// use fitslam_core::Localisation;
+///
+/// let slam: Localisation = "slam".parse()?;
+/// assert_eq!(slam, Localisation::Slam);
+/// assert_eq!("ground_truth".parse::<Localisation>()?, Localisation::GroundTruth);
+/// assert_eq!(Localisation::GroundTruth.to_string(), "ground-truth");
+/// let error = "gps".parse::<Localisation>().unwrap_err();
+/// assert_eq!(error.expected, "ground-truth, odometry, slam");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]

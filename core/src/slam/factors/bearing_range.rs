@@ -12,6 +12,7 @@ use crate::math;
 use crate::pose::wrap_pi;
 use crate::slam::values::{Values, VarId};
 
+/// A 2D landmark seen from an SE(2) pose as bearing and range (see the module doc).
 #[derive(Clone, Debug)]
 pub struct BearingRange2 {
     keys: [VarId; 2],
@@ -26,10 +27,12 @@ impl BearingRange2 {
         Self { keys: [pose, landmark], bearing_rad, range_m, noise }
     }
 
+    /// The measured bearing from the robot's +x, counter-clockwise, radians.
     pub fn bearing_rad(&self) -> f64 {
         self.bearing_rad
     }
 
+    /// The measured range, metres.
     pub fn range_m(&self) -> f64 {
         self.range_m
     }

@@ -42,6 +42,7 @@ impl BetweenSe2 {
         self
     }
 
+    /// The measured `i_from_j`.
     pub fn measured(&self) -> &Se2 {
         &self.measured
     }
@@ -113,6 +114,7 @@ impl BetweenSe3 {
         Self { keys: [i, j], measured, noise }
     }
 
+    /// The measured `i_from_j`.
     pub fn measured(&self) -> &Se3 {
         &self.measured
     }

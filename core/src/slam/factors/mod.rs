@@ -49,12 +49,24 @@ pub type Residual = Vector6<f64>;
 /// `∂e/∂ξ_k` in the top-left `residual_dim × dim(x_k)` block.
 pub type Jacobian = Matrix6<f64>;
 
+/// Why a factor could not be evaluated.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum FactorError {
+    /// The factor names a variable that the values do not hold.
     #[error("factor refers to variable {0:?}, which does not exist")]
     MissingVariable(VarId),
+    /// A variable of the wrong kind (e.g. a point where the factor needs a pose).
     #[error("variable {key:?} is a {found}, the factor needs a {expected}")]
-    WrongVariableType { key: VarId, expected: &'static str, found: &'static str },
+    WrongVariableType {
+        /// The variable.
+        key: VarId,
+        /// The kind the factor needs.
+        expected: &'static str,
+        /// The variable's kind.
+        found: &'static str,
+    },
+    /// The measurement is undefined at these values (e.g. a landmark at the robot's
+    /// position for a bearing); the detail says which.
     #[error("degenerate measurement geometry: {0}")]
     Degenerate(&'static str),
 }
@@ -73,6 +85,7 @@ pub trait Factor: core::fmt::Debug + Send + Sync {
     /// Error and Jacobians (one per key, written into `jacobians[k]`).
     fn linearize(&self, values: &Values, jacobians: &mut [Jacobian; MAX_FACTOR_KEYS]) -> Result<Residual, FactorError>;
 
+    /// Rows of the residual: the noise model's dimension.
     fn residual_dim(&self) -> usize {
         self.noise().dim()
     }
@@ -97,9 +110,27 @@ pub trait Factor: core::fmt::Debug + Send + Sync {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Measurement {
     /// Relative pose `z ≈ x_from⁻¹ x_to`; Ω over (δt, δφ).
-    Se3Between { from: VarId, to: VarId, z: Se3, information: Matrix6<f64> },
+    Se3Between {
+        /// The pose the measurement is taken from.
+        from: VarId,
+        /// The pose measured.
+        to: VarId,
+        /// Pose of `to` in the frame of `from` (translation in metres).
+        z: Se3,
+        /// Information matrix over (δt, δφ).
+        information: Matrix6<f64>,
+    },
     /// The point `point` seen from the pose `pose`, in the pose's frame.
-    Point3InSe3 { pose: VarId, point: VarId, point_in_pose: Vector3<f64>, information: Matrix3<f64> },
+    Point3InSe3 {
+        /// The observing pose.
+        pose: VarId,
+        /// The landmark.
+        point: VarId,
+        /// The landmark in the pose's frame, metres.
+        point_in_pose: Vector3<f64>,
+        /// Information matrix of `point_in_pose`, m⁻².
+        information: Matrix3<f64>,
+    },
 }
 
 /// Looks up a variable of a given kind, with the factor errors.

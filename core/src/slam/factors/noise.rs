@@ -11,14 +11,19 @@ use thiserror::Error;
 
 use super::MAX_RESIDUAL_DIM;
 
+/// Why a covariance, information matrix or set of sigmas cannot make a [`GaussianNoise`].
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum NoiseError {
+    /// The dimension (given) is not in 1..=6.
     #[error("noise model dimension {0} is not in 1..=6")]
     BadDimension(usize),
+    /// An entry is NaN or infinite.
     #[error("noise matrix has a non-finite entry")]
     NonFinite,
+    /// The matrix is not symmetric (the largest |M − Mᵀ| entry).
     #[error("noise matrix is not symmetric (|M − Mᵀ| = {0:e})")]
     NotSymmetric(f64),
+    /// The matrix is not positive definite, or a sigma is ≤ 0 (the 0-based pivot or sigma index).
     #[error("noise matrix is not positive definite (pivot {0})")]
     NotPositiveDefinite(usize),
 }
@@ -33,10 +38,14 @@ pub enum RobustKernel {
     /// Least squares: ρ = s²/2.
     #[default]
     None,
+    /// Huber: quadratic up to `k` σ, linear beyond.
     Huber {
+        /// Threshold, in units of σ (> 0).
         k: f64,
     },
+    /// Cauchy: the weight of a residual falls towards 0 as it grows past `k` σ.
     Cauchy {
+        /// Threshold, in units of σ (> 0).
         k: f64,
     },
 }
@@ -186,6 +195,7 @@ impl GaussianNoise {
         Self::from_sigmas(&[sigma; MAX_RESIDUAL_DIM][..dim])
     }
 
+    /// Dimension of the residual it weighs, 1 to 6.
     pub fn dim(&self) -> usize {
         self.dim
     }
@@ -205,6 +215,7 @@ impl GaussianNoise {
         Self { kernel, ..self }
     }
 
+    /// Its robust kernel ([`RobustKernel::None`] unless set by [`Self::with_kernel`]).
     pub fn kernel(&self) -> RobustKernel {
         self.kernel
     }

@@ -12,6 +12,7 @@ use super::{Factor, FactorError, GaussianNoise, Jacobian, MAX_FACTOR_KEYS, Measu
 use crate::slam::lie::hat;
 use crate::slam::values::{Values, VarId};
 
+/// A 3D landmark seen from an SE(3) pose as a point in the robot frame (see the module doc).
 #[derive(Clone, Debug)]
 pub struct PointObservation3 {
     keys: [VarId; 2],
@@ -25,6 +26,7 @@ impl PointObservation3 {
         Self { keys: [pose, landmark], point_in_robot, noise }
     }
 
+    /// The measured point in the robot frame, metres.
     pub fn point_in_robot(&self) -> &Vector3<f64> {
         &self.point_in_robot
     }
@@ -81,6 +83,7 @@ impl PointObservation2 {
         Self { keys: [pose, landmark], point_in_robot, noise }
     }
 
+    /// The measured point in the robot frame, metres.
     pub fn point_in_robot(&self) -> &Vector2<f64> {
         &self.point_in_robot
     }

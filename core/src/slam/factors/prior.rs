@@ -29,6 +29,7 @@ impl PriorSe2 {
         self
     }
 
+    /// The pose the variable is pulled towards.
     pub fn prior(&self) -> &Se2 {
         &self.prior
     }
@@ -90,6 +91,7 @@ impl PriorSe3 {
         Self { keys: [key], prior, noise }
     }
 
+    /// The pose the variable is pulled towards.
     pub fn prior(&self) -> &Se3 {
         &self.prior
     }

@@ -33,40 +33,134 @@ use super::lie::{Se2, Se3};
 use super::problem::{Gauge, GaugeError, Problem};
 use super::values::{Values, VarId, Variable};
 
+/// Why a g2o file could not be read or turned into a [`Problem`]. `line` is 1-based; `edge` is
+/// the 0-based index into [`G2oFile::edges`].
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum G2oError {
+    /// A line is not valid UTF-8.
     #[error("line {line}: not valid UTF-8")]
-    NotUtf8 { line: usize },
+    NotUtf8 {
+        /// 1-based line number.
+        line: usize,
+    },
+    /// A tag the reader lists but does not parse (an internal inconsistency: tags of a file
+    /// that the reader does not know are skipped and listed in [`G2oFile::skipped`]).
     #[error("line {line}: unknown tag `{tag}`")]
-    UnknownTag { line: usize, tag: String },
+    UnknownTag {
+        /// 1-based line number.
+        line: usize,
+        /// The tag.
+        tag: String,
+    },
+    /// A line has the wrong number of fields after its tag.
     #[error("line {line}: {tag} needs {expected} fields, found {found}")]
-    FieldCount { line: usize, tag: &'static str, expected: usize, found: usize },
+    FieldCount {
+        /// 1-based line number.
+        line: usize,
+        /// The line's tag.
+        tag: &'static str,
+        /// Fields the tag needs after it.
+        expected: usize,
+        /// Fields the line has after its tag.
+        found: usize,
+    },
+    /// A field is not a finite number (or, where an id is expected, not an unsigned integer).
     #[error("line {line}: field {field} (`{text}`) is not a finite number or id")]
-    BadNumber { line: usize, field: usize, text: String },
+    BadNumber {
+        /// 1-based line number.
+        line: usize,
+        /// 1-based position of the field after the tag.
+        field: usize,
+        /// The field's text.
+        text: String,
+    },
+    /// Two vertex lines define the same id.
     #[error("line {line}: vertex {id} defined twice")]
-    DuplicateVertex { line: usize, id: u64 },
+    DuplicateVertex {
+        /// 1-based line number of the second definition.
+        line: usize,
+        /// The vertex id.
+        id: u64,
+    },
+    /// A 2D element (`*_SE2*`, `VERTEX_XY`) in a 3D file, or the reverse.
     #[error("line {line}: 2D and 3D elements mixed in one file")]
-    MixedDimensions { line: usize },
+    MixedDimensions {
+        /// 1-based line number of the first element of the other dimension.
+        line: usize,
+    },
+    /// A quaternion that cannot be normalised.
     #[error("line {line}: quaternion has zero norm")]
-    ZeroQuaternion { line: usize },
+    ZeroQuaternion {
+        /// 1-based line number.
+        line: usize,
+    },
+    /// An edge whose two ends are the same vertex.
     #[error("line {line}: edge connects vertex {id} to itself")]
-    SelfLoop { line: usize, id: u64 },
+    SelfLoop {
+        /// 1-based line number.
+        line: usize,
+        /// The vertex id.
+        id: u64,
+    },
+    /// An edge's information matrix is not symmetric positive definite and finite.
     #[error("line {line}: information matrix: {source}")]
-    Information { line: usize, source: NoiseError },
+    Information {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the matrix.
+        source: NoiseError,
+    },
     /// An edge uses a vertex that no `VERTEX_*` line defines, in a file that has vertex lines
     /// (the first such edge; files of bare edges have none and are chained instead).
     #[error("line {line}: {tag} uses vertex {id}, which no VERTEX line defines")]
-    UndefinedVertex { line: usize, tag: &'static str, id: u64 },
+    UndefinedVertex {
+        /// 1-based line number of the edge.
+        line: usize,
+        /// The edge's tag.
+        tag: &'static str,
+        /// The undefined vertex id.
+        id: u64,
+    },
+    /// A `FIX` line names an id that no vertex or edge has (the id).
     #[error("FIX of vertex {0}, which no vertex or edge defines")]
     UnknownFixed(u64),
+    /// An edge's information matrix cannot weigh a factor.
     #[error("edge {edge} (0-based): information matrix: {source}")]
-    EdgeInformation { edge: usize, source: NoiseError },
+    EdgeInformation {
+        /// 0-based index into [`G2oFile::edges`].
+        edge: usize,
+        /// What is wrong with the matrix.
+        source: NoiseError,
+    },
+    /// An edge joins vertices of the wrong kinds (e.g. a pose edge to a landmark).
     #[error("edge {edge} (0-based): vertex {id} is a {found}, the edge needs a {expected}")]
-    VertexKind { edge: usize, id: u64, expected: &'static str, found: &'static str },
+    VertexKind {
+        /// 0-based index into [`G2oFile::edges`].
+        edge: usize,
+        /// The vertex id.
+        id: u64,
+        /// The kind the edge needs (e.g. `"SE3 pose"`).
+        expected: &'static str,
+        /// The vertex's kind.
+        found: &'static str,
+    },
+    /// An `EDGE_SE3_TRACKXYZ` names a sensor offset that no `PARAMS_SE3OFFSET` line defines.
     #[error("edge {edge} (0-based): sensor offset {id} has no PARAMS_SE3OFFSET line")]
-    UnknownOffset { edge: usize, id: u64 },
+    UnknownOffset {
+        /// 0-based index into [`G2oFile::edges`].
+        edge: usize,
+        /// The offset id.
+        id: u64,
+    },
+    /// Two `PARAMS_SE3OFFSET` lines define the same id.
     #[error("line {line}: PARAMS_SE3OFFSET {id} defined twice")]
-    DuplicateOffset { line: usize, id: u64 },
+    DuplicateOffset {
+        /// 1-based line number of the second definition.
+        line: usize,
+        /// The offset id.
+        id: u64,
+    },
+    /// The gauge (which variables are held fixed) could not be applied.
     #[error("gauge: {0}")]
     Gauge(#[from] GaugeError),
 }
@@ -74,13 +168,38 @@ pub enum G2oError {
 /// A vertex (initial estimate of a pose or a landmark).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum G2oVertex {
-    Se2 { id: u64, pose: Se2 },
-    Se3 { id: u64, pose: Se3 },
-    Point2 { id: u64, point: Vector2<f64> },
-    Point3 { id: u64, point: Vector3<f64> },
+    /// `VERTEX_SE2`: a planar pose in the world frame.
+    Se2 {
+        /// The vertex id.
+        id: u64,
+        /// The pose (x, y in metres, θ in radians).
+        pose: Se2,
+    },
+    /// `VERTEX_SE3:QUAT`: a 3D pose in the world frame.
+    Se3 {
+        /// The vertex id.
+        id: u64,
+        /// The pose (translation in metres, unit quaternion).
+        pose: Se3,
+    },
+    /// `VERTEX_XY`: a 2D landmark in the world frame.
+    Point2 {
+        /// The vertex id.
+        id: u64,
+        /// The position, metres.
+        point: Vector2<f64>,
+    },
+    /// `VERTEX_TRACKXYZ`: a 3D landmark in the world frame.
+    Point3 {
+        /// The vertex id.
+        id: u64,
+        /// The position, metres.
+        point: Vector3<f64>,
+    },
 }
 
 impl G2oVertex {
+    /// The vertex id.
     pub fn id(&self) -> u64 {
         match self {
             G2oVertex::Se2 { id, .. } | G2oVertex::Se3 { id, .. } | G2oVertex::Point2 { id, .. } | G2oVertex::Point3 { id, .. } => *id,
@@ -103,13 +222,56 @@ impl G2oVertex {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum G2oEdge {
-    Se2 { from: u64, to: u64, measurement: Se2, information: Matrix3<f64> },
-    Se3 { from: u64, to: u64, measurement: Se3, information: Matrix6<f64> },
-    Se2Point2 { from: u64, to: u64, measurement: Vector2<f64>, information: Matrix2<f64> },
-    Se3Point3 { from: u64, to: u64, offset: u64, measurement: Vector3<f64>, information: Matrix3<f64> },
+    /// `EDGE_SE2`: a relative planar pose.
+    Se2 {
+        /// The pose vertex the measurement is taken from.
+        from: u64,
+        /// The pose vertex measured.
+        to: u64,
+        /// Pose of `to` in the frame of `from` (x, y in metres, θ in radians).
+        measurement: Se2,
+        /// Information matrix in (x, y, θ) order.
+        information: Matrix3<f64>,
+    },
+    /// `EDGE_SE3:QUAT`: a relative 3D pose.
+    Se3 {
+        /// The pose vertex the measurement is taken from.
+        from: u64,
+        /// The pose vertex measured.
+        to: u64,
+        /// Pose of `to` in the frame of `from` (translation in metres).
+        measurement: Se3,
+        /// Information matrix in (translation, rotation) tangent order.
+        information: Matrix6<f64>,
+    },
+    /// `EDGE_SE2_XY`: a 2D landmark seen from a planar pose.
+    Se2Point2 {
+        /// The pose vertex.
+        from: u64,
+        /// The landmark vertex.
+        to: u64,
+        /// The landmark in the frame of `from`, metres.
+        measurement: Vector2<f64>,
+        /// Information matrix of the point, m⁻².
+        information: Matrix2<f64>,
+    },
+    /// `EDGE_SE3_TRACKXYZ`: a 3D landmark seen by a sensor on a 3D pose.
+    Se3Point3 {
+        /// The pose vertex.
+        from: u64,
+        /// The landmark vertex.
+        to: u64,
+        /// The `PARAMS_SE3OFFSET` id of the sensor's pose on the robot.
+        offset: u64,
+        /// The landmark in the sensor frame, metres.
+        measurement: Vector3<f64>,
+        /// Information matrix of the point in the sensor frame, m⁻².
+        information: Matrix3<f64>,
+    },
 }
 
 impl G2oEdge {
+    /// The ids of the edge's two vertices, `(from, to)`.
     pub fn ids(&self) -> (u64, u64) {
         match self {
             G2oEdge::Se2 { from, to, .. }
@@ -147,7 +309,9 @@ fn kind(v: &Variable) -> &'static str {
 /// The contents of a g2o file, in file order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct G2oFile {
+    /// Vertex lines, in file order.
     pub vertices: Vec<G2oVertex>,
+    /// Edge lines, in file order.
     pub edges: Vec<G2oEdge>,
     /// Ids named by `FIX` lines.
     pub fixed: Vec<u64>,

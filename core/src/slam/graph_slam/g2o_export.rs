@@ -7,7 +7,7 @@ use crate::slam::values::Variable;
 
 impl GraphSlam {
     /// The graph as a g2o file in *replay order*: per keyframe, the landmarks it saw first, then
-    /// its pose, so that [`super::G2oReplay`] makes one update per keyframe with the factors
+    /// its pose, so that [`G2oReplay`](crate::slam::G2oReplay) makes one update per keyframe with the factors
     /// this solver's update had. Vertices at the current estimate; the odometry as
     /// `EDGE_SE3:QUAT`, the observations as `EDGE_SE3_TRACKXYZ` through sensor offset 0 (the
     /// identity). The anchor and the gravity factors have no g2o form and the robust kernel is

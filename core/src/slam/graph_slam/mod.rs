@@ -50,6 +50,55 @@ struct LandmarkState {
 }
 
 /// Keyframe graph SLAM over SE(3) with 3D point landmarks.
+///
+/// # Examples
+///
+/// Three odometry steps of 1 m along x, then landmark 7, seen from the first keyframe, is seen
+/// again: a loop closure, which pulls the uncertainty of the current pose back down.
+///
+/// ```
+/// use fitslam_core::slam::{
+///     CovarianceTraces, GraphSlamParams, LandmarkObservation, Odometry, Se3, SlamBackend,
+/// };
+/// use fitslam_core::GraphSlam;
+/// use nalgebra::{Matrix3, Matrix6, UnitQuaternion, Vector3};
+///
+/// let seen = |point_in_robot: Vector3<f64>| LandmarkObservation {
+///     landmark_id: 7,
+///     point_in_robot,
+///     covariance: Matrix3::identity() * 1e-4, // 1 cm
+/// };
+/// let step = Odometry {
+///     previous_from_current: Se3::new(UnitQuaternion::identity(), Vector3::new(1.0, 0.0, 0.0)),
+///     covariance: Matrix6::identity() * 1e-2, // 10 cm and 0.1 rad per step
+///     gravity: None,
+/// };
+/// // Landmark 7 stands at (2, 1, 0) in the world frame.
+/// let first = [seen(Vector3::new(2.0, 1.0, 0.0))];
+/// let params = GraphSlamParams { loop_closure_gap_keyframes: 2, ..GraphSlamParams::default() };
+///
+/// let run = |revisit: bool| -> Result<(GraphSlam, Vec<u64>), Box<dyn std::error::Error>> {
+///     let mut slam = GraphSlam::new(params.clone(), Se3::identity(), &first)?;
+///     slam.add_keyframe(&step, &[])?;
+///     slam.add_keyframe(&step, &[])?;
+///     // At (3, 0, 0) the landmark is 1 m behind and 1 m to the left.
+///     let again = if revisit { vec![seen(Vector3::new(-1.0, 1.0, 0.0))] } else { vec![] };
+///     let update = slam.add_keyframe(&step, &again)?;
+///     Ok((slam, update.loop_closures))
+/// };
+/// let (closed, closures) = run(true)?;
+/// let (open, no_closures) = run(false)?;
+/// assert_eq!(closures, vec![7]);
+/// assert!(no_closures.is_empty());
+/// assert_eq!(closed.keyframe_count(), 4);
+/// assert!((closed.current_pose().translation - Vector3::new(3.0, 0.0, 0.0)).norm() < 1e-6);
+///
+/// let position_var = |slam: &GraphSlam| -> Result<f64, Box<dyn std::error::Error>> {
+///     Ok(CovarianceTraces::of(&slam.current_pose_covariance()?).pos_cov_trace)
+/// };
+/// assert!(position_var(&closed)? < position_var(&open)?);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct GraphSlam {
     params: GraphSlamParams,
@@ -97,6 +146,7 @@ impl GraphSlam {
         Ok(slam)
     }
 
+    /// Its parameters.
     pub fn params(&self) -> &GraphSlamParams {
         &self.params
     }
@@ -141,6 +191,7 @@ impl GraphSlam {
         v
     }
 
+    /// Number of keyframes, the first included.
     pub fn keyframe_count(&self) -> usize {
         self.keyframes.len()
     }

@@ -51,11 +51,11 @@ pub struct GraphSlamParams {
     /// Default 0 (every closure is marked).
     pub full_cooldown_keyframes: usize,
     /// The robust kernel on every landmark observation (wrong data associations). Default
-    /// Cauchy with k = [`OBSERVATION_CAUCHY_K`] (decision 0018): its influence falls back to 0
+    /// Cauchy with k = 4 (decision 0018): its influence falls back to 0
     /// for a gross mismatch, where Huber's only stops growing.
     pub observation_kernel: RobustKernel,
     /// Batch: stopping rules of each optimisation, and the factorisation of it and of the
-    /// marginals ([`super::Factorisation`]); both solvers: of [`SlamBackend::optimize_full`].
+    /// marginals ([`Factorisation`](crate::slam::Factorisation)); both solvers: of [`SlamBackend::optimize_full`].
     /// Default: [`OptimizerParams::default`] with 20 iterations.
     pub optimizer: OptimizerParams,
 }

@@ -18,18 +18,44 @@ use crate::slam::g2o::{G2oEdge, G2oFile, G2oVertex};
 use crate::slam::lie::{Se2, Se3};
 use crate::slam::values::{VarId, Variable};
 
+/// Why a g2o file could not be replayed.
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum ReplayError {
+    /// An edge's information matrix cannot weigh a factor.
     #[error("edge {edge} (0-based): information matrix: {source}")]
-    Information { edge: usize, source: NoiseError },
+    Information {
+        /// 0-based index into [`G2oFile::edges`].
+        edge: usize,
+        /// What is wrong with the matrix.
+        source: NoiseError,
+    },
+    /// The first pose's prior sigma cannot make a noise model (not finite or not > 0).
     #[error("first-pose prior: {0}")]
     Prior(NoiseError),
+    /// An `EDGE_SE3_TRACKXYZ` names a sensor offset that no `PARAMS_SE3OFFSET` line defines.
     #[error("edge {edge} (0-based): sensor offset {id} has no PARAMS_SE3OFFSET line")]
-    UnknownOffset { edge: usize, id: u64 },
+    UnknownOffset {
+        /// 0-based index into [`G2oFile::edges`].
+        edge: usize,
+        /// The offset id.
+        id: u64,
+    },
+    /// An edge joins vertices of the wrong kinds.
     #[error("edge {edge} (0-based): vertex {id} is a {found}, the edge needs a {expected}")]
-    VertexKind { edge: usize, id: u64, expected: &'static str, found: &'static str },
+    VertexKind {
+        /// 0-based index into [`G2oFile::edges`].
+        edge: usize,
+        /// The vertex id.
+        id: u64,
+        /// The kind the edge needs (e.g. `"Point2"`).
+        expected: &'static str,
+        /// The vertex's kind.
+        found: &'static str,
+    },
+    /// The file has no pose vertex to anchor.
     #[error("the graph has no pose")]
     NoPose,
+    /// The incremental solver failed.
     #[error(transparent)]
     Solver(#[from] IncrementalError),
 }
@@ -116,6 +142,7 @@ impl<'a> G2oReplay<'a> {
         self.steps.len()
     }
 
+    /// Whether there is no update.
     pub fn is_empty(&self) -> bool {
         self.steps.is_empty()
     }

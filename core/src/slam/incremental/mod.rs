@@ -10,11 +10,11 @@
 //! 2. The cliques of the variables the new factors touch are marked; the marked cliques and
 //!    their paths to the root (the *top*) are removed. Their subtrees (*orphans*) stay, with the
 //!    marginal factors they pass up.
-//!    When the top holds at least [`BATCH_THRESHOLD`] of the variables, the whole tree is
+//!    When the top holds at least 65 % of the variables, the whole tree is
 //!    removed (GTSAM's batch step), so the ordering is no longer constrained by old subtrees.
 //! 3. The top's factors are relinearised at θ, its variables re-ordered by constrained minimum
-//!    degree with the new factors' variables last ([`ordering`]), eliminated into new cliques
-//!    ([`clique`]), and the orphans re-attached (Alg. 5).
+//!    degree with the new factors' variables last (`ordering`), eliminated into new cliques
+//!    (`clique`), and the orphans re-attached (Alg. 5).
 //! 4. *Partial back-substitution* (Alg. 7): Δ is recomputed from the roots down, into every new
 //!    clique, and below an unchanged clique only where a frontal's step moved by more than
 //!    [`Isam2Params::wildfire_threshold`].
@@ -52,16 +52,22 @@ const NONE: usize = usize::MAX;
 /// re-eliminates the whole graph (GTSAM's `kBatchThreshold` in `ISAM2::update`).
 const BATCH_THRESHOLD: f64 = 0.65;
 
+/// Why an iSAM2 update or query failed.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum IncrementalError {
+    /// Elimination met a non-positive pivot: a gauge freedom or an unobserved variable.
     #[error("the linearised system is not positive definite (a gauge freedom or an unobserved variable?)")]
     NotPositiveDefinite,
+    /// A factor or query names a variable the solver does not hold.
     #[error("factor refers to variable {0:?}, which does not exist")]
     UnknownVariable(VarId),
+    /// A variable added by an update that none of the update's factors constrains.
     #[error("new variable {0:?} is in no new factor")]
     Unconstrained(VarId),
+    /// A factor could not be evaluated at the estimate.
     #[error(transparent)]
     Factor(#[from] FactorError),
+    /// A factor could not be added to the graph.
     #[error(transparent)]
     Graph(#[from] GraphError),
 }
@@ -98,6 +104,47 @@ pub struct UpdateReport {
 }
 
 /// The incremental smoother: factors, linearisation point, step and Bayes tree.
+///
+/// # Examples
+///
+/// A planar pose chain grown one pose per update, then closed by a loop: each update
+/// re-eliminates only what the new factors touch, and the last pose's marginal shrinks once the
+/// loop is closed.
+///
+/// ```
+/// use fitslam_core::slam::factors::{BetweenSe2, PriorSe2};
+/// use fitslam_core::slam::{Factor, GaussianNoise, Isam2Params, Se2, VarId, Variable};
+/// use fitslam_core::Isam2;
+/// use std::f64::consts::FRAC_PI_2;
+///
+/// let odometry_noise = GaussianNoise::from_sigmas(&[0.05, 0.05, 0.01])?; // m, m, rad
+/// let mut isam = Isam2::new(Isam2Params::default());
+/// // x0 at the origin, anchored by a prior.
+/// let prior: Box<dyn Factor> = Box::new(PriorSe2::new(VarId(0), Se2::identity(), GaussianNoise::isotropic(3, 1e-3)?));
+/// isam.update(&[Variable::Se2(Se2::identity())], vec![prior])?;
+/// // Three sides of a 1 m square, turning left at each corner; each new pose starts off by 10 cm.
+/// let side = Se2::new(1.0, 0.0, FRAC_PI_2);
+/// for k in 1..4 {
+///     let initial = isam.estimate_of(VarId(k - 1)).and_then(|v| match v {
+///         Variable::Se2(p) => Some(p * side * Se2::new(0.1, 0.0, 0.0)),
+///         _ => None,
+///     });
+///     let initial = initial.ok_or("the previous pose")?;
+///     let odometry: Box<dyn Factor> = Box::new(BetweenSe2::new(VarId(k - 1), VarId(k), side, odometry_noise));
+///     isam.update(&[Variable::Se2(initial)], vec![odometry])?;
+/// }
+/// assert_eq!(isam.len(), 4);
+/// let x3 = VarId(3);
+/// let open_trace = isam.marginal_covariance(x3)?.trace();
+///
+/// // The fourth side closes the square: a factor between existing poses, no new variable.
+/// let closure: Box<dyn Factor> = Box::new(BetweenSe2::new(x3, VarId(0), side, odometry_noise));
+/// isam.update(&[], vec![closure])?;
+/// let Some(Variable::Se2(p3)) = isam.estimate_of(x3) else { panic!("x3 is an SE(2) pose") };
+/// assert!((p3.x_m - 0.0).abs() < 0.05 && (p3.y_m - 1.0).abs() < 0.05); // the square's corner
+/// assert!(isam.marginal_covariance(x3)?.trace() < open_trace);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug)]
 pub struct Isam2 {
     params: Isam2Params,
@@ -126,6 +173,7 @@ pub struct Isam2 {
 }
 
 impl Isam2 {
+    /// An empty solver.
     pub fn new(params: Isam2Params) -> Self {
         Self {
             params,
@@ -148,6 +196,7 @@ impl Isam2 {
         }
     }
 
+    /// Its parameters.
     pub fn params(&self) -> &Isam2Params {
         &self.params
     }
@@ -167,6 +216,7 @@ impl Isam2 {
         self.theta.len()
     }
 
+    /// Whether it holds no variable.
     pub fn is_empty(&self) -> bool {
         self.theta.is_empty()
     }

@@ -40,7 +40,7 @@ impl KeyframeClouds {
         Self { voxel_m, points: Vec::new(), starts: Vec::new(), tilt_var_rad2: Vec::new(), occupied: HashSet::new(), forgotten: Vec::new() }
     }
 
-    /// Forgets, for every later [`reregister`], the points stored so far that it would put in a
+    /// Forgets, for every later `reregister`, the points stored so far that it would put in a
     /// map cell whose centre lies within `radius_m` of (`x_m`, `y_m`), world frame (as
     /// [`TraversabilityMap::forget_disc`] does to the map itself). Points stored later are kept.
     pub fn forget_disc(&mut self, x_m: f64, y_m: f64, radius_m: f64) {
@@ -81,6 +81,7 @@ impl KeyframeClouds {
         true
     }
 
+    /// Number of keyframes started.
     pub fn keyframes(&self) -> usize {
         self.starts.len()
     }
@@ -90,6 +91,7 @@ impl KeyframeClouds {
         self.points.len()
     }
 
+    /// Whether no point is stored.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }

@@ -15,8 +15,11 @@ use crate::traversability::TraversabilityMap;
 /// robot frame (x forward, y left, z up), metres, and its covariance, m².
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraObservation {
+    /// The landmark's id.
     pub landmark_id: u64,
+    /// The landmark in the robot frame, metres.
     pub point_in_robot: Vector3<f64>,
+    /// Covariance of `point_in_robot`, m².
     pub covariance: Matrix3<f64>,
 }
 
@@ -79,14 +82,17 @@ impl SlamFrontend {
         Ok(me)
     }
 
+    /// Its parameters.
     pub fn params(&self) -> &SlamParams {
         &self.params
     }
 
+    /// The keyframe graph it feeds.
     pub fn backend(&self) -> &GraphSlam {
         &self.slam
     }
 
+    /// The sensor points of every keyframe.
     pub fn clouds(&self) -> &KeyframeClouds {
         &self.clouds
     }

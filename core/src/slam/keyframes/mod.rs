@@ -1,6 +1,6 @@
 //! The simulator's SLAM front end (notes §1, §2, §8): turns the measured odometry, the IMU
 //! attitude, the camera's landmark observations and the sensor clouds into keyframes for the
-//! [`GraphSlam`] back end (incremental or batch), and gives the mission its pose estimate, 6×6
+//! [`GraphSlam`](crate::slam::GraphSlam) back end (incremental or batch), and gives the mission its pose estimate, 6×6
 //! covariance, landmark map and the keyframe clouds to re-register the traversability map after
 //! a loop closure.
 //!
@@ -22,7 +22,7 @@
 //! tangent (ξ = (δt, δφ)), is propagated per tick: `Σ ← Ad(ΔT⁻¹) Σ Ad(ΔT⁻¹)ᵀ + J Q Jᵀ` with
 //! `Q = diag(σ_d², σ_z² |d|, σ_roll², σ_pitch², σ_yaw²)` (σ_z = `z_sigma_per_sqrt_m`: the
 //! terrain's curvature under the chord) and `J` the tick's noise Jacobian
-//! ([`propagate_relative`]). A floor of 10⁻⁸ on the diagonal keeps it invertible when standing
+//! (`propagate_relative`). A floor of 10⁻⁸ on the diagonal keeps it invertible when standing
 //! still or turning in place.
 //!
 //! **Landmark factors.** At each keyframe the camera observes; each observation is the landmark
@@ -53,7 +53,7 @@
 //! `cloud_voxel_m` 3D voxel per keyframe, as f32. When a full optimisation moves some keyframe
 //! by more than `reregister_shift_m` (|Δt| + `reregister_lever_m` · |Δφ|, the lever standing for
 //! a typical point range) from the pose its clouds were registered with, the traversability map
-//! is rebuilt from every keyframe cloud with the new poses ([`reregister`]). Points forgotten by a
+//! is rebuilt from every keyframe cloud with the new poses (`reregister`). Points forgotten by a
 //! trapped robot's recovery ([`SlamFrontend::forget_disc`]) stay out of every later rebuild.
 //!
 //! Cost per tick O(1); per keyframe one iSAM2 update (the cliques the keyframe's factors touch

@@ -36,6 +36,7 @@ pub struct SlamParams {
     pub reregister_shift_m: f64,
     /// Lever arm turning a keyframe's rotation change into a shift, metres. Default 2.
     pub reregister_lever_m: f64,
+    /// The keyframe graph's parameters (solver, loop closures, observation kernel, optimiser).
     pub graph: GraphSlamParams,
 }
 

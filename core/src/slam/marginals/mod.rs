@@ -25,10 +25,14 @@ use super::graph::FactorGraph;
 use super::linear_system::{Factorisation, LinearSystem, SolveError};
 use super::values::{Values, VarId};
 
+/// Why marginal covariances could not be computed.
 #[derive(Clone, Debug, thiserror::Error, PartialEq)]
 pub enum MarginalError {
+    /// A factor could not be linearised at the values.
     #[error(transparent)]
     Factor(#[from] FactorError),
+    /// The information matrix could not be factorised (e.g. not positive definite), or a
+    /// variable asked for does not exist.
     #[error(transparent)]
     Solve(#[from] SolveError),
 }
