@@ -128,7 +128,7 @@ pub struct Summary {
 
 /// What one row records.
 #[derive(Clone, Copy, Debug)]
-pub struct Sample {
+pub(crate) struct Sample {
     /// Mission time, seconds.
     pub time_s: f64,
     /// The localisation's pose covariance.
@@ -147,7 +147,7 @@ pub struct Sample {
 
 /// The rows and trajectories of a mission so far.
 #[derive(Clone, Debug, Default)]
-pub struct Metrics {
+pub(crate) struct Metrics {
     rows: Vec<MetricsRow>,
     trajectory_gt: Vec<StampedPose>,
     trajectory_est: Vec<StampedPose>,

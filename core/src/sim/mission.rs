@@ -3,7 +3,7 @@
 //!
 //! The mission composes four layers: the world simulator ([`WorldSim`]: true motion with the
 //! bumper, the sensors), localisation behind `Localiser` (ground truth, odometry, graph SLAM),
-//! the exploration policy ([`Explorer`]) and the metrics ([`Metrics`]). What is its own is the
+//! the exploration policy ([`Explorer`]) and the metrics (`Metrics`). What is its own is the
 //! robot's local controller (a carrot follower along the chosen path, turning to Θ* on arrival)
 //! and the schedule:
 //!
@@ -526,11 +526,6 @@ impl Mission {
     /// The estimated trajectory, one pose per metrics row.
     pub fn trajectory_est(&self) -> &[StampedPose] {
         self.metrics.trajectory_est()
-    }
-
-    /// The metrics so far.
-    pub fn metrics(&self) -> &Metrics {
-        &self.metrics
     }
 
     /// The explorer (its blacklist, statistics, trail).

@@ -32,7 +32,6 @@ pub use heightfield::{DemScaling, Heightfield};
 pub use landmarks::{LandmarkDensity, scatter_landmarks};
 pub use localisation::Localisation;
 pub use localisation::PoseCovariance;
-pub use metrics::Metrics;
 pub use metrics::{MetricsRow, StampedPose, Summary, metrics_csv, timing_csv, tum};
 pub use mission::MissionError;
 pub use mission::{Mission, StepOutcome};

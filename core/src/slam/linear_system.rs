@@ -19,14 +19,21 @@ use super::factors::{FactorError, Jacobian, MAX_FACTOR_KEYS};
 use super::graph::FactorGraph;
 use super::values::{Values, VarId};
 
+/// Why the linearised system `H δ = −g` could not be solved (optimisers and marginals).
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum SolveError {
+    /// Every variable is fixed: there is nothing to solve for.
     #[error("the problem has no free variable")]
     NoFreeVariables,
+    /// The Cholesky factorisation met a non-positive pivot: the problem has a gauge freedom (no
+    /// variable fixed or anchored) or a variable no factor constrains enough.
     #[error("the normal equations are not positive definite (a gauge freedom or an unobserved variable?)")]
     NotPositiveDefinite,
+    /// faer's sparse factorisation or solve failed for another reason (its message, e.g. out of
+    /// memory for its workspace).
     #[error("sparse factorisation failed: {0}")]
     Faer(String),
+    /// A marginal asked for a variable the problem does not have.
     #[error("variable {0:?} does not exist")]
     UnknownVariable(VarId),
 }

@@ -61,10 +61,10 @@ pub mod victoria;
 pub use backend::{CovarianceTraces, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
 pub use factors::{Factor, FactorError, GaussianNoise, RobustKernel, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
-pub use graph_slam::{ANCHOR_SIGMA, GraphSlam, GraphSlamParams, SlamSolver};
+pub use graph_slam::{ANCHOR_SIGMA, GraphSlam, GraphSlamParams, OBSERVATION_CAUCHY_K, SlamSolver};
 pub use incremental::{G2oReplay, IncrementalError, Isam2, Isam2Params, ReplayError, UpdateReport};
 pub use lie::{Se2, Se3};
-pub use linear_system::Factorisation;
+pub use linear_system::{Factorisation, SolveError};
 pub use marginals::{FactorStats, MarginalError, Marginals};
 pub use optimizer::{
     GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination,

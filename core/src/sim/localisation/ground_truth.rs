@@ -8,7 +8,7 @@ use crate::traversability::TraversabilityMap;
 use nalgebra::Point3;
 
 /// The true pose (no SLAM).
-pub struct GroundTruth {
+pub(crate) struct GroundTruth {
     est: Pose2,
     landmarks: LandmarkAverages,
 }

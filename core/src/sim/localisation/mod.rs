@@ -1,5 +1,5 @@
 //! How the simulated robot knows where it is, behind one trait (`Localiser`): the true pose
-//! ([`GroundTruth`]), dead-reckoned wheel odometry + IMU yaw (`DeadReckoning`), or keyframe
+//! (`GroundTruth`), dead-reckoned wheel odometry + IMU yaw (`DeadReckoning`), or keyframe
 //! graph SLAM (`KeyframeSlamLocaliser`, notes §1). Each turns the world simulator's
 //! measurements ([`WorldSim`]) into an estimate, registers the sensed points into the robot's map
 //! with it, and keeps the landmark map the planner's u2 reads.
@@ -14,7 +14,7 @@ mod keyframe_slam;
 mod tracking;
 
 pub(crate) use dead_reckoning::DeadReckoning;
-pub use ground_truth::GroundTruth;
+pub(crate) use ground_truth::GroundTruth;
 pub(crate) use keyframe_slam::KeyframeSlamLocaliser;
 pub(crate) use tracking::TrackingStats;
 

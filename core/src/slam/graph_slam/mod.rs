@@ -27,7 +27,7 @@ mod solver;
 #[cfg(test)]
 mod tests;
 
-pub use params::{ANCHOR_SIGMA, GraphSlamParams, SlamSolver};
+pub use params::{ANCHOR_SIGMA, GraphSlamParams, OBSERVATION_CAUCHY_K, SlamSolver};
 
 use std::collections::BTreeMap;
 
