@@ -1,14 +1,52 @@
-//! ROS 2 message types used by the node, as serde structs in `.msg` field order (CDR is
-//! positional). ros2-client ships none of them. Layouts are ROS 2 Jazzy's (Humble's are the
-//! same for every type here except `nav2_msgs/NavigateToPose`'s result, see [`nav2`]).
+//! # fitslam-msgs
 //!
-//! Every type implements [`RosMessage`], which names its DDS type
-//! (`geometry_msgs::msg::dds_::PoseStamped_`).
+//! The ROS 2 vocabulary of fitslam, written once: every message the robot node, the bag reader
+//! and writer and the simulator's recorder exchange, as plain serde structs with their fields in
+//! `.msg` order (CDR is positional). Layouts are ROS 2 Jazzy's (Humble's are the same for every
+//! type here except `nav2_msgs/NavigateToPose`'s result, see [`nav2`]). ros2-client ships none
+//! of them. [`cdr`] reads and writes any of them as ROS 2 serialises it (XCDR1), with no code
+//! per type.
+//!
+//! Pure and small (serde, thiserror, libm): it builds for `wasm32-unknown-unknown`. With the
+//! feature `ros2` every type is also a `ros2_client::Message`, and [`RosMessage::type_name`]
+//! names its DDS type (`geometry_msgs::msg::dds_::PoseStamped_`); the robot node turns it on,
+//! the core and the studio never build DDS.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`builtin`] | `builtin_interfaces`: Time, Duration |
+//! | [`std_msgs`] | Header, String, ColorRGBA |
+//! | [`geometry`] | points, poses (with covariance), transforms, polygons |
+//! | [`nav`] | OccupancyGrid and its MapMetaData |
+//! | [`sensor`] | PointCloud2 and PointField |
+//! | [`tf2`] | TFMessage (`/tf`, `/tf_static`) |
+//! | [`visualization`] | Marker, MarkerArray |
+//! | [`nav2`] | the NavigateToPose action's goal, result and feedback |
+//! | [`cdr`] | the CDR codec: [`cdr::to_vec`], [`cdr::from_bytes`], typed errors, never a panic |
+//! | [`octets`] | `uint8[]` / `int8[]` fields as one byte buffer (fast in CDR, numbers in JSON) |
+//!
+//! Conversions to and from the core's types (grids, points, poses, boundaries) live in
+//! `fitslam_core::ros`, which depends on this crate.
+//!
+//! ```
+//! use fitslam_msgs::{Header, Pose, PoseStamped, Quaternion, Time, cdr};
+//!
+//! let goal = PoseStamped {
+//!     header: Header::new(Time::from_secs_f64(1.5), "map"),
+//!     pose: Pose { orientation: Quaternion::from_yaw(0.5), ..Pose::default() },
+//! };
+//! let bytes = cdr::to_vec(&goal)?;
+//! assert_eq!(&bytes[..4], &[0, 1, 0, 0]); // little-endian CDR encapsulation
+//! assert_eq!(cdr::from_bytes::<PoseStamped>(&bytes)?, goal);
+//! # Ok::<(), fitslam_msgs::cdr::CdrError>(())
+//! ```
 
 pub mod builtin;
+pub mod cdr;
 pub mod geometry;
 pub mod nav;
 pub mod nav2;
+pub mod octets;
 pub mod sensor;
 pub mod std_msgs;
 pub mod tf2;
@@ -27,22 +65,25 @@ pub use tf2::TFMessage;
 pub use visualization::{Marker, MarkerArray};
 
 /// A ROS 2 message with its package and type name.
-pub trait RosMessage: ros2_client::Message {
+pub trait RosMessage: serde::Serialize + serde::de::DeserializeOwned {
     /// ROS package, e.g. `geometry_msgs`.
     const PACKAGE: &'static str;
     /// Type name, e.g. `PoseStamped`.
     const NAME: &'static str;
 
     /// The type name ros2-client turns into `PACKAGE::msg::dds_::NAME_`.
+    #[cfg(feature = "ros2")]
     fn type_name() -> ros2_client::MessageTypeName {
         ros2_client::MessageTypeName::new(Self::PACKAGE, Self::NAME)
     }
 }
 
+/// Implements [`RosMessage`] (and, with the feature `ros2`, `ros2_client::Message`).
 macro_rules! ros_message {
     ($t:ty, $pkg:literal, $name:literal) => {
+        #[cfg(feature = "ros2")]
         impl ros2_client::Message for $t {}
-        impl $crate::msgs::RosMessage for $t {
+        impl $crate::RosMessage for $t {
             const PACKAGE: &'static str = $pkg;
             const NAME: &'static str = $name;
         }

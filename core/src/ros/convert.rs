@@ -1,19 +1,21 @@
 //! Messages ⇄ core types, with validation: anything a message can get wrong (NaN fields, a data
 //! length that disagrees with width × height, a rotated map, a point field outside its record)
-//! is a typed [`ConvertError`], never a panic.
+//! is a typed [`ConvertError`], never a panic. The robot node, the bag replay and the
+//! simulator's recorder all convert here.
 //!
 //! PointCloud2 decoding reads x, y, z as FLOAT32 or FLOAT64 at any offsets, any `point_step`,
 //! `row_step` and byte order; points with a non-finite coordinate are skipped and counted.
 //! O(points) per cloud, O(cells) per map.
 
-use crate::msgs::{self, Header, PointCloud2, PointField};
-use fitslam_core::frontier::Boundary;
-use fitslam_core::grid::{GridGeometry, UNKNOWN};
-use fitslam_core::{OccupancyGrid, Pose2};
+use crate::frontier::Boundary;
+use crate::grid::{GridGeometry, UNKNOWN};
+use crate::{OccupancyGrid, Pose2};
+use fitslam_msgs::{self as msgs, Header, PointCloud2, PointField};
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
 use thiserror::Error;
 
-/// Largest map accepted, cells (same bound as the core's traversability map: 2²⁵ ≈ 33 M).
+/// Largest map accepted from a message, cells (2²⁵ ≈ 33 M; 4× the core's own grids,
+/// [`crate::grid::MAX_CELLS`]: a large SLAM map is thresholded, not mapped into).
 pub const MAX_MAP_CELLS: usize = 1 << 25;
 
 /// Largest yaw of a map's origin that is still taken as axis-aligned, radians.
@@ -99,6 +101,11 @@ pub fn pose2_of_pose(p: &msgs::Pose) -> Result<Pose2, ConvertError> {
 /// Planar pose → `Pose` (z = 0, rotation about +z).
 pub fn pose_of_pose2(p: Pose2) -> msgs::Pose {
     msgs::Pose { position: msgs::Point { x: p.x_m, y: p.y_m, z: 0.0 }, orientation: msgs::Quaternion::from_yaw(p.yaw_rad) }
+}
+
+/// Planar pose → `Transform` (`parent_from_child`; z = 0, rotation about +z).
+pub fn transform_of_pose2(p: Pose2) -> msgs::Transform {
+    msgs::Transform { translation: msgs::Vector3 { x: p.x_m, y: p.y_m, z: 0.0 }, rotation: msgs::Quaternion::from_yaw(p.yaw_rad) }
 }
 
 /// The f64 a float32 resolution stands for: its shortest decimal form (0.05f32 is
@@ -278,7 +285,7 @@ pub fn boundary_of_polygon(msg: &msgs::PolygonStamped) -> Result<Boundary, Conve
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::msgs::{MapMetaData, Time};
+    use fitslam_msgs::{MapMetaData, Time};
     use proptest::prelude::*;
 
     fn map_msg(width: u32, height: u32, data: Vec<i8>) -> msgs::OccupancyGrid {
