@@ -9,10 +9,10 @@ mod common;
 
 use common::sim::{GridSim, SimRobot, two_rooms};
 use fitslam_core::grid::{CellClass, inflate_lethal};
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy};
 use fitslam_core::{Params, Pose2};
+use fitslam_msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_robot::config::NodeConfig;
-use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_robot::node::{Command, ExplorerNode, GoalEvent};
 
 fn tf(p: Pose2, stamp_s: f64) -> TFMessage {

@@ -31,6 +31,23 @@ pub enum Phase {
     Unknown,
 }
 
+impl Phase {
+    /// Its name in the status JSON: `waiting_for_map`, …, `done`, `unknown`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Phase::WaitingForMap => "waiting_for_map",
+            Phase::WaitingForPose => "waiting_for_pose",
+            Phase::PoseStale => "pose_stale",
+            Phase::Planning => "planning",
+            Phase::Navigating => "navigating",
+            Phase::Paused => "paused",
+            Phase::Returning => "returning",
+            Phase::Done => "done",
+            Phase::Unknown => "unknown",
+        }
+    }
+}
+
 /// The goal the node sent to the navigation stack.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeGoal {
@@ -202,6 +219,15 @@ mod tests {
         assert_eq!(v["phase"], "navigating");
         assert_eq!(v["goal"]["frontier_m"], serde_json::json!([1.5, 2.0]));
         assert_eq!(serde_json::from_value::<NodeStatus>(v).unwrap(), s);
+    }
+
+    #[test]
+    fn phase_names_are_the_json_names() {
+        use Phase::*;
+        for p in [WaitingForMap, WaitingForPose, PoseStale, Planning, Navigating, Paused, Returning, Done, Unknown] {
+            assert_eq!(serde_json::to_value(p).unwrap(), p.as_str());
+            assert_eq!(serde_json::from_value::<Phase>(p.as_str().into()).unwrap(), p);
+        }
     }
 
     #[test]

@@ -2,15 +2,15 @@
 
 use super::*;
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
-use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
-use crate::msgs;
-use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_core::explore::ExploreParams;
 use fitslam_core::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use fitslam_core::frontier::BlacklistReason;
 use fitslam_core::grid::{CellClass, GridGeometry};
 use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN, fill_disc};
 use fitslam_core::path::known_around;
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
+use fitslam_msgs as msgs;
+use fitslam_msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use nalgebra::Point3;
 
 fn header(stamp_s: f64, frame: &str) -> Header {
@@ -282,7 +282,7 @@ fn a_map_that_changes_size_and_makes_the_goal_lethal_cancels_it() {
 fn a_reached_goal_chosen_again_is_blacklisted_as_reselected_and_a_closed_world_ends_the_mission() {
     let (mut e, w) = corridor_explorer(NodeConfig::default());
     let (id1, _) = goals(&e.tick(0.0))[0];
-    let [fx, fy] = e.current_goal().unwrap().frontier_m;
+    let [fx, fy] = e.current_goal().unwrap().frontier_m.unwrap();
     e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
     e.on_goal_event(id1, GoalEvent::Succeeded, 0.2);
     // Remembered, not yet blacklisted: the map may have moved the frontier on.
@@ -638,21 +638,21 @@ fn a_pose_covariance_sets_the_goal_back_from_unknown_ground() {
     };
     // No covariance: the goal is the frontier candidate itself.
     let (e, _, goal) = run(0.0);
-    let g = e.current_goal().unwrap();
-    assert_eq!(g.frontier_m, [goal.x_m, goal.y_m]);
-    assert!(!known_around(&w.grid, g.frontier_m, 0.4), "the candidate is on the edge of unknown ground");
+    let frontier_m = e.current_goal().unwrap().frontier_m.unwrap();
+    assert_eq!(frontier_m, [goal.x_m, goal.y_m]);
+    assert!(!known_around(&w.grid, frontier_m, 0.4), "the candidate is on the edge of unknown ground");
     // σx² = σy² = 0.02 m²: sqrt(0.04) = 0.2 m, 2 σ = 0.4 m of known ground all round the goal.
     let (mut e, id, goal) = run(0.02);
-    let g = e.current_goal().unwrap();
+    let [fx, fy] = e.current_goal().unwrap().frontier_m.unwrap();
     assert!(known_around(&w.grid, [goal.x_m, goal.y_m], 0.4), "{goal:?}");
-    let back_m = (goal.x_m - g.frontier_m[0]).hypot(goal.y_m - g.frontier_m[1]);
+    let back_m = (goal.x_m - fx).hypot(goal.y_m - fy);
     assert!((0.3..1.0).contains(&back_m), "{back_m} m");
     assert!(free_on_inflated(&w.grid, 0.25, goal));
     // Kept and blacklisted as the frontier it serves.
     assert!(e.tick(1.0).is_empty());
     assert_eq!(e.current_goal().map(|g| g.id), Some(id));
     e.on_goal_event(id, GoalEvent::Aborted("stuck".into()), 1.1);
-    assert_eq!(e.blacklist().contains(g.frontier_m[0], g.frontier_m[1]), Some(BlacklistReason::Failed));
+    assert_eq!(e.blacklist().contains(fx, fy), Some(BlacklistReason::Failed));
 }
 
 #[test]
