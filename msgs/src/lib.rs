@@ -8,7 +8,7 @@
 //! per type.
 //!
 //! Pure and small (serde, thiserror, libm): it builds for `wasm32-unknown-unknown`. With the
-//! feature `ros2` every type is also a `ros2_client::Message`, and [`RosMessage::type_name`]
+//! feature `ros2` every type is also a `ros2_client::Message`, and `RosMessage::type_name`
 //! names its DDS type (`geometry_msgs::msg::dds_::PoseStamped_`); the robot node turns it on,
 //! the core and the studio never build DDS.
 //!
