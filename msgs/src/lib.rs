@@ -23,6 +23,7 @@
 //! | [`visualization`] | Marker, MarkerArray |
 //! | [`nav2`] | the NavigateToPose action's goal, result and feedback |
 //! | [`cdr`] | the CDR codec: [`cdr::to_vec`], [`cdr::from_bytes`], typed errors, never a panic |
+//! | [`definitions`] | the `.msg` definitions of the messages bags hold, and a type's rosbag2 schema |
 //! | [`octets`] | `uint8[]` / `int8[]` fields as one byte buffer (fast in CDR, numbers in JSON) |
 //!
 //! Conversions to and from the core's types (grids, points, poses, boundaries) live in
@@ -43,6 +44,7 @@
 
 pub mod builtin;
 pub mod cdr;
+pub mod definitions;
 pub mod geometry;
 pub mod nav;
 pub mod nav2;
@@ -70,6 +72,11 @@ pub trait RosMessage: serde::Serialize + serde::de::DeserializeOwned {
     const PACKAGE: &'static str;
     /// Type name, e.g. `PoseStamped`.
     const NAME: &'static str;
+
+    /// The name rosbag2 and `ros2 topic` give the type, `PACKAGE/msg/NAME`.
+    fn ros_type() -> String {
+        format!("{}/msg/{}", Self::PACKAGE, Self::NAME)
+    }
 
     /// The type name ros2-client turns into `PACKAGE::msg::dds_::NAME_`.
     #[cfg(feature = "ros2")]

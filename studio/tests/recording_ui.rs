@@ -8,13 +8,13 @@
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use fitslam_core::bag::{Bag, BagTopics, McapWriter, schemas};
+use fitslam_core::bag::{Bag, BagTopics, McapWriter};
 use fitslam_core::frontier::Blacklist;
 use fitslam_core::ros::{cloud_of_points, msg_of_occupancy, transform_of_pose2};
 use fitslam_core::select::{Decision, DecisionInput, make_selector};
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2, io};
-use fitslam_msgs::{Header, StringMsg, TFMessage, Time, TransformStamped, cdr};
+use fitslam_msgs::{Header, OccupancyGrid as MapMsg, PointCloud2, StringMsg, TFMessage, Time, TransformStamped, cdr};
 use fitslam_studio::StudioApp;
 use fitslam_studio::files::{IncomingFile, Intent};
 
@@ -48,10 +48,10 @@ fn recording() -> (Vec<u8>, [f64; 2]) {
     let cloud = io::load_cloud(&read("landmarks.csv"), "landmarks.csv").unwrap();
     let mut w = McapWriter::new("studio test");
     let (map, tf, lm, status) = (
-        w.channel("/map", schemas::OCCUPANCY_GRID),
-        w.channel("/tf", schemas::TF_MESSAGE),
-        w.channel("/cloud_map", schemas::POINT_CLOUD2),
-        w.channel("/fitslam/status", schemas::STRING),
+        w.channel::<MapMsg>("/map"),
+        w.channel::<TFMessage>("/tf"),
+        w.channel::<PointCloud2>("/cloud_map"),
+        w.channel::<StringMsg>("/fitslam/status"),
     );
     let h = |f: &str| Header::new(Time::from_secs_f64(1.0), f);
     for k in 0..=6u64 {

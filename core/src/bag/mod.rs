@@ -10,7 +10,6 @@
 //! |---|---|
 //! | [`mcap`] | the MCAP container: records, chunks (zstd, lz4 or none), CRCs |
 //! | [`mcap_write`] | an MCAP writer (rosbag2 profile, uncompressed chunks, summary and indexes) |
-//! | [`schemas`] | the ROS 2 (Jazzy) definitions of the messages written, as a bag's schemas |
 //! | [`replay`] | topics, the inputs at an instant (map, landmarks, pose through tf), decision instants |
 //!
 //! Messages are `fitslam_msgs` types in CDR ([`fitslam_msgs::cdr`]), converted to the core's
@@ -21,7 +20,6 @@
 pub mod mcap;
 pub mod mcap_write;
 pub mod replay;
-pub mod schemas;
 
 pub use mcap::Mcap;
 pub use mcap_write::McapWriter;

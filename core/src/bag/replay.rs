@@ -156,11 +156,6 @@ pub struct Bag {
     end_ns: u64,
 }
 
-/// The rosbag2 name of a message type, `pkg/msg/Type`.
-fn type_name<M: RosMessage>() -> String {
-    format!("{}/msg/{}", M::PACKAGE, M::NAME)
-}
-
 /// Whether a topic's recorded type is `M`: its rosbag2 name or the short one (`pkg/Type`).
 fn type_matches<M: RosMessage>(found: &str) -> bool {
     found.split_once('/').is_some_and(|(pkg, rest)| pkg == M::PACKAGE && (rest == M::NAME || rest.strip_prefix("msg/") == Some(M::NAME)))
@@ -231,7 +226,7 @@ impl Bag {
                     name: self.name.clone(),
                     topic: topic.into(),
                     found: found.into(),
-                    expected: type_name::<M>(),
+                    expected: M::ros_type(),
                 });
             }
             out.push((c, m));

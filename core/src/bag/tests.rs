@@ -2,12 +2,11 @@
 //! bytes, and a snapshot through a tf chain.
 
 use super::mcap::{MAGIC, op};
-use super::schemas;
 use super::*;
 use crate::Pose2;
 use crate::grid::{GridGeometry, OccupancyGrid};
 use crate::ros::{cloud_of_points, msg_of_occupancy, transform_of_pose2};
-use fitslam_msgs::{Header, StringMsg, TFMessage, Time, TransformStamped, cdr};
+use fitslam_msgs::{Header, OccupancyGrid as MapMsg, PointCloud2, StringMsg, TFMessage, Time, TransformStamped, cdr};
 use nalgebra::Point3;
 
 const S: u64 = 1_000_000_000;
@@ -24,11 +23,11 @@ fn tfs(transforms: Vec<TransformStamped>) -> Vec<u8> {
 /// cloud in `odom`, and two status messages with goals 1 and 2.
 fn mission() -> Vec<u8> {
     let mut w = McapWriter::new("test");
-    let map = w.channel("/map", schemas::OCCUPANCY_GRID);
-    let tf_ch = w.channel("/tf", schemas::TF_MESSAGE);
-    let tf_static = w.channel("/tf_static", schemas::TF_MESSAGE);
-    let lm = w.channel("/cloud_map", schemas::POINT_CLOUD2);
-    let status = w.channel("/fitslam/status", schemas::STRING);
+    let map = w.channel::<MapMsg>("/map");
+    let tf_ch = w.channel::<TFMessage>("/tf");
+    let tf_static = w.channel::<TFMessage>("/tf_static");
+    let lm = w.channel::<PointCloud2>("/cloud_map");
+    let status = w.channel::<StringMsg>("/fitslam/status");
     let grid = OccupancyGrid::from_vec(GridGeometry::new(-1.0, -1.0, 0.1, 20, 10), vec![0; 200]).unwrap();
     let h = |f: &str| Header::new(Time::from_secs_f64(1.0), f);
     w.message(tf_static, 0, &tfs(vec![tf("base_link", "laser", Pose2::new(0.1, 0.0, 0.0))]));

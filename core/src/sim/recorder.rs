@@ -6,10 +6,10 @@
 //! 1 µs after the map it was decided on.
 
 use super::Mission;
-use crate::bag::{McapWriter, schemas};
+use crate::bag::McapWriter;
 use crate::ros::{self, NodeGoal, NodeStats, NodeStatus, Phase};
 use crate::utility::LandmarkVoxels;
-use fitslam_msgs::{Header, StringMsg, TFMessage, Time, Transform, TransformStamped, cdr};
+use fitslam_msgs::{Header, OccupancyGrid, PointCloud2, StringMsg, TFMessage, Time, Transform, TransformStamped, cdr};
 use serde::Serialize;
 
 /// Period of the tf messages, simulated seconds.
@@ -30,10 +30,10 @@ impl MissionRecorder {
     pub fn new() -> Self {
         let mut w = McapWriter::new("fitslam explore");
         let ch = [
-            w.channel("/tf", schemas::TF_MESSAGE),
-            w.channel("/map", schemas::OCCUPANCY_GRID),
-            w.channel("/cloud_map", schemas::POINT_CLOUD2),
-            w.channel("/fitslam/status", schemas::STRING),
+            w.channel::<TFMessage>("/tf"),
+            w.channel::<OccupancyGrid>("/map"),
+            w.channel::<PointCloud2>("/cloud_map"),
+            w.channel::<StringMsg>("/fitslam/status"),
         ];
         Self { w, ch, last_tf_s: f64::NEG_INFINITY, decisions: 0, goal: None, maps: 0 }
     }

@@ -60,7 +60,7 @@ macro_rules! unsupported {
     };
 }
 
-impl<'a> ser::Serializer for &'a mut Encoder {
+impl ser::Serializer for &mut Encoder {
     type Ok = ();
     type Error = CdrError;
     type SerializeSeq = Self;
