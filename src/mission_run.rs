@@ -9,10 +9,10 @@ use crate::load;
 use crate::plot::{self, Curve};
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use fitslam_core::bag::record::MissionRecorder;
 use fitslam_core::explore::EndReason;
 use fitslam_core::io;
 use fitslam_core::params::{Params, Strategy, Valid};
+use fitslam_core::sim::recorder::MissionRecorder;
 use fitslam_core::sim::{
     Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary, World, WorldSpec, metrics_csv, timing_csv, tum,
 };
@@ -57,13 +57,7 @@ pub fn create_out_dir(out: &std::path::Path) -> Result<()> {
 
 /// The end reason as `summary.json` and `summary.csv` name it.
 pub fn end_reason(r: Option<EndReason>) -> &'static str {
-    match r {
-        Some(EndReason::NoFrontier) => "no_frontier",
-        Some(EndReason::Trapped) => "trapped",
-        Some(EndReason::TimeLimit) => "time_limit",
-        Some(EndReason::Stuck) => "stuck",
-        None => "none",
-    }
+    r.map_or("none", EndReason::as_str)
 }
 
 /// A progress bar of `len` steps drawn on stderr, hidden unless stdout and stderr are terminals.

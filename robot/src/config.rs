@@ -15,7 +15,7 @@
 
 use fitslam_core::Params;
 use fitslam_core::explore::{EXPLORE_KEYS, ExploreParams};
-use fitslam_core::params::{InvalidParam, check_positive};
+use fitslam_core::params::{InvalidParam, Validate, check_positive};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -271,16 +271,19 @@ impl ConfigFile {
         serde_yaml::to_string(self).unwrap_or_default()
     }
 
+}
+
+impl Validate for ConfigFile {
     /// Checks both sections; the error names the first bad field.
-    pub fn validate(&self) -> Result<(), InvalidParam> {
+    fn validate(&self) -> Result<(), InvalidParam> {
         self.node.validate()?;
         self.fitslam.validate().map_err(|e| e.under("fitslam."))
     }
 }
 
-impl NodeConfig {
-    /// Checks ranges and names.
-    pub fn validate(&self) -> Result<(), InvalidParam> {
+impl Validate for NodeConfig {
+    /// Checks ranges and names; keys are named from the file's top (`node.replan_period_s`).
+    fn validate(&self) -> Result<(), InvalidParam> {
         let pos = |name: &str, v: f64| check_positive(&format!("node.{name}"), v);
         let bad = |name: &str, reason: String| Err(InvalidParam::new(format!("node.{name}"), reason));
         pos("replan_period_s", self.replan_period_s)?;
@@ -290,7 +293,7 @@ impl NodeConfig {
         if !(self.goal_feedback_timeout_s >= 0.0 && self.goal_feedback_timeout_s.is_finite()) {
             return bad("goal_feedback_timeout_s", format!("must be ≥ 0 (0: off), got {}", self.goal_feedback_timeout_s));
         }
-        self.explore.validate("node.explore.")?;
+        self.explore.validate().map_err(|e| e.under("node.explore."))?;
         pos("pose_timeout_s", self.pose_timeout_s)?;
         pos("poll_period_s", self.poll_period_s)?;
         if let Some(m) = self.max_mission_s {

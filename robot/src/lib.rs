@@ -1,12 +1,12 @@
 //! # fitslam-robot
 //!
 //! The FIT-SLAM ROS 2 node for the LeoRover: a thin adapter between ROS 2 topics and actions
-//! (over the pure-Rust `ros2-client`, no ROS installation needed) and `fitslam_core`.
+//! (over the pure-Rust `ros2-client`, no ROS installation needed) and `fitslam_core`. The
+//! messages are `fitslam_msgs`'s (with its `ros2` feature), their conversions to the core's
+//! types `fitslam_core::ros`'s, and the status it publishes `fitslam_core::ros::NodeStatus`.
 //!
 //! | module | what |
 //! |---|---|
-//! | [`msgs`] | the ROS 2 message types used, as serde structs (CDR field order) |
-//! | [`convert`] | messages ⇄ core types, validated (typed errors, never panics) |
 //! | [`tf`] | a latest-only tf2 buffer |
 //! | [`config`] | node configuration + the core's `Params`, one YAML file |
 //! | [`node`] | the node's state: inputs → the core's exploration policy (`fitslam_core::explore`) → goals; no DDS |
@@ -19,12 +19,12 @@
 //! ```
 //! use fitslam_core::fixtures::corridor_two_frontiers;
 //! use fitslam_robot::config::NodeConfig;
-//! use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-//! use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
+//! use fitslam_core::ros::{cloud_of_points, msg_of_occupancy};
+//! use fitslam_msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 //! use fitslam_robot::node::{Command, ExplorerNode};
 //!
 //! let world = corridor_two_frontiers(true); // landmarks east of the robot only
-//! let mut node = ExplorerNode::new(NodeConfig::default(), fitslam_core::Params::default());
+//! let mut node = ExplorerNode::new(NodeConfig::default(), fitslam_core::Params::default())?;
 //! let header = Header::new(Time::from_secs_f64(1.0), "map");
 //! node.handle_map(&msg_of_occupancy(&world.grid, header.clone()), 0.0);
 //! node.handle_landmarks(&cloud_of_points(&world.landmarks.points, header.clone()), 0.0);
@@ -45,9 +45,7 @@
 //! ```
 
 pub mod config;
-pub mod convert;
 pub mod markers;
-pub mod msgs;
 pub mod node;
 pub mod qos_check;
 #[cfg(feature = "rerun")]

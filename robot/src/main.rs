@@ -48,7 +48,7 @@ fn load(cli: &Cli) -> Result<ConfigFile> {
     };
     if let Some(p) = &cli.params {
         let bytes = std::fs::read(p).with_context(|| format!("reading {}", p.display()))?;
-        cfg.fitslam = fitslam_core::Params::from_bytes(&bytes, &p.display().to_string())?;
+        cfg.fitslam = fitslam_core::Params::from_bytes(&bytes, &p.display().to_string())?.into_inner();
     }
     if cli.domain_id.is_some() {
         cfg.node.domain_id = cli.domain_id;
@@ -56,7 +56,7 @@ fn load(cli: &Cli) -> Result<ConfigFile> {
     if cli.localhost_only {
         cfg.node.localhost_only = Some(true);
     }
-    cfg.validate()?;
+    fitslam_core::params::Validate::validate(&cfg)?;
     Ok(cfg)
 }
 

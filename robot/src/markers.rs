@@ -12,10 +12,11 @@
 //! The array starts with a DELETEALL so that markers of a previous decision disappear.
 //! O(frontier cells + candidates).
 
-use crate::msgs::{ColorRGBA, Header, Marker, MarkerArray, Point, Vector3};
 use fitslam_core::frontier::Blacklist;
+use fitslam_core::ros::pose_of_pose2;
 use fitslam_core::select::{Decision, DropReason};
 use fitslam_core::{GridGeometry, Params, Pose2};
+use fitslam_msgs::{ColorRGBA, Header, Marker, MarkerArray, Point, Vector3};
 
 /// Height markers are drawn at, metres (just above the map).
 const Z_M: f64 = 0.05;
@@ -120,7 +121,7 @@ pub fn decision_markers(
         let mut arrow = marker(header, "goal", Marker::ARROW, 0.1);
         arrow.scale = Vector3 { x: 0.6, y: 0.12, z: 0.12 };
         arrow.color = GREEN;
-        arrow.pose = crate::convert::pose_of_pose2(g);
+        arrow.pose = pose_of_pose2(g);
         arrow.pose.position.z = Z_M;
         markers.push(arrow);
     }
@@ -145,7 +146,7 @@ mod tests {
     #[test]
     fn corridor_decision_draws_everything() {
         let w = corridor_two_frontiers(true);
-        let params = Params::default();
+        let params = fitslam_core::params::Valid::<Params>::default();
         let voxels = LandmarkVoxels::new(&w.landmarks, 0.25, 0.05).unwrap();
         let mut bl = Blacklist::new(0.5);
         let d = make_selector(&params.selector).select(&DecisionInput::new(&w.grid, &voxels, w.robot, &bl), &params).unwrap();

@@ -9,9 +9,10 @@
 
 use crate::config::{ConfigFile, GoalInterface, MapSource, PoseSource, ServiceMappingChoice};
 use crate::markers::decision_markers;
-use crate::msgs::{self, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, RosMessage, Time, nav2};
 use crate::node::{Command, ExplorerNode, GoalEvent, Level, LogLine};
 use crate::qos_check::QosWatch;
+use fitslam_core::ros::pose_of_pose2;
+use fitslam_msgs::{self as msgs, Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, RosMessage, Time, nav2};
 use ros2_client::action::{ActionClient, ActionClientQosPolicies, GoalId, GoalStatusEnum};
 use ros2_client::dds::rustdds::{DomainParticipant, DomainParticipantBuilder};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
@@ -38,6 +39,8 @@ pub enum RosError {
     Dds(String),
     #[error("bad ROS name '{name}': {message}")]
     Name { name: String, message: String },
+    #[error("configuration: {0}")]
+    Config(#[from] fitslam_core::params::InvalidParam),
 }
 
 fn dds<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> RosError + '_ {
@@ -86,13 +89,21 @@ pub fn best_effort(depth: usize) -> QosProfile {
 }
 
 /// A subscription to `name` with type `M`.
-pub fn subscribe<M: RosMessage + 'static>(node: &mut ros2_client::Node, name: &str, qos: QosProfile) -> Result<Subscription<M>, RosError> {
+pub fn subscribe<M: RosMessage + ros2_client::Message + 'static>(
+    node: &mut ros2_client::Node,
+    name: &str,
+    qos: QosProfile,
+) -> Result<Subscription<M>, RosError> {
     let topic = node.create_topic(&topic_name(name)?, M::type_name(), &qos).map_err(dds(name))?;
     node.create_subscription(&topic, Some(qos)).map_err(dds(name))
 }
 
 /// A publisher on `name` with type `M`.
-pub fn advertise<M: RosMessage>(node: &mut ros2_client::Node, name: &str, qos: QosProfile) -> Result<Publisher<M>, RosError> {
+pub fn advertise<M: RosMessage + ros2_client::Message>(
+    node: &mut ros2_client::Node,
+    name: &str,
+    qos: QosProfile,
+) -> Result<Publisher<M>, RosError> {
     let topic = node.create_topic(&topic_name(name)?, M::type_name(), &qos).map_err(dds(name))?;
     node.create_publisher(&topic, Some(qos)).map_err(dds(name))
 }
@@ -383,7 +394,7 @@ impl RosNode {
     pub fn execute(&mut self, e: &mut ExplorerNode, cmd: &Command, map_frame: &str, now_s: f64) {
         match cmd {
             Command::SendGoal { id, goal } => {
-                let pose = msgs::PoseStamped { header: Header::new(now_stamp(), map_frame), pose: crate::convert::pose_of_pose2(*goal) };
+                let pose = msgs::PoseStamped { header: Header::new(now_stamp(), map_frame), pose: pose_of_pose2(*goal) };
                 if let Some(p) = &self.goal_pub
                     && let Err(err) = p.publish(pose.clone())
                 {
@@ -457,7 +468,7 @@ pub fn run(cfg: &ConfigFile, observer: &mut dyn Observer, stop: &AtomicBool) -> 
     );
     let context = make_context(domain, localhost)?;
     let mut ros = RosNode::new(&context, cfg)?;
-    let mut explorer = ExplorerNode::new(cfg.node.clone(), cfg.fitslam.clone());
+    let mut explorer = ExplorerNode::new(cfg.node.clone(), cfg.fitslam.clone())?;
     let start = Instant::now();
     let poll = Duration::from_secs_f64(cfg.node.poll_period_s);
     let map_frame = cfg.node.map_frame.clone();

@@ -8,8 +8,8 @@
 //!
 //! Lookup: O(depth) to walk both frames up to the root (depth ≤ [`MAX_DEPTH`]).
 
-use crate::convert::{ConvertError, isometry_of_transform};
-use crate::msgs::TransformStamped;
+use fitslam_core::ros::{ConvertError, isometry_of_transform};
+use fitslam_msgs::TransformStamped;
 use nalgebra::Isometry3;
 use std::collections::HashMap;
 
@@ -157,7 +157,7 @@ impl TfBuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::msgs::{Header, Quaternion, Time, Transform, Vector3};
+    use fitslam_msgs::{Header, Quaternion, Time, Transform, Vector3};
     use nalgebra::Point3;
 
     fn tf(parent: &str, child: &str, x: f64, y: f64, yaw: f64, stamp_s: f64) -> TransformStamped {

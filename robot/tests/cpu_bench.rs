@@ -15,8 +15,8 @@ mod common;
 
 use common::{NodeProcess, RobotSide, private_domain, scratch_dir};
 use fitslam_core::io::{load_cloud, load_map};
-use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Transform, TransformStamped, Vector3};
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy};
+use fitslam_msgs::{Header, Quaternion, TFMessage, Transform, TransformStamped, Vector3};
 use fitslam_robot::ros::{make_context, now_stamp};
 use ros2_client::action::SendGoalResponse;
 use ros2_client::{NodeName, NodeOptions};

@@ -9,10 +9,10 @@ mod common;
 
 use common::sim::{GridSim, SimRobot, two_rooms};
 use fitslam_core::grid::{CellClass, inflate_lethal};
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy};
 use fitslam_core::{Params, Pose2};
+use fitslam_msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_robot::config::NodeConfig;
-use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-use fitslam_robot::msgs::{Header, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_robot::node::{Command, ExplorerNode, GoalEvent};
 
 fn tf(p: Pose2, stamp_s: f64) -> TFMessage {
@@ -39,7 +39,7 @@ fn mission(faults: bool, limit_s: f64) -> Outcome {
     let params = Params::default();
     let cfg = NodeConfig { replan_period_s: 0.5, goal_timeout_s: 60.0, ..NodeConfig::default() };
     let mut sim = GridSim::new(two_rooms(), Pose2::new(1.5, 1.5, 0.0), params.robot.radius_m);
-    let mut e = ExplorerNode::new(cfg, params.clone());
+    let mut e = ExplorerNode::new(cfg, params.clone()).unwrap();
     let mut log = String::new();
     let (dt, mut t) = (0.02, 0.0);
     let mut goal: Option<u64> = None;

@@ -8,8 +8,8 @@ mod common;
 
 use common::{NodeProcess, RobotSide, private_domain, scratch_dir, tf_msg};
 use fitslam_core::fixtures::corridor_two_frontiers;
-use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy};
-use fitslam_robot::msgs::{Header, StringMsg};
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy};
+use fitslam_msgs::{Header, StringMsg};
 use fitslam_robot::ros::{advertise, make_context, now_stamp, reliable};
 use ros2_client::{NodeName, NodeOptions};
 use std::time::{Duration, Instant};

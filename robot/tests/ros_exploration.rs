@@ -13,9 +13,9 @@ use common::core_sim::CoreSim;
 use common::sim::{GridSim, SimRobot, two_rooms};
 use common::{NodeProcess, RobotSide, private_domain, scratch_dir, tf_msg};
 use fitslam_core::grid::{CellClass, Grid, UNKNOWN, inflate_lethal};
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy, pose_of_pose2, pose2_of_pose};
 use fitslam_core::{GridGeometry, OccupancyGrid, Pose2};
-use fitslam_robot::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2, pose2_of_pose};
-use fitslam_robot::msgs::{Header, NavigateToPoseFeedback, NavigateToPoseResult, PoseStamped};
+use fitslam_msgs::{Header, NavigateToPoseFeedback, NavigateToPoseResult, PoseStamped};
 use fitslam_robot::ros::{make_context, now_stamp};
 use ros2_client::action::{GetResultResponse, GoalId, GoalStatusEnum, SendGoalResponse};
 use ros2_client::action_msgs::{CancelGoalResponse, CancelGoalResponseEnum};
@@ -119,9 +119,9 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
             let grid = cropped(sim.map());
             let mut m = msg_of_occupancy(&grid, Header::new(now_stamp(), "map"));
             match maps % 6 {
-                2 => m.info.resolution = f32::NAN,                                   // NaN field
-                4 => m.header.stamp = fitslam_robot::msgs::Time::from_secs_f64(1.0), // late
-                5 => {}                                                              // dropped
+                2 => m.info.resolution = f32::NAN,                            // NaN field
+                4 => m.header.stamp = fitslam_msgs::Time::from_secs_f64(1.0), // late
+                5 => {}                                                       // dropped
                 _ => {
                     let _ = map_pub.publish(m.clone());
                     published.push(grid);

@@ -119,7 +119,7 @@ pub fn show(ui: &mut egui::Ui, rec: &Recording, answer: Option<&Answer>, rects: 
                         target[0],
                         target[1],
                         c.t_s,
-                        c.phase.as_deref().map_or_else(String::new, |p| format!(" ({p})"))
+                        c.phase.map_or_else(String::new, |p| format!(" ({})", p.as_str()))
                     ),
                 );
             }

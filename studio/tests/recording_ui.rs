@@ -8,13 +8,14 @@
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use fitslam_core::bag::msgs::{self, Header, OccupancyGridMsg, PointCloud2, RigidPose, TransformStamped};
-use fitslam_core::bag::{Bag, BagTopics, McapWriter, schemas};
+use fitslam_core::bag::{Bag, BagTopics, McapWriter};
 use fitslam_core::explore::{Explorer, Situation};
 use fitslam_core::params::Valid;
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy, transform_of_pose2};
 use fitslam_core::select::Decision;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, Params, PointCloud, Pose2, io};
+use fitslam_msgs::{Header, OccupancyGrid as MapMsg, PointCloud2, StringMsg, TFMessage, Time, TransformStamped, cdr};
 use fitslam_studio::StudioApp;
 use fitslam_studio::files::{IncomingFile, Intent};
 
@@ -47,27 +48,27 @@ fn recording() -> (Vec<u8>, [f64; 2]) {
     let cloud = io::load_cloud(&read("landmarks.csv"), "landmarks.csv").unwrap();
     let mut w = McapWriter::new("studio test");
     let (map, tf, lm, status) = (
-        w.channel("/map", schemas::OCCUPANCY_GRID),
-        w.channel("/tf", schemas::TF_MESSAGE),
-        w.channel("/cloud_map", schemas::POINT_CLOUD2),
-        w.channel("/fitslam/status", schemas::STRING),
+        w.channel::<MapMsg>("/map"),
+        w.channel::<TFMessage>("/tf"),
+        w.channel::<PointCloud2>("/cloud_map"),
+        w.channel::<StringMsg>("/fitslam/status"),
     );
-    let h = |f: &str| Header { stamp_s: 1.0, frame_id: f.into() };
+    let h = |f: &str| Header::new(Time::from_secs_f64(1.0), f);
     for k in 0..=6u64 {
         let r = robot_at(k);
-        let odom = RigidPose::planar(0.2, 0.0, 0.0);
-        let chain = [
+        let odom = transform_of_pose2(Pose2::new(0.2, 0.0, 0.0));
+        let transforms = vec![
             TransformStamped { header: h("map"), child_frame_id: "odom".into(), transform: odom },
             TransformStamped {
                 header: h("odom"),
                 child_frame_id: "base_link".into(),
-                transform: RigidPose::planar(r.x_m - 0.2, r.y_m, r.yaw_rad),
+                transform: transform_of_pose2(Pose2::new(r.x_m - 0.2, r.y_m, r.yaw_rad)),
             },
         ];
-        w.message(tf, k * S, &msgs::encode_tf_message(&chain));
+        w.message(tf, k * S, &cdr::to_vec(&TFMessage { transforms }).unwrap());
     }
-    w.message(map, S, &msgs::encode_occupancy_grid(&OccupancyGridMsg::from_grid(&grid, h("map"))));
-    w.message(lm, S, &msgs::encode_point_cloud2(&PointCloud2::from_points(&cloud.points, h("map"))));
+    w.message(map, S, &cdr::to_vec(&msg_of_occupancy(&grid, h("map"))).unwrap());
+    w.message(lm, S, &cdr::to_vec(&cloud_of_points(&cloud.points, h("map"))).unwrap());
     let first = core_decision(&grid, &cloud, robot_at(1));
     let c = first.chosen_candidate().expect("a goal on jacksboro");
     let chosen = [c.x_m, c.y_m];
@@ -77,7 +78,7 @@ fn recording() -> (Vec<u8>, [f64; 2]) {
             "phase": "navigating",
             "goal": { "id": id, "goal": { "x_m": x, "y_m": y, "yaw_rad": 0.0 }, "frontier_m": [x, y] },
         });
-        w.message(status, t * S + 1000, &msgs::encode_string(&json.to_string()));
+        w.message(status, t * S + 1000, &cdr::to_vec(&StringMsg { data: json.to_string() }).unwrap());
     }
     (w.finish(), chosen)
 }
@@ -192,7 +193,7 @@ fn a_broken_bag_gives_one_message_naming_it_and_keeps_the_scene() {
 /// select --bag` does (tests/replay.rs).
 #[test]
 fn at_every_instant_of_a_recorded_mission_the_view_shows_the_explorers_answer() {
-    use fitslam_core::bag::record::MissionRecorder;
+    use fitslam_core::sim::recorder::MissionRecorder;
     use fitslam_core::sim::{Localisation, Mission, World, WorldSpec};
     let spec = WorldSpec::from_toml(
         &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/worlds/tiny_test.toml")).unwrap(),

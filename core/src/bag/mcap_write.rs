@@ -8,7 +8,8 @@
 //! the core does no file I/O. O(bytes written).
 
 use super::mcap::{MAGIC, op};
-use super::schemas::SchemaText;
+use fitslam_msgs::RosMessage;
+use fitslam_msgs::definitions::schema;
 
 /// A chunk is closed once its records reach this size, bytes.
 pub const CHUNK_BYTES: usize = 1 << 20;
@@ -86,20 +87,23 @@ impl McapWriter {
         }
     }
 
-    /// The channel of `topic` with `schema` (added on first use), its id.
-    pub fn channel(&mut self, topic: &str, schema: SchemaText) -> u16 {
+    /// The channel of `topic` with messages of type `M` (added on first use), its id. Its
+    /// schema is `M`'s ROS 2 definition ([`fitslam_msgs::definitions`]; empty for a type
+    /// without one there, which readers that decode by schema cannot read).
+    pub fn channel<M: RosMessage>(&mut self, topic: &str) -> u16 {
         if let Some(i) = self.channels.iter().position(|(t, _)| t == topic) {
             return (i + 1) as u16;
         }
-        let schema_id = match self.schemas.iter().position(|s| s.get(2..).is_some_and(|b| b.starts_with(&name_prefix(schema.0)))) {
+        let name = M::ros_type();
+        let schema_id = match self.schemas.iter().position(|s| s.get(2..).is_some_and(|b| b.starts_with(&name_prefix(&name)))) {
             Some(i) => (i + 1) as u16,
             None => {
                 let id = (self.schemas.len() + 1) as u16;
                 let mut body = Vec::new();
                 put_u16(&mut body, id);
-                put_str(&mut body, schema.0);
+                put_str(&mut body, &name);
                 put_str(&mut body, "ros2msg");
-                put_str(&mut body, schema.1);
+                put_str(&mut body, &schema::<M>().unwrap_or_default());
                 put_record(&mut self.out, op::SCHEMA, &body);
                 self.schemas.push(body);
                 id

@@ -2,30 +2,24 @@
 //!
 //! A ROS 2 robot running the fitslam node records its inputs with `ros2 bag record` (MCAP is
 //! rosbag2's default storage since Iron); `fitslam explore --bag` writes a simulated mission the
-//! same way. Either opens here: the map, landmarks and pose the robot had at any instant, and
-//! what the robot chose then (its status messages), so a decision can be made again with other
-//! parameters.
+//! same way (`sim::recorder`). Either opens here: the map, landmarks and pose the robot
+//! had at any instant, and what the robot chose then (its status messages), so a decision can
+//! be made again with other parameters.
 //!
 //! | module | what |
 //! |---|---|
 //! | [`mcap`] | the MCAP container: records, chunks (zstd, lz4 or none), CRCs |
 //! | [`mcap_write`] | an MCAP writer (rosbag2 profile, uncompressed chunks, summary and indexes) |
-//! | [`cdr`] | CDR (XCDR1) encapsulation, alignment, primitives, strings, sequences |
-//! | [`msgs`] | the messages read: OccupancyGrid, TFMessage, PointCloud2, PoseWithCovarianceStamped, String |
-//! | [`record`] | a simulated mission recorded with the node's topics (`fitslam explore --bag`) |
-//! | [`schemas`] | their ROS 2 Jazzy definitions, as the schemas of a written bag |
 //! | [`replay`] | topics, the inputs at an instant (map, landmarks, pose through tf), decision instants |
 //!
-//! Every function takes bytes and a `source_name` used only in messages; hostile bytes give a
-//! [`BagError`], never a panic.
+//! Messages are `fitslam_msgs` types in CDR ([`fitslam_msgs::cdr`]), converted to the core's
+//! types by [`crate::ros`]; the node's status is [`crate::ros::NodeStatus`]. Every function
+//! takes bytes and a `source_name` used only in messages; hostile bytes give a [`BagError`],
+//! never a panic.
 
-pub mod cdr;
 pub mod mcap;
 pub mod mcap_write;
-pub mod msgs;
-pub mod record;
 pub mod replay;
-pub mod schemas;
 
 pub use mcap::Mcap;
 pub use mcap_write::McapWriter;
@@ -57,7 +51,7 @@ pub enum BagError {
     Message { name: String, topic: String, msg_type: String, t_s: f64, detail: String },
     /// A topic recorded with a type other than the one a replay reads there.
     #[error("{name}: topic {topic} has type {found}, expected {expected}")]
-    WrongType { name: String, topic: String, found: String, expected: &'static str },
+    WrongType { name: String, topic: String, found: String, expected: String },
     /// An input the replay needs is not in the bag (before the instant asked for).
     #[error("{name}: {detail}")]
     Missing { name: String, detail: String },

@@ -18,10 +18,11 @@
 
 use super::BagError;
 use super::mcap::{Channel, Mcap, Message};
-use super::msgs::{self, RigidPose};
 use crate::cloud::PointCloud;
 use crate::grid::OccupancyGrid;
 use crate::pose::Pose2;
+use crate::ros::{self, NodeStatus, Phase};
+use fitslam_msgs::{OccupancyGrid as MapMsg, PointCloud2, PoseWithCovarianceStamped, RosMessage, StringMsg, TFMessage, cdr};
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
@@ -126,8 +127,8 @@ pub struct RobotChoice {
     pub goal: Pose2,
     /// The frontier candidate it serves, when the status names it.
     pub frontier_m: Option<[f64; 2]>,
-    /// The node's phase then (`navigating`, `planning`…).
-    pub phase: Option<String>,
+    /// The node's phase then (`navigating`, `planning`…; `None` when not recorded).
+    pub phase: Option<Phase>,
 }
 
 /// The decision inputs at an instant.
@@ -146,26 +147,6 @@ pub struct Snapshot {
     pub robot_choice: Option<RobotChoice>,
 }
 
-/// The node's status JSON, the keys a replay reads (others are ignored).
-#[derive(Deserialize)]
-struct StatusJson {
-    #[serde(default)]
-    phase: Option<String>,
-    #[serde(default)]
-    goal: Option<GoalJson>,
-    #[serde(default)]
-    suggested_goal: Option<Pose2>,
-}
-
-#[derive(Deserialize)]
-struct GoalJson {
-    #[serde(default)]
-    id: Option<u64>,
-    goal: Pose2,
-    #[serde(default)]
-    frontier_m: Option<[f64; 2]>,
-}
-
 /// A parsed bag.
 #[derive(Clone, Debug)]
 pub struct Bag {
@@ -175,9 +156,9 @@ pub struct Bag {
     end_ns: u64,
 }
 
-/// Types accepted on a topic: the rosbag2 name (`pkg/msg/Type`) or the short one.
-fn type_matches(found: &str, expected: &str) -> bool {
-    found == expected || found == expected.replacen("/msg/", "/", 1)
+/// Whether a topic's recorded type is `M`: its rosbag2 name or the short one (`pkg/Type`).
+fn type_matches<M: RosMessage>(found: &str) -> bool {
+    found.split_once('/').is_some_and(|(pkg, rest)| pkg == M::PACKAGE && (rest == M::NAME || rest.strip_prefix("msg/") == Some(M::NAME)))
 }
 
 fn frame(f: &str) -> &str {
@@ -234,18 +215,28 @@ impl Bag {
     }
 
     /// The messages on `topic` recorded at or before `until_ns`, in log-time order, each with its
-    /// channel; a channel of another type than `expected` is an error.
-    fn on_topic<'a>(&'a self, topic: &str, expected: &'static str, until_ns: u64) -> Result<Vec<(&'a Channel, &'a Message)>, BagError> {
+    /// channel; a channel of another type than `M` is an error.
+    fn on_topic<'a, M: RosMessage>(&'a self, topic: &str, until_ns: u64) -> Result<Vec<(&'a Channel, &'a Message)>, BagError> {
         let mut out = Vec::new();
         for m in self.mcap.messages.iter().take_while(|m| m.log_time_ns <= until_ns) {
             let Some(c) = self.mcap.channel(m.channel_id).filter(|c| !topic.is_empty() && c.topic == topic) else { continue };
             let found = self.mcap.type_of(c);
-            if !type_matches(found, expected) {
-                return Err(BagError::WrongType { name: self.name.clone(), topic: topic.into(), found: found.into(), expected });
+            if !type_matches::<M>(found) {
+                return Err(BagError::WrongType {
+                    name: self.name.clone(),
+                    topic: topic.into(),
+                    found: found.into(),
+                    expected: M::ros_type(),
+                });
             }
             out.push((c, m));
         }
         Ok(out)
+    }
+
+    /// A message decoded as `M` (its topic's type, checked by [`Self::on_topic`]).
+    fn decode<M: RosMessage>(&self, c: &Channel, m: &Message) -> Result<M, BagError> {
+        cdr::from_bytes(&m.data).map_err(|e| self.decode_err(c, m, e))
     }
 
     fn decode_err(&self, c: &Channel, m: &Message, detail: impl ToString) -> BagError {
@@ -268,11 +259,11 @@ impl Bag {
     }
 
     /// The node's status messages up to `until_ns`: (seconds from start, parsed).
-    fn statuses(&self, topics: &BagTopics, until_ns: u64) -> Result<Vec<(f64, StatusJson)>, BagError> {
+    fn statuses(&self, topics: &BagTopics, until_ns: u64) -> Result<Vec<(f64, NodeStatus)>, BagError> {
         let mut out = Vec::new();
-        for (c, m) in self.on_topic(&topics.status_topic, "std_msgs/msg/String", until_ns)? {
-            let text = msgs::decode_string(&m.data).map_err(|e| self.decode_err(c, m, e))?;
-            let s: StatusJson =
+        for (c, m) in self.on_topic::<StringMsg>(&topics.status_topic, until_ns)? {
+            let text = self.decode::<StringMsg>(c, m)?.data;
+            let s: NodeStatus =
                 serde_json::from_str(&text).map_err(|e| self.decode_err(c, m, format!("status is not the node's JSON: {e}")))?;
             out.push((self.time_s(m.log_time_ns), s));
         }
@@ -283,7 +274,7 @@ impl Bag {
     pub fn decision_instants(&self, topics: &BagTopics) -> Result<Vec<DecisionInstant>, BagError> {
         let statuses = self.statuses(topics, u64::MAX)?;
         if statuses.is_empty() {
-            let maps = self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", u64::MAX)?;
+            let maps = self.on_topic::<MapMsg>(&topics.map_topic, u64::MAX)?;
             return Ok(maps
                 .iter()
                 .map(|(_, m)| DecisionInstant { t_s: self.time_s(m.log_time_ns), source: InstantSource::MapUpdate, goal: None })
@@ -292,22 +283,16 @@ impl Bag {
         let mut out = Vec::new();
         let mut last: Option<(Option<u64>, [f64; 2])> = None;
         for (t_s, s) in statuses {
-            let current = match (&s.goal, s.suggested_goal) {
-                (Some(g), _) => {
-                    let chosen = g.frontier_m.map_or(g.goal, |[x, y]| Pose2::new(x, y, g.goal.yaw_rad));
-                    Some((g.id, [g.goal.x_m, g.goal.y_m], chosen))
-                }
-                (None, Some(p)) => Some((None, [p.x_m, p.y_m], p)),
-                (None, None) => None,
-            };
-            if let Some((id, xy, chosen)) = current {
-                let key = (id, xy);
-                // A goal id identifies a goal; without one, the position does.
+            // A goal id identifies a goal; without one (0, or a suggested goal), the position does.
+            let id = s.goal.map(|g| g.id).filter(|&id| id != 0);
+            if let Some((goal, frontier_m)) = s.choice() {
+                let xy = [goal.x_m, goal.y_m];
                 let same = last.is_some_and(|(lid, lxy)| if id.is_some() { lid == id } else { lxy == xy });
                 if !same {
+                    let chosen = frontier_m.map_or(goal, |[x, y]| Pose2::new(x, y, goal.yaw_rad));
                     out.push(DecisionInstant { t_s, source: InstantSource::NewGoal, goal: Some(chosen) });
                 }
-                last = Some(key);
+                last = Some((id, xy));
             } else {
                 last = None;
             }
@@ -320,22 +305,20 @@ impl Bag {
     fn tf_edges(&self, topics: &BagTopics, until_ns: u64) -> Result<TfEdges, BagError> {
         let mut msgs_in_order: Vec<(&Channel, &Message, bool)> = Vec::new();
         for (topic, is_static) in [(&topics.tf_static_topic, true), (&topics.tf_topic, false)] {
-            for (c, m) in self.on_topic(topic, "tf2_msgs/msg/TFMessage", until_ns)? {
+            for (c, m) in self.on_topic::<TFMessage>(topic, until_ns)? {
                 msgs_in_order.push((c, m, is_static));
             }
         }
         msgs_in_order.sort_by_key(|(_, m, _)| m.log_time_ns);
         let mut edges = HashMap::new();
         for (c, m, is_static) in msgs_in_order {
-            for t in msgs::decode_tf_message(&m.data).map_err(|e| self.decode_err(c, m, e))? {
+            for t in self.decode::<TFMessage>(c, m)?.transforms {
                 let (parent, child) = (frame(&t.header.frame_id), frame(&t.child_frame_id));
                 if parent.is_empty() || child.is_empty() || parent == child {
                     return Err(self.decode_err(c, m, format!("transform {parent:?} → {child:?}: empty or equal frame names")));
                 }
-                let iso = t
-                    .transform
-                    .isometry()
-                    .ok_or_else(|| self.decode_err(c, m, format!("transform {parent} → {child} is not finite or has a zero quaternion")))?;
+                let iso = ros::isometry_of_transform(&t.transform)
+                    .map_err(|e| self.decode_err(c, m, format!("transform {parent} → {child} rejected: {e}")))?;
                 edges.insert(child.to_string(), (parent.to_string(), iso, (!is_static).then_some(m.log_time_ns)));
             }
         }
@@ -368,17 +351,15 @@ impl Bag {
     pub fn snapshot(&self, topics: &BagTopics, t_s: f64) -> Result<Snapshot, BagError> {
         let until = self.until_ns(t_s)?;
         let missing = |detail: String| BagError::Missing { name: self.name.clone(), detail };
-        let maps = self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", until)?;
+        let maps = self.on_topic::<MapMsg>(&topics.map_topic, until)?;
         let Some(&(c, m)) = maps.last() else {
-            let first =
-                self.on_topic(&topics.map_topic, "nav_msgs/msg/OccupancyGrid", u64::MAX)?.first().map(|(_, m)| self.time_s(m.log_time_ns));
+            let first = self.on_topic::<MapMsg>(&topics.map_topic, u64::MAX)?.first().map(|(_, m)| self.time_s(m.log_time_ns));
             return Err(missing(match first {
                 Some(f) => format!("no map on {} at t = {t_s} s: the first is at {f:.6} s", topics.map_topic),
                 None => format!("no map on {} (topics: {})", topics.map_topic, self.topic_names()),
             }));
         };
-        let map_msg = msgs::decode_occupancy_grid(&m.data).map_err(|e| self.decode_err(c, m, e))?;
-        let map = map_msg.to_grid().map_err(|e| self.decode_err(c, m, e))?;
+        let map = ros::occupancy_of_msg(&self.decode::<MapMsg>(c, m)?).map_err(|e| self.decode_err(c, m, e))?;
         let map_t_s = self.time_s(m.log_time_ns);
 
         let edges = self.tf_edges(topics, until)?;
@@ -390,21 +371,21 @@ impl Bag {
             _ => Self::lookup(&edges, map_frame, frame(&topics.base_frame)),
         };
         let (robot, pose_source, pose_t_s) = match tf_pose {
-            Some((iso, newest)) => (planar(&iso), PoseSource::Tf, newest.map_or(0.0, |t| self.time_s(t))),
+            Some((iso, newest)) => (ros::pose2_of_isometry(&iso), PoseSource::Tf, newest.map_or(0.0, |t| self.time_s(t))),
             None if topics.pose_source == Some(PoseSource::Tf) => {
                 return Err(missing(format!("no tf path {} ← {} at t = {t_s} s", topics.map_frame, topics.base_frame)));
             }
             None => {
-                let poses = self.on_topic(&topics.pose_topic, "geometry_msgs/msg/PoseWithCovarianceStamped", until)?;
+                let poses = self.on_topic::<PoseWithCovarianceStamped>(&topics.pose_topic, until)?;
                 let Some(&(c, m)) = poses.last() else {
                     return Err(missing(format!(
                         "no pose at t = {t_s} s: no tf path {} ← {} and no message on {}",
                         topics.map_frame, topics.base_frame, topics.pose_topic
                     )));
                 };
-                let p = msgs::decode_pose_with_covariance(&m.data).map_err(|e| self.decode_err(c, m, e))?;
+                let p = self.decode::<PoseWithCovarianceStamped>(c, m)?;
                 let frame_from_base =
-                    p.pose.isometry().ok_or_else(|| self.decode_err(c, m, "pose is not finite or has a zero quaternion"))?;
+                    ros::isometry_of_pose(&p.pose.pose).map_err(|e| self.decode_err(c, m, format!("pose rejected: {e}")))?;
                 let pose_frame = if p.header.frame_id.is_empty() { map_frame } else { frame(&p.header.frame_id) };
                 let map_from_base = if pose_frame == map_frame {
                     frame_from_base
@@ -412,16 +393,16 @@ impl Bag {
                     to_map(pose_frame).ok_or_else(|| self.decode_err(c, m, format!("no tf path {map_frame} ← {pose_frame}")))?
                         * frame_from_base
                 };
-                (planar(&map_from_base), PoseSource::Topic, self.time_s(m.log_time_ns))
+                (ros::pose2_of_isometry(&map_from_base), PoseSource::Topic, self.time_s(m.log_time_ns))
             }
         };
 
-        let clouds = self.on_topic(&topics.landmarks_topic, "sensor_msgs/msg/PointCloud2", until)?;
+        let clouds = self.on_topic::<PointCloud2>(&topics.landmarks_topic, until)?;
         let (landmarks, landmarks_t_s) = match clouds.last() {
             None => (PointCloud::default(), None),
             Some(&(c, m)) => {
-                let cloud = msgs::decode_point_cloud2(&m.data).map_err(|e| self.decode_err(c, m, e))?;
-                let mut points = cloud.points().map_err(|e| self.decode_err(c, m, e))?;
+                let cloud = self.decode::<PointCloud2>(c, m)?;
+                let (mut points, _) = ros::points_of_cloud(&cloud).map_err(|e| self.decode_err(c, m, e))?;
                 let cloud_frame = frame(&cloud.header.frame_id);
                 if !cloud_frame.is_empty() && cloud_frame != map_frame {
                     let map_from_cloud =
@@ -435,12 +416,9 @@ impl Bag {
         };
 
         let robot_choice = self.statuses(topics, until)?.into_iter().last().and_then(|(st, s)| {
-            let (goal, frontier_m) = match (s.goal, s.suggested_goal) {
-                (Some(g), _) => (g.goal, g.frontier_m),
-                (None, Some(p)) => (p, None),
-                (None, None) => return None,
-            };
-            Some(RobotChoice { t_s: st, goal, frontier_m, phase: s.phase })
+            let (goal, frontier_m) = s.choice()?;
+            let phase = Some(s.phase).filter(|&p| p != Phase::Unknown);
+            Some(RobotChoice { t_s: st, goal, frontier_m, phase })
         });
         Ok(Snapshot { t_s, map, map_t_s, landmarks, landmarks_t_s, robot, pose_source, pose_t_s, robot_choice })
     }
@@ -449,15 +427,4 @@ impl Bag {
         let names: Vec<String> = self.topics().into_iter().map(|t| t.topic).collect();
         if names.is_empty() { "none".into() } else { names.join(", ") }
     }
-}
-
-/// The planar pose (x, y, yaw) of a 3D transform.
-fn planar(iso: &Isometry3<f64>) -> Pose2 {
-    let t = iso.translation.vector;
-    Pose2::new(t.x, t.y, iso.rotation.euler_angles().2)
-}
-
-/// A transform message's pose, for writers: `parent_from_child` of a planar pose.
-pub fn rigid_of_pose2(p: Pose2) -> RigidPose {
-    RigidPose::planar(p.x_m, p.y_m, p.yaw_rad)
 }

@@ -2,46 +2,51 @@
 //! bytes, and a snapshot through a tf chain.
 
 use super::mcap::{MAGIC, op};
-use super::msgs::{self, Header, OccupancyGridMsg, PointCloud2, RigidPose, TransformStamped};
-use super::schemas;
 use super::*;
+use crate::Pose2;
 use crate::grid::{GridGeometry, OccupancyGrid};
+use crate::ros::{cloud_of_points, msg_of_occupancy, transform_of_pose2};
+use fitslam_msgs::{Header, OccupancyGrid as MapMsg, PointCloud2, StringMsg, TFMessage, Time, TransformStamped, cdr};
 use nalgebra::Point3;
 
 const S: u64 = 1_000_000_000;
 
-fn tf(parent: &str, child: &str, p: RigidPose) -> TransformStamped {
-    TransformStamped { header: Header { stamp_s: 0.0, frame_id: parent.into() }, child_frame_id: child.into(), transform: p }
+fn tf(parent: &str, child: &str, p: Pose2) -> TransformStamped {
+    TransformStamped { header: Header::new(Time::default(), parent), child_frame_id: child.into(), transform: transform_of_pose2(p) }
+}
+
+fn tfs(transforms: Vec<TransformStamped>) -> Vec<u8> {
+    cdr::to_vec(&TFMessage { transforms }).unwrap()
 }
 
 /// A small mission: a 20 × 10 free map at 1 s and 3 s, tf map → odom → base_link, a landmark
 /// cloud in `odom`, and two status messages with goals 1 and 2.
 fn mission() -> Vec<u8> {
     let mut w = McapWriter::new("test");
-    let map = w.channel("/map", schemas::OCCUPANCY_GRID);
-    let tf_ch = w.channel("/tf", schemas::TF_MESSAGE);
-    let tf_static = w.channel("/tf_static", schemas::TF_MESSAGE);
-    let lm = w.channel("/cloud_map", schemas::POINT_CLOUD2);
-    let status = w.channel("/fitslam/status", schemas::STRING);
+    let map = w.channel::<MapMsg>("/map");
+    let tf_ch = w.channel::<TFMessage>("/tf");
+    let tf_static = w.channel::<TFMessage>("/tf_static");
+    let lm = w.channel::<PointCloud2>("/cloud_map");
+    let status = w.channel::<StringMsg>("/fitslam/status");
     let grid = OccupancyGrid::from_vec(GridGeometry::new(-1.0, -1.0, 0.1, 20, 10), vec![0; 200]).unwrap();
-    let h = |f: &str| Header { stamp_s: 1.0, frame_id: f.into() };
-    w.message(tf_static, 0, &msgs::encode_tf_message(&[tf("base_link", "laser", RigidPose::planar(0.1, 0.0, 0.0))]));
+    let h = |f: &str| Header::new(Time::from_secs_f64(1.0), f);
+    w.message(tf_static, 0, &tfs(vec![tf("base_link", "laser", Pose2::new(0.1, 0.0, 0.0))]));
     for k in 0..=4u64 {
-        let chain = [
-            tf("map", "odom", RigidPose::planar(0.5, 0.0, 0.0)),
-            tf("odom", "base_link", RigidPose::planar(0.1 * k as f64, 0.0, std::f64::consts::FRAC_PI_2)),
+        let chain = vec![
+            tf("map", "odom", Pose2::new(0.5, 0.0, 0.0)),
+            tf("odom", "base_link", Pose2::new(0.1 * k as f64, 0.0, std::f64::consts::FRAC_PI_2)),
         ];
-        w.message(tf_ch, k * S, &msgs::encode_tf_message(&chain));
+        w.message(tf_ch, k * S, &tfs(chain));
     }
     for t in [1, 3] {
-        w.message(map, t * S, &msgs::encode_occupancy_grid(&OccupancyGridMsg::from_grid(&grid, h("map"))));
+        w.message(map, t * S, &cdr::to_vec(&msg_of_occupancy(&grid, h("map"))).unwrap());
     }
-    w.message(lm, 2 * S, &msgs::encode_point_cloud2(&PointCloud2::from_points(&[Point3::new(0.0, 0.0, 1.0)], h("odom"))));
+    w.message(lm, 2 * S, &cdr::to_vec(&cloud_of_points(&[Point3::new(0.0, 0.0, 1.0)], h("odom"))).unwrap());
     for (t, id) in [(1, 1), (2, 1), (4, 2)] {
-        let json = format!(
+        let data = format!(
             r#"{{"t_s":{t},"phase":"navigating","goal":{{"id":{id},"goal":{{"x_m":0.2,"y_m":{id}.0,"yaw_rad":0.0}},"frontier_m":[0.3,{id}.0]}}}}"#
         );
-        w.message(status, t * S + 1, &msgs::encode_string(&json));
+        w.message(status, t * S + 1, &cdr::to_vec(&StringMsg { data }).unwrap());
     }
     w.finish()
 }

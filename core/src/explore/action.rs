@@ -139,6 +139,18 @@ pub enum EndReason {
     Stuck,
 }
 
+impl EndReason {
+    /// Its serialised name: `no_frontier`, `trapped`, `time_limit`, `stuck`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EndReason::NoFrontier => "no_frontier",
+            EndReason::Trapped => "trapped",
+            EndReason::TimeLimit => "time_limit",
+            EndReason::Stuck => "stuck",
+        }
+    }
+}
+
 /// The explorer's answer to one decision.
 ///
 /// # Examples

@@ -3,8 +3,9 @@
 //! ([`lidar`], [`camera`] and its visual front end [`vision`], [`odometry`]) in one world simulator (`world_sim`), localisation
 //! ([`localisation`]: ground truth, odometry, keyframe SLAM), metrics ([`metrics`]; coverage
 //! milestones and figures at matched coverage: [`coverage`]) and whole missions ([`mission`])
-//! driven by the core's exploration policy ([`crate::explore`]), plus the asset-building helpers
-//! (visible ground points, deterministic noise).
+//! driven by the core's exploration policy ([`crate::explore`]), recorded as the robot node's
+//! rosbag2 topics ([`recorder`]), plus the asset-building helpers (visible ground points,
+//! deterministic noise).
 
 pub mod camera;
 mod corridor;
@@ -19,6 +20,7 @@ mod noise;
 mod obstacles;
 pub mod odometry;
 pub mod params;
+pub mod recorder;
 pub mod robot;
 mod scan;
 pub mod vision;
@@ -39,6 +41,7 @@ pub use noise::hash_unit;
 pub use obstacles::Rock;
 pub use obstacles::scatter_rocks;
 pub use params::MissionParams;
+pub use recorder::MissionRecorder;
 pub use scan::{line_of_sight, visible_ground_points};
 pub use world::{MAX_WORLD_SEEDS, World, WorldSpec};
 pub use world::{StartError, WorldError};

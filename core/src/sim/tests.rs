@@ -325,6 +325,38 @@ fn a_tiny_mission_explores_to_completion_without_entering_untraversable_terrain(
     assert_eq!(m.rows().last().unwrap().ate_m, 0.0);
 }
 
+/// The recorder writes the node's topics; its statuses are [`NodeStatus`]es that the bag replay
+/// reads back (phases as the node's, goals numbered, the end with its reason).
+#[test]
+fn a_recorded_mission_reads_back_with_the_node_status() {
+    use crate::bag::{Bag, BagTopics};
+    use crate::ros::{NodeStatus, Phase};
+    use fitslam_msgs::{StringMsg, cdr};
+    let mut m = tiny_mission(Strategy::Fit, 1, true, 300.0);
+    let mut recorder = super::MissionRecorder::new();
+    loop {
+        let outcome = m.step();
+        recorder.record(&mut m);
+        if outcome != StepOutcome::Running {
+            break;
+        }
+    }
+    let bag = Bag::parse(&recorder.finish(), "tiny.mcap").unwrap();
+    let status_channel = bag.mcap().channels.iter().find(|c| c.topic == "/fitslam/status").unwrap().id;
+    let statuses: Vec<NodeStatus> = (bag.mcap().messages.iter().filter(|msg| msg.channel_id == status_channel))
+        .map(|msg| serde_json::from_str(&cdr::from_bytes::<StringMsg>(&msg.data).unwrap().data).unwrap())
+        .collect();
+    assert!(statuses.len() >= 2 && statuses.iter().all(|s| s.source.as_deref() == Some("fitslam explore")));
+    assert!(statuses.iter().all(|s| matches!(s.phase, Phase::Planning | Phase::Navigating | Phase::Done)));
+    let last = statuses.last().unwrap();
+    assert_eq!((last.phase, last.done_reason.as_deref()), (Phase::Done, Some("no_frontier")));
+    assert_eq!(last.stats.decisions, m.explorer().stats().decisions);
+    let ids: Vec<u64> = statuses.iter().filter_map(|s| s.goal.map(|g| g.id)).collect();
+    assert!(ids.first() == Some(&1) && ids.windows(2).all(|w| w[1] == w[0] || w[1] == w[0] + 1), "{ids:?}");
+    let instants = bag.decision_instants(&BagTopics::default()).unwrap();
+    assert_eq!(instants.len(), *ids.last().unwrap() as usize);
+}
+
 #[test]
 fn no_strategy_drives_into_ground_truth_untraversable_terrain_even_without_the_safety_stop() {
     for strategy in [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1] {

@@ -3,7 +3,7 @@
 //! latest map no longer holds free. Each ending is told to the explorer: reached (remembered),
 //! failed (blacklisted) or dropped (may be chosen again).
 
-use super::{ActiveGoal, Command, ExplorerNode, GoalEvent};
+use super::{Command, ExplorerNode, GoalEvent, NodeGoal};
 use fitslam_core::Pose2;
 use fitslam_core::explore::Plan;
 
@@ -28,7 +28,8 @@ impl ExplorerNode {
         let id = self.next_goal_id;
         self.next_goal_id += 1;
         let accepted_s = self.topic_goals().then_some(now_s);
-        self.goal = Some(ActiveGoal { id, goal, frontier_m, sent_s: now_s, accepted_s, heard_s: None, inflation_m, on_trail });
+        let frontier_m = Some(frontier_m);
+        self.goal = Some(NodeGoal { id, goal, frontier_m, sent_s: now_s, accepted_s, heard_s: None, inflation_m, on_trail });
         self.stats.goals_sent += 1;
         self.info(now_s, format!("goal {id}: ({:.2}, {:.2}) m, heading {:.0}°", goal.x_m, goal.y_m, goal.yaw_rad.to_degrees()));
         Command::SendGoal { id, goal }

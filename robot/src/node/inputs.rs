@@ -4,13 +4,13 @@
 
 use super::{CloudMapper, ExplorerNode, MapState, PoseSample};
 use crate::config::PoseSource;
-use crate::convert::{self, ConvertError};
-use crate::msgs;
 use crate::tf::normalise_frame;
 use fitslam_core::grid::GridGeometry;
+use fitslam_core::ros::{self, ConvertError};
 use fitslam_core::traversability::TraversabilityMap;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_core::{OccupancyGrid, PointCloud};
+use fitslam_msgs as msgs;
 use nalgebra::{Isometry3, Point3};
 
 impl ExplorerNode {
@@ -21,7 +21,7 @@ impl ExplorerNode {
 
     /// A `nav_msgs/OccupancyGrid` (used when `map_source: occupancy`).
     pub fn handle_map(&mut self, msg: &msgs::OccupancyGrid, now_s: f64) {
-        let grid = match convert::occupancy_of_msg(msg) {
+        let grid = match ros::occupancy_of_msg(msg) {
             Ok(g) => g,
             Err(e) => return self.reject("map", now_s, "map", &e),
         };
@@ -87,7 +87,7 @@ impl ExplorerNode {
 
     /// Points of a cloud in the map frame (transformed by tf if it is in another frame).
     fn cloud_in_map(&mut self, msg: &msgs::PointCloud2, key: &'static str, what: &str, now_s: f64) -> Option<Vec<Point3<f64>>> {
-        let (mut points, stats) = match convert::points_of_cloud(msg) {
+        let (mut points, stats) = match ros::points_of_cloud(msg) {
             Ok(p) => p,
             Err(e) => {
                 self.reject(key, now_s, what, &e);
@@ -171,7 +171,7 @@ impl ExplorerNode {
 
     /// `geometry_msgs/PoseWithCovarianceStamped` (used when `pose_source: topic`).
     pub fn handle_pose(&mut self, msg: &msgs::PoseWithCovarianceStamped, now_s: f64) {
-        let iso = match convert::isometry_of_pose(&msg.pose.pose) {
+        let iso = match ros::isometry_of_pose(&msg.pose.pose) {
             Ok(i) => i,
             Err(e) => return self.reject("pose", now_s, "pose", &e),
         };
@@ -196,7 +196,7 @@ impl ExplorerNode {
             self.stats.messages_late += 1;
             return self.warn("pose_late", now_s, format!("late pose dropped (stamp {stamp_s:.3} s < {:.3} s)", old.stamp_s));
         }
-        let pose = convert::pose2_of_isometry(&map_from_body);
+        let pose = ros::pose2_of_isometry(&map_from_body);
         // ROS order (x, y, z, rot X, rot Y, rot Z), fixed axes: roll and pitch at 21 and 28.
         let c = &msg.pose.covariance;
         let tilt = 0.5 * (c[21] + c[28]);
@@ -238,7 +238,7 @@ impl ExplorerNode {
             self.info(now_s, "boundary cleared".into());
             return;
         }
-        let mut b = match convert::boundary_of_polygon(msg) {
+        let mut b = match ros::boundary_of_polygon(msg) {
             Ok(b) => b,
             Err(e) => return self.reject("boundary", now_s, "boundary", &e),
         };

@@ -19,152 +19,25 @@
 
 mod goals;
 mod inputs;
+mod log;
+mod status;
+mod types;
+
+pub use fitslam_core::ros::{NodeGoal, NodeStats, NodeStatus, Phase};
+pub use log::{Level, LogLine, WARN_REPEAT_S};
+pub use types::{Command, GoalEvent};
 
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
-use crate::convert;
 use crate::tf::TfBuffer;
-use fitslam_core::explore::{Action, EndReason, Explorer, Situation, WaitReason};
-use fitslam_core::frontier::{Blacklist, Boundary};
+use fitslam_core::explore::{Action, Explorer, Situation, WaitReason};
+use fitslam_core::frontier::Boundary;
 use fitslam_core::grid::inflate_lethal;
-use fitslam_core::select::Decision;
+use fitslam_core::ros::pose2_of_isometry;
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::utility::LandmarkVoxels;
+use fitslam_core::params::{InvalidParam, Valid, Validate};
 use fitslam_core::{OccupancyGrid, Params, Pose2};
-use serde::Serialize;
 use std::collections::{BTreeMap, HashMap};
-
-/// Same warning text under the same key is repeated at most this often, seconds.
-pub const WARN_REPEAT_S: f64 = 10.0;
-
-/// What the adapter must do.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Command {
-    /// Send this goal (map frame) under this id.
-    SendGoal { id: u64, goal: Pose2 },
-    /// Cancel the goal with this id (no-op for topic goals).
-    CancelGoal { id: u64 },
-    /// No frontier left (or the time limit): the mission is over.
-    MissionComplete,
-}
-
-/// What the navigation stack reported about a goal.
-#[derive(Clone, Debug, PartialEq)]
-pub enum GoalEvent {
-    Accepted,
-    /// Feedback from the action server: the goal is still being driven to.
-    Feedback,
-    Rejected,
-    Succeeded,
-    /// Aborted by the navigation stack, with its message.
-    Aborted(String),
-    /// Cancelled by someone else.
-    Canceled,
-    /// Communication failure (no answer, undecodable result): dropped, not blacklisted.
-    Lost(String),
-}
-
-/// Log severity.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Level {
-    Info,
-    Warn,
-    Error,
-}
-
-/// One log line, drained by the adapter with [`ExplorerNode::drain_log`].
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct LogLine {
-    pub t_s: f64,
-    pub level: Level,
-    pub text: String,
-}
-
-/// The goal sent to the navigation stack.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct ActiveGoal {
-    pub id: u64,
-    /// The pose sent: on the frontier candidate's path, set back from unknown ground
-    /// (`explore.goal_setback`).
-    pub goal: Pose2,
-    /// The frontier candidate it serves (what is kept, replaced and blacklisted).
-    pub frontier_m: [f64; 2],
-    pub sent_s: f64,
-    /// When the server accepted it (topic goals: when sent).
-    pub accepted_s: Option<f64>,
-    /// When the action server last sent feedback on it (or accepted it); `None` for topic goals.
-    pub heard_s: Option<f64>,
-    /// The inflation radius it was planned with, metres: the robot radius or one of
-    /// `explore.tight_inflations_m`; it must stay free at that inflation.
-    pub inflation_m: f64,
-    /// Planned with the robot's trail open: a trail cell free in the map counts as free.
-    pub on_trail: bool,
-}
-
-/// Where the node stands (status topic).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Phase {
-    WaitingForMap,
-    WaitingForPose,
-    PoseStale,
-    Planning,
-    Navigating,
-    /// Paused by a `pause` command: no goal runs, none is sent.
-    Paused,
-    /// The mission is over and the robot drives back to its start (`return_to_start`).
-    Returning,
-    Done,
-}
-
-/// Counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct Stats {
-    /// Selector runs (every retry counts).
-    pub decisions: u64,
-    /// Decisions that found no plan even after footprint clearing.
-    pub decision_errors: u64,
-    pub goals_sent: u64,
-    pub succeeded: u64,
-    pub failed: u64,
-    pub rejected: u64,
-    pub timed_out: u64,
-    pub lost: u64,
-    pub replaced: u64,
-    pub maps: u64,
-    pub messages_rejected: u64,
-    pub messages_late: u64,
-    /// Cloud maps forgotten around a trapped robot (`explore.trap_recoveries`).
-    pub trap_recoveries: u64,
-    /// Decisions made again with the footprint cleared (`explore.clear_footprint`).
-    pub footprint_clearings: u64,
-    /// Goals planned with a tight inflation (`explore.tight_inflations_m`).
-    pub tight_goals: u64,
-    /// Wall time of the last decision, every retry included, milliseconds.
-    pub last_decision_ms: f64,
-}
-
-/// The status topic's JSON.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Status {
-    pub t_s: f64,
-    pub phase: Phase,
-    pub goal: Option<ActiveGoal>,
-    pub robot: Option<Pose2>,
-    pub candidates: usize,
-    pub ranked: usize,
-    pub blacklisted: usize,
-    pub landmark_voxels: usize,
-    pub map_cells: Option<[usize; 2]>,
-    pub stats: Stats,
-    pub done_reason: Option<String>,
-    pub last_warning: Option<String>,
-    /// Warnings logged so far, by kind (`goal`, `goal_lost`, `wait`, `qos`, …): none is lost
-    /// when several come between two statuses.
-    pub warnings: BTreeMap<&'static str, u64>,
-    /// With `publish_only`: the goal the last decision would have sent.
-    pub suggested_goal: Option<Pose2>,
-}
 
 struct MapState {
     grid: OccupancyGrid,
@@ -205,7 +78,7 @@ pub struct ExplorerNode {
     landmark_points: Vec<[f64; 3]>,
     topic_pose: Option<PoseSample>,
     boundary: Option<Boundary>,
-    goal: Option<ActiveGoal>,
+    goal: Option<NodeGoal>,
     next_goal_id: u64,
     last_decision_s: Option<f64>,
     replan_now: bool,
@@ -228,16 +101,20 @@ pub struct ExplorerNode {
     warned: HashMap<&'static str, (String, f64)>,
     /// Warnings logged, by kind.
     warning_counts: BTreeMap<&'static str, u64>,
-    stats: Stats,
+    stats: NodeStats,
 }
 
 impl ExplorerNode {
-    /// A node with this configuration (assumed validated: [`crate::config::ConfigFile::validate`]).
-    pub fn new(cfg: NodeConfig, params: Params) -> Self {
-        let mut explorer = Explorer::new(cfg.explore.clone(), params);
+    /// A node with this configuration, checked here once (the error names the first bad key,
+    /// `node.…` or `fitslam.…`): the exploration policy takes only checked parameters.
+    pub fn new(cfg: NodeConfig, params: Params) -> Result<Self, InvalidParam> {
+        cfg.validate()?;
+        let explore = Valid::new(cfg.explore.clone()).map_err(|e| e.under("node.explore."))?;
+        let params = Valid::new(params).map_err(|e| e.under("fitslam."))?;
+        let mut explorer = Explorer::new(explore, params);
         let t0 = std::time::Instant::now();
         explorer.set_clock(Box::new(move || t0.elapsed().as_secs_f64() * 1e3));
-        Self {
+        Ok(Self {
             landmarks: LandmarkVoxels::empty(explorer.planner().u2.voxel_m),
             explorer,
             cfg,
@@ -265,39 +142,8 @@ impl ExplorerNode {
             log: Vec::new(),
             warned: HashMap::new(),
             warning_counts: BTreeMap::new(),
-            stats: Stats::default(),
-        }
-    }
-
-    // ---------------------------------------------------------------- logging
-
-    fn info(&mut self, now_s: f64, text: String) {
-        self.log.push(LogLine { t_s: now_s, level: Level::Info, text });
-    }
-
-    /// A warning, repeated under `key` only when its text changes or every [`WARN_REPEAT_S`].
-    fn warn(&mut self, key: &'static str, now_s: f64, text: String) {
-        if let Some((last, t)) = self.warned.get(key)
-            && *last == text
-            && now_s - t < WARN_REPEAT_S
-        {
-            return;
-        }
-        self.warned.insert(key, (text.clone(), now_s));
-        *self.warning_counts.entry(key).or_default() += 1;
-        self.last_warning = Some(text.clone());
-        self.log.push(LogLine { t_s: now_s, level: Level::Warn, text });
-    }
-
-    /// A fault of the transport seen by the ROS adapter (a publisher whose QoS the node cannot
-    /// match): a warning like the node's own.
-    pub fn transport_warning(&mut self, now_s: f64, text: String) {
-        self.warn("qos", now_s, text);
-    }
-
-    /// Takes the log lines produced since the last call.
-    pub fn drain_log(&mut self) -> Vec<LogLine> {
-        std::mem::take(&mut self.log)
+            stats: NodeStats::default(),
+        })
     }
 
     // ---------------------------------------------------------------- state
@@ -307,7 +153,7 @@ impl ExplorerNode {
         let (pose, received_s) = match self.cfg.pose_source {
             PoseSource::Tf => {
                 let l = self.tf.lookup(&self.cfg.map_frame, &self.cfg.base_frame).ok_or(Phase::WaitingForPose)?;
-                (convert::pose2_of_isometry(&l.transform), l.oldest_received_s.unwrap_or(now_s))
+                (pose2_of_isometry(&l.transform), l.oldest_received_s.unwrap_or(now_s))
             }
             PoseSource::Topic => {
                 let s = self.topic_pose.ok_or(Phase::WaitingForPose)?;
@@ -452,28 +298,7 @@ impl ExplorerNode {
             Ok(p) => p,
             Err(phase) => {
                 self.phase = phase;
-                let (map, base) = (&self.cfg.map_frame, &self.cfg.base_frame);
-                let text = match (phase, self.cfg.pose_source) {
-                    (Phase::PoseStale, PoseSource::Tf) if let Some((parent, child, t)) = self.tf.stalest_link(map, base) => format!(
-                        "pose stale: tf {parent} → {child} last received {:.1} s ago (limit {} s); not planning",
-                        now_s - t,
-                        self.cfg.pose_timeout_s
-                    ),
-                    (Phase::PoseStale, _) => format!(
-                        "pose stale: last update {:.1} s ago (limit {} s); not planning",
-                        self.pose_age_s(now_s).unwrap_or(f64::NAN),
-                        self.cfg.pose_timeout_s
-                    ),
-                    (_, PoseSource::Tf) => {
-                        let (root_base, root_map) = (self.tf.root(base), self.tf.root(map));
-                        if root_base == *base && root_map == *map {
-                            format!("waiting for tf {map} ← {base}: no transform of either yet")
-                        } else {
-                            format!("waiting for tf {map} ← {base}: {base}'s tree ends at {root_base}, {map}'s at {root_map}")
-                        }
-                    }
-                    (_, PoseSource::Topic) => format!("waiting for the pose on {}", self.cfg.pose_topic),
-                };
+                let text = self.no_pose_text(phase, now_s);
                 return self.warn("wait", now_s, text);
             }
         };
@@ -603,123 +428,6 @@ impl ExplorerNode {
             out.push(Command::CancelGoal { id: g.id });
         }
     }
-
-    fn walled_in(&self) -> String {
-        format!(
-            "no frontier goal, but every free cell the robot can reach lies within {} m: walled in by its map, not done",
-            self.cfg.explore.trapped_radius_m
-        )
-    }
-
-    fn done_text(&self, reason: EndReason) -> String {
-        let candidates = self.explorer.last_decision().map_or(0, |d| d.candidates.len());
-        match reason {
-            EndReason::NoFrontier => format!(
-                "no reachable, non-blacklisted frontier left ({candidates} candidates, {} blacklisted goals)",
-                self.explorer.blacklist().len()
-            ),
-            EndReason::Trapped => {
-                format!("trapped: walled in by its map after {} recoveries", self.explorer.stats().trap_recoveries)
-            }
-            EndReason::Stuck => format!("stuck: {} decisions in a row found no plan", self.cfg.explore.max_failed_decisions),
-            EndReason::TimeLimit => "time limit reached".into(),
-        }
-    }
-
-    // ---------------------------------------------------------------- outputs
-
-    /// The status now.
-    pub fn status(&self, now_s: f64) -> Status {
-        let d = self.explorer.last_decision();
-        Status {
-            t_s: now_s,
-            phase: self.phase,
-            goal: self.goal,
-            robot: self.robot_pose(now_s).ok(),
-            candidates: d.map_or(0, |d| d.candidates.len()),
-            ranked: d.map_or(0, |d| d.ranking().len()),
-            blacklisted: self.explorer.blacklist().len(),
-            landmark_voxels: self.landmarks.len(),
-            map_cells: self.map.as_ref().map(|m| [m.grid.geometry.width, m.grid.geometry.height]),
-            stats: self.stats(),
-            done_reason: self.done_reason.clone(),
-            last_warning: self.last_warning.clone(),
-            warnings: self.warning_counts.clone(),
-            suggested_goal: self.suggested_goal,
-        }
-    }
-
-    /// The last decision (whole ranking).
-    pub fn last_decision(&self) -> Option<&Decision> {
-        self.explorer.last_decision()
-    }
-
-    /// Number of decisions made so far (the adapter publishes markers when it changes).
-    pub fn decisions(&self) -> u64 {
-        self.explorer.stats().decisions
-    }
-
-    /// The counters, the explorer's among them.
-    pub fn stats(&self) -> Stats {
-        let e = self.explorer.stats();
-        Stats {
-            decisions: e.decisions,
-            decision_errors: e.planning_errors,
-            trap_recoveries: e.trap_recoveries,
-            footprint_clearings: e.footprint_clearings,
-            ..self.stats
-        }
-    }
-
-    pub fn phase(&self) -> Phase {
-        self.phase
-    }
-
-    pub fn is_done(&self) -> bool {
-        self.phase == Phase::Done
-    }
-
-    pub fn current_goal(&self) -> Option<ActiveGoal> {
-        self.goal
-    }
-
-    /// The goal to draw: the one sent, or with `publish_only` the one the last decision would
-    /// have sent.
-    pub fn shown_goal(&self) -> Option<Pose2> {
-        self.goal.map(|g| g.goal).or(self.suggested_goal)
-    }
-
-    pub fn blacklist(&self) -> &Blacklist {
-        self.explorer.blacklist()
-    }
-
-    /// The latest (not inflated) map.
-    pub fn map(&self) -> Option<&OccupancyGrid> {
-        self.map.as_ref().map(|m| &m.grid)
-    }
-
-    /// The landmark points (map frame) of the latest landmark map.
-    pub fn landmark_points(&self) -> &[[f64; 3]] {
-        &self.landmark_points
-    }
-
-    pub fn landmark_voxels(&self) -> &LandmarkVoxels {
-        &self.landmarks
-    }
-
-    /// The robot's pose if known and fresh.
-    pub fn robot(&self, now_s: f64) -> Option<Pose2> {
-        self.robot_pose(now_s).ok()
-    }
-
-    pub fn config(&self) -> &NodeConfig {
-        &self.cfg
-    }
-
-    pub fn params(&self) -> &Params {
-        self.explorer.planner()
-    }
-
     /// Whether a goal at (x, y) lies on a free cell of the latest grid inflated by
     /// `inflation_m` (not lethal, not inflated, not unknown, inside the map); with `on_trail`, a
     /// cell of the robot's trail that the map holds free counts as free too.

@@ -2,15 +2,15 @@
 
 use super::*;
 use crate::config::{GoalInterface, MapSource, NodeConfig, PoseSource};
-use crate::convert::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
-use crate::msgs;
-use crate::msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use fitslam_core::explore::ExploreParams;
 use fitslam_core::fixtures::{SyntheticWorldSpec, corridor_two_frontiers, synthetic_world};
 use fitslam_core::frontier::BlacklistReason;
 use fitslam_core::grid::{CellClass, GridGeometry};
 use fitslam_core::grid::{FREE, Grid, LETHAL, UNKNOWN, fill_disc};
 use fitslam_core::path::known_around;
+use fitslam_core::ros::{cloud_of_points, msg_of_occupancy, pose_of_pose2};
+use fitslam_msgs as msgs;
+use fitslam_msgs::{Header, Point32, Polygon, PolygonStamped, Quaternion, TFMessage, Time, Transform, TransformStamped, Vector3};
 use nalgebra::Point3;
 
 fn header(stamp_s: f64, frame: &str) -> Header {
@@ -57,7 +57,7 @@ fn free_on_inflated(grid: &OccupancyGrid, radius_m: f64, g: Pose2) -> bool {
 /// The corridor world fed at t = 0; returns the explorer and the world.
 fn corridor_explorer(cfg: NodeConfig) -> (ExplorerNode, fitslam_core::fixtures::SyntheticWorld) {
     let w = corridor_two_frontiers(true);
-    let mut e = ExplorerNode::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
     e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
     e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
     feed_pose(&mut e, w.robot, 0.0);
@@ -67,7 +67,7 @@ fn corridor_explorer(cfg: NodeConfig) -> (ExplorerNode, fitslam_core::fixtures::
 #[test]
 fn waits_for_the_map_then_the_pose_then_sends_a_free_goal_east() {
     let w = corridor_two_frontiers(true);
-    let mut e = ExplorerNode::new(NodeConfig::default(), Params::default());
+    let mut e = ExplorerNode::new(NodeConfig::default(), Params::default()).unwrap();
     assert!(e.tick(0.0).is_empty());
     assert_eq!(e.phase(), Phase::WaitingForMap);
     assert!(log_has(&mut e, "waiting for the map on /map"));
@@ -282,7 +282,7 @@ fn a_map_that_changes_size_and_makes_the_goal_lethal_cancels_it() {
 fn a_reached_goal_chosen_again_is_blacklisted_as_reselected_and_a_closed_world_ends_the_mission() {
     let (mut e, w) = corridor_explorer(NodeConfig::default());
     let (id1, _) = goals(&e.tick(0.0))[0];
-    let [fx, fy] = e.current_goal().unwrap().frontier_m;
+    let [fx, fy] = e.current_goal().unwrap().frontier_m.unwrap();
     e.on_goal_event(id1, GoalEvent::Accepted, 0.1);
     e.on_goal_event(id1, GoalEvent::Succeeded, 0.2);
     // Remembered, not yet blacklisted: the map may have moved the frontier on.
@@ -324,7 +324,7 @@ fn a_robot_walled_in_by_its_map_is_trapped_not_done() {
                 *v = LETHAL;
             }
         }
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         e.handle_map(&map_msg(&grid, 1.0), 0.0);
         feed_pose(&mut e, w.robot, 0.0);
         let mut cmds = e.tick(0.0);
@@ -354,7 +354,7 @@ fn a_robot_blocked_by_speckle_under_it_decides_on_its_cleared_footprint() {
         let w = corridor_two_frontiers(true);
         let mut grid = w.grid.clone();
         fill_disc(&mut grid, w.robot.x_m, w.robot.y_m, 0.2, LETHAL);
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         e.handle_map(&map_msg(&grid, 1.0), 0.0);
         e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
         feed_pose(&mut e, w.robot, 0.0);
@@ -396,7 +396,7 @@ fn hall_and_room(door_y_m: std::ops::Range<f64>, west_wall: bool, unknown: impl 
 /// An explorer given `grid` at t = 0 and the pose (2.0, 1.5) m (in [`hall_and_room`]'s hall),
 /// ticked once a second `ticks` times: it and every command.
 fn in_the_hall(cfg: NodeConfig, grid: &OccupancyGrid, ticks: u32) -> (ExplorerNode, Vec<Command>) {
-    let mut e = ExplorerNode::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
     e.handle_map(&map_msg(grid, 0.0), 0.0);
     let mut cmds = Vec::new();
     for k in 0..ticks {
@@ -461,7 +461,7 @@ fn a_goal_found_with_a_tight_inflation_is_kept_at_that_inflation() {
 fn a_robot_shut_in_a_room_by_its_map_goes_back_out_along_its_trail() {
     let grid = hall_and_room(1.3..1.7, false, |x| x < 0.5);
     let run = |cfg: NodeConfig, grid: &OccupancyGrid| {
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         let mut cmds = Vec::new();
         // Drive from the hall at (2, 1.5) into the room at (5.2, 1.5), 2 cm per 20 ms tick,
         // before the map comes (the node only waits for it).
@@ -521,7 +521,7 @@ fn a_trapped_node_forgets_its_cloud_map_around_the_robot() {
             explore: ExploreParams { trap_recoveries: recoveries, ..ExploreParams::default() },
             ..NodeConfig::default()
         };
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         feed_pose(&mut e, Pose2::new(0.0, 0.0, 0.0), 0.0);
         e.handle_cloud(&cloud_of_points(&first, header(0.0, "map")), 0.0);
         let mut cmds = e.tick(0.0);
@@ -572,7 +572,7 @@ fn topic_goals_succeed_when_the_robot_is_close() {
 fn pose_topic_is_used_and_transformed_into_the_map_frame() {
     let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
     let w = corridor_two_frontiers(true);
-    let mut e = ExplorerNode::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
     e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
     // Pose given in odom, which sits 1 m east of map.
     e.handle_tf(&tf_msg("map", "odom", Pose2::new(1.0, 0.0, 0.0), 0.0), true, 0.0);
@@ -596,7 +596,7 @@ fn the_camera_sits_above_the_robots_height_in_the_map() {
     let w = corridor_two_frontiers(true);
     let info = |landmarks_dz: f64, robot_z: f64| {
         let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
         let lifted: Vec<_> = w.landmarks.points.iter().map(|p| Point3::new(p.x, p.y, p.z + landmarks_dz)).collect();
         e.handle_landmarks(&cloud_of_points(&lifted, header(1.0, "map")), 0.0);
@@ -626,7 +626,7 @@ fn a_pose_covariance_sets_the_goal_back_from_unknown_ground() {
     let w = corridor_two_frontiers(true);
     let run = |var_m2: f64| {
         let cfg = NodeConfig { pose_source: PoseSource::Topic, ..NodeConfig::default() };
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
         e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
         let mut p = msgs::PoseWithCovarianceStamped { header: header(1.0, "map"), ..Default::default() };
@@ -638,21 +638,21 @@ fn a_pose_covariance_sets_the_goal_back_from_unknown_ground() {
     };
     // No covariance: the goal is the frontier candidate itself.
     let (e, _, goal) = run(0.0);
-    let g = e.current_goal().unwrap();
-    assert_eq!(g.frontier_m, [goal.x_m, goal.y_m]);
-    assert!(!known_around(&w.grid, g.frontier_m, 0.4), "the candidate is on the edge of unknown ground");
+    let frontier_m = e.current_goal().unwrap().frontier_m.unwrap();
+    assert_eq!(frontier_m, [goal.x_m, goal.y_m]);
+    assert!(!known_around(&w.grid, frontier_m, 0.4), "the candidate is on the edge of unknown ground");
     // σx² = σy² = 0.02 m²: sqrt(0.04) = 0.2 m, 2 σ = 0.4 m of known ground all round the goal.
     let (mut e, id, goal) = run(0.02);
-    let g = e.current_goal().unwrap();
+    let [fx, fy] = e.current_goal().unwrap().frontier_m.unwrap();
     assert!(known_around(&w.grid, [goal.x_m, goal.y_m], 0.4), "{goal:?}");
-    let back_m = (goal.x_m - g.frontier_m[0]).hypot(goal.y_m - g.frontier_m[1]);
+    let back_m = (goal.x_m - fx).hypot(goal.y_m - fy);
     assert!((0.3..1.0).contains(&back_m), "{back_m} m");
     assert!(free_on_inflated(&w.grid, 0.25, goal));
     // Kept and blacklisted as the frontier it serves.
     assert!(e.tick(1.0).is_empty());
     assert_eq!(e.current_goal().map(|g| g.id), Some(id));
     e.on_goal_event(id, GoalEvent::Aborted("stuck".into()), 1.1);
-    assert_eq!(e.blacklist().contains(g.frontier_m[0], g.frontier_m[1]), Some(BlacklistReason::Failed));
+    assert_eq!(e.blacklist().contains(fx, fy), Some(BlacklistReason::Failed));
 }
 
 #[test]
@@ -672,7 +672,7 @@ fn clouds_build_the_map() {
         cloud_map: crate::config::CloudMapConfig { origin_x_m: -4.0, origin_y_m: -4.0, size_x_m: 8.0, size_y_m: 8.0 },
         ..NodeConfig::default()
     };
-    let mut e = ExplorerNode::new(cfg, Params::default());
+    let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
     // A flat floor of radius 2.5 m around the robot, in the laser frame 0.2 m above base_link.
     let mut pts = Vec::new();
     for i in -125..=125 {
@@ -711,7 +711,7 @@ fn pose_covariance_discounts_registration_noise_in_cloud_maps() {
             cloud_map: crate::config::CloudMapConfig { origin_x_m: -1.0, origin_y_m: -1.0, size_x_m: 8.0, size_y_m: 2.0 },
             ..NodeConfig::default()
         };
-        let mut e = ExplorerNode::new(cfg, Params::default());
+        let mut e = ExplorerNode::new(cfg, Params::default()).unwrap();
         let mut p = msgs::PoseWithCovarianceStamped { header: header(0.0, "map"), ..Default::default() };
         p.pose.pose = pose_of_pose2(Pose2::new(0.0, 0.0, 0.0));
         p.pose.covariance[21] = tilt_var;
@@ -737,7 +737,7 @@ fn pose_covariance_discounts_registration_noise_in_cloud_maps() {
 fn every_goal_is_free_on_random_worlds() {
     for seed in 0..4 {
         let w = synthetic_world(&SyntheticWorldSpec::small(seed));
-        let mut e = ExplorerNode::new(NodeConfig::default(), Params::default());
+        let mut e = ExplorerNode::new(NodeConfig::default(), Params::default()).unwrap();
         e.handle_map(&map_msg(&w.grid, 1.0), 0.0);
         e.handle_landmarks(&cloud_of_points(&w.landmarks.points, header(1.0, "map")), 0.0);
         let mut t = 0.0;

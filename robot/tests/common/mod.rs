@@ -7,7 +7,7 @@ pub mod rclpy;
 pub mod sim;
 
 use fitslam_core::Pose2;
-use fitslam_robot::msgs::{
+use fitslam_msgs::{
     Header, NavigateToPoseFeedback, NavigateToPoseGoal, NavigateToPoseResult, OccupancyGrid as MapMsg, PointCloud2, Quaternion, StringMsg,
     TFMessage, Transform, TransformStamped, Vector3, nav2,
 };

@@ -1,19 +1,27 @@
-//! CDR layout of the message types: golden bytes for a small one (hand-derived from the CDR
-//! alignment rules), round trips for all, DDS type names.
+//! Layout of the message types through [`crate::cdr`]: golden bytes for small ones
+//! (hand-derived from the CDR alignment rules), round trips for all; with the feature `ros2`,
+//! the same bytes as RustDDS's CDR (what the robot node puts on the wire) and DDS type names.
 
 use super::*;
-use byteorder::LittleEndian;
-use ros2_client::dds::rustdds::cdr_encoding::{from_bytes, to_vec};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::fmt::Debug;
 
+/// The message's body (after the encapsulation header), checked to decode back to `v`, and with
+/// `ros2` to be RustDDS's bytes for `v` and to decode with RustDDS too.
 fn roundtrip<T: Serialize + DeserializeOwned + PartialEq + Debug>(v: &T) -> Vec<u8> {
-    let bytes = to_vec::<T, LittleEndian>(v).unwrap();
-    let (back, used) = from_bytes::<T, LittleEndian>(&bytes).unwrap();
-    assert_eq!(&back, v);
-    assert_eq!(used, bytes.len());
-    bytes
+    let bytes = cdr::to_vec(v).unwrap();
+    assert_eq!(&bytes[..4], &[0, 1, 0, 0]);
+    assert_eq!(&cdr::from_bytes::<T>(&bytes).unwrap(), v);
+    #[cfg(feature = "ros2")]
+    {
+        use byteorder::LittleEndian;
+        use ros2_client::dds::rustdds::cdr_encoding;
+        assert_eq!(cdr_encoding::to_vec::<T, LittleEndian>(v).unwrap(), bytes[4..], "RustDDS writes other bytes");
+        let (back, used) = cdr_encoding::from_bytes::<T, LittleEndian>(&bytes[4..]).unwrap();
+        assert_eq!((&back, used), (v, bytes.len() - 4));
+    }
+    bytes[4..].to_vec()
 }
 
 #[test]
@@ -83,6 +91,7 @@ fn every_message_roundtrips() {
     roundtrip(&NavigateToPoseFeedback { distance_remaining: 2.5, number_of_recoveries: 1, ..Default::default() });
 }
 
+#[cfg(feature = "ros2")]
 #[test]
 fn dds_type_names_follow_ros2() {
     assert_eq!(PoseStamped::type_name().dds_msg_type(), "geometry_msgs::msg::dds_::PoseStamped_");
@@ -98,11 +107,29 @@ fn time_conversions() {
     assert_eq!(Time::from_secs_f64(f64::NAN), Time::default());
     assert_eq!(Time::from_secs_f64(-3.0), Time::default());
     assert_eq!(Time { sec: 2, nanosec: 500_000_000 }.as_secs_f64(), 2.5);
+    // Rounded to the nanosecond as a whole: just below 3 s is 3 s, not 2 s + 999 999 999 ns.
+    assert_eq!(Time::from_secs_f64(2.9999999999999996), Time { sec: 3, nanosec: 0 });
+    assert_eq!(Time::from_secs_f64(1e12), Time { sec: i32::MAX, nanosec: 999_999_999 });
 }
 
 #[test]
 fn navigate_to_pose_results_of_older_distros_decode_with_defaults() {
+    // Jazzy: (error_code, error_msg); Iron: error_code only; Humble: std_msgs/Empty (one octet).
+    let jazzy = NavigateToPoseResult { error_code: 9003, error_msg: "timeout".into() };
+    assert_eq!(cdr::from_bytes::<NavigateToPoseResult>(&cdr::to_vec(&jazzy).unwrap()).unwrap(), jazzy);
+    let iron = cdr::to_vec(&9001u16).unwrap();
+    assert_eq!(cdr::from_bytes::<NavigateToPoseResult>(&iron).unwrap(), NavigateToPoseResult { error_code: 9001, ..Default::default() });
+    let humble = [0, 1, 0, 0, 0];
+    assert_eq!(cdr::from_bytes::<NavigateToPoseResult>(&humble).unwrap(), NavigateToPoseResult::default());
+}
+
+/// The same through ros2-client's action result (status first), as the node receives it.
+#[cfg(feature = "ros2")]
+#[test]
+fn navigate_to_pose_results_of_older_distros_decode_with_defaults_in_ros2_client() {
+    use byteorder::LittleEndian;
     use ros2_client::action::{GetResultResponse, GoalStatusEnum};
+    use ros2_client::dds::rustdds::cdr_encoding::{from_bytes, to_vec};
     // Jazzy: status (int8), then (error_code, error_msg).
     let jazzy = GetResultResponse {
         status: GoalStatusEnum::Aborted,

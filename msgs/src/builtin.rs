@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+const NS_PER_S: u64 = 1_000_000_000;
+
 /// `builtin_interfaces/Time`: seconds and nanoseconds since the epoch (or since the start of a
 /// simulation).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -12,14 +14,17 @@ pub struct Time {
 super::ros_message!(Time, "builtin_interfaces", "Time");
 
 impl Time {
-    /// From seconds (saturating at the i32 range; negative and NaN give zero).
+    /// From seconds, rounded to the nanosecond (saturating at the i32 range; negative and NaN
+    /// give zero).
     pub fn from_secs_f64(t_s: f64) -> Self {
         if t_s.is_nan() || t_s <= 0.0 {
             return Self::default();
         }
-        let sec = t_s.floor().min(i32::MAX as f64);
-        let nanosec = (((t_s - sec) * 1e9).round() as u32).min(999_999_999);
-        Self { sec: sec as i32, nanosec }
+        let ns = (t_s * 1e9).round() as u64; // saturates on overflow
+        match i32::try_from(ns / NS_PER_S) {
+            Ok(sec) => Self { sec, nanosec: (ns % NS_PER_S) as u32 },
+            Err(_) => Self { sec: i32::MAX, nanosec: 999_999_999 },
+        }
     }
 
     /// Seconds as f64.

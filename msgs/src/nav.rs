@@ -23,6 +23,7 @@ super::ros_message!(MapMetaData, "nav_msgs", "MapMetaData");
 pub struct OccupancyGrid {
     pub header: Header,
     pub info: MapMetaData,
+    #[serde(with = "crate::octets")]
     pub data: Vec<i8>,
 }
 super::ros_message!(OccupancyGrid, "nav_msgs", "OccupancyGrid");

@@ -1,19 +1,21 @@
 //! Messages ⇄ core types, with validation: anything a message can get wrong (NaN fields, a data
 //! length that disagrees with width × height, a rotated map, a point field outside its record)
-//! is a typed [`ConvertError`], never a panic.
+//! is a typed [`ConvertError`], never a panic. The robot node, the bag replay and the
+//! simulator's recorder all convert here.
 //!
 //! PointCloud2 decoding reads x, y, z as FLOAT32 or FLOAT64 at any offsets, any `point_step`,
 //! `row_step` and byte order; points with a non-finite coordinate are skipped and counted.
 //! O(points) per cloud, O(cells) per map.
 
-use crate::msgs::{self, Header, PointCloud2, PointField};
-use fitslam_core::frontier::Boundary;
-use fitslam_core::grid::{GridGeometry, UNKNOWN};
-use fitslam_core::{OccupancyGrid, Pose2};
+use crate::frontier::Boundary;
+use crate::grid::{GridGeometry, UNKNOWN};
+use crate::{OccupancyGrid, Pose2};
+use fitslam_msgs::{self as msgs, Header, PointCloud2, PointField};
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
 use thiserror::Error;
 
-/// Largest map accepted, cells (same bound as the core's traversability map: 2²⁵ ≈ 33 M).
+/// Largest map accepted from a message, cells (2²⁵ ≈ 33 M; 4× the core's own grids,
+/// [`crate::grid::MAX_CELLS`]: a large SLAM map is thresholded, not mapped into).
 pub const MAX_MAP_CELLS: usize = 1 << 25;
 
 /// Largest yaw of a map's origin that is still taken as axis-aligned, radians.
@@ -22,28 +24,84 @@ pub const MAX_MAP_YAW_RAD: f64 = 1e-3;
 /// Why a message could not be converted.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum ConvertError {
+    /// A field that must be a finite number is not (its name: `map origin`, `quaternion`, …).
     #[error("{0} is not finite")]
     NonFinite(&'static str),
+    /// The map's cell size, metres, is not finite and positive.
     #[error("map resolution must be finite and > 0 (got {0})")]
     BadResolution(f32),
+    /// The map's data does not hold one value per cell.
     #[error("map has {data_len} cells of data but width × height = {width} × {height}")]
-    MapSizeMismatch { width: u32, height: u32, data_len: usize },
+    MapSizeMismatch {
+        /// Columns the message declares.
+        width: u32,
+        /// Rows the message declares.
+        height: u32,
+        /// Values it carries.
+        data_len: usize,
+    },
+    /// The map has more cells than [`MAX_MAP_CELLS`].
     #[error("map of {width} × {height} cells exceeds the limit of {limit}")]
-    MapTooLarge { width: u32, height: u32, limit: usize },
+    MapTooLarge {
+        /// Columns the message declares.
+        width: u32,
+        /// Rows the message declares.
+        height: u32,
+        /// The limit, cells.
+        limit: usize,
+    },
+    /// The map's origin is turned by more than [`MAX_MAP_YAW_RAD`] (or tilted): grids are
+    /// axis-aligned in their frame.
     #[error("map origin is rotated by {yaw_rad} rad about z (or tilted); only axis-aligned maps are supported")]
-    MapRotated { yaw_rad: f64 },
+    MapRotated {
+        /// The origin's yaw, radians.
+        yaw_rad: f64,
+    },
+    /// A quaternion of norm 0, which is no rotation.
     #[error("quaternion has zero norm")]
     ZeroQuaternion,
+    /// A point cloud without an `x`, `y` or `z` field (the one named).
     #[error("point cloud has no '{0}' field")]
     CloudMissingField(&'static str),
+    /// A coordinate field of another type than FLOAT32 or FLOAT64.
     #[error("point cloud field '{name}' has datatype {datatype}; x, y, z must be FLOAT32 (7) or FLOAT64 (8)")]
-    CloudFieldType { name: &'static str, datatype: u8 },
+    CloudFieldType {
+        /// `x`, `y` or `z`.
+        name: &'static str,
+        /// Its `PointField` datatype code.
+        datatype: u8,
+    },
+    /// A coordinate field that runs past the end of a point's record.
     #[error("point cloud field '{name}' at offset {offset} (+{size} bytes) does not fit in point_step {point_step}")]
-    CloudFieldOutsideRecord { name: &'static str, offset: u32, size: u32, point_step: u32 },
+    CloudFieldOutsideRecord {
+        /// `x`, `y` or `z`.
+        name: &'static str,
+        /// Its byte offset in the record.
+        offset: u32,
+        /// Its size, bytes.
+        size: u32,
+        /// The record's size, bytes.
+        point_step: u32,
+    },
+    /// A row shorter than its points: `row_step` < `width` × `point_step`.
     #[error("point cloud row_step {row_step} < width {width} × point_step {point_step}")]
-    CloudRowStep { row_step: u32, width: u32, point_step: u32 },
+    CloudRowStep {
+        /// Bytes per row.
+        row_step: u32,
+        /// Points per row.
+        width: u32,
+        /// Bytes per point.
+        point_step: u32,
+    },
+    /// Fewer data bytes than `height` rows of `width` points need.
     #[error("point cloud data has {got} bytes, needs {needed}")]
-    CloudDataTooShort { needed: usize, got: usize },
+    CloudDataTooShort {
+        /// Bytes the rows need.
+        needed: usize,
+        /// Bytes the message carries.
+        got: usize,
+    },
+    /// A boundary polygon with fewer than 3 finite vertices (how many it has).
     #[error("polygon has {0} finite vertices; a boundary needs at least 3")]
     PolygonTooFewVertices(usize),
 }
@@ -99,6 +157,11 @@ pub fn pose2_of_pose(p: &msgs::Pose) -> Result<Pose2, ConvertError> {
 /// Planar pose → `Pose` (z = 0, rotation about +z).
 pub fn pose_of_pose2(p: Pose2) -> msgs::Pose {
     msgs::Pose { position: msgs::Point { x: p.x_m, y: p.y_m, z: 0.0 }, orientation: msgs::Quaternion::from_yaw(p.yaw_rad) }
+}
+
+/// Planar pose → `Transform` (`parent_from_child`; z = 0, rotation about +z).
+pub fn transform_of_pose2(p: Pose2) -> msgs::Transform {
+    msgs::Transform { translation: msgs::Vector3 { x: p.x_m, y: p.y_m, z: 0.0 }, rotation: msgs::Quaternion::from_yaw(p.yaw_rad) }
 }
 
 /// The f64 a float32 resolution stands for: its shortest decimal form (0.05f32 is
@@ -278,7 +341,7 @@ pub fn boundary_of_polygon(msg: &msgs::PolygonStamped) -> Result<Boundary, Conve
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::msgs::{MapMetaData, Time};
+    use fitslam_msgs::{MapMetaData, Time};
     use proptest::prelude::*;
 
     fn map_msg(width: u32, height: u32, data: Vec<i8>) -> msgs::OccupancyGrid {

@@ -17,6 +17,7 @@ pub struct NavigateToPoseGoal {
     /// Behaviour tree file or ID; empty = Nav2's default.
     pub behavior_tree: String,
 }
+#[cfg(feature = "ros2")]
 impl ros2_client::Message for NavigateToPoseGoal {}
 
 /// Result: `error_code` 0 is success (NONE); 9000+ are Nav2's codes.
@@ -25,6 +26,7 @@ pub struct NavigateToPoseResult {
     pub error_code: u16,
     pub error_msg: String,
 }
+#[cfg(feature = "ros2")]
 impl ros2_client::Message for NavigateToPoseResult {}
 
 impl<'de> Deserialize<'de> for NavigateToPoseResult {
@@ -56,4 +58,5 @@ pub struct NavigateToPoseFeedback {
     pub number_of_recoveries: i16,
     pub distance_remaining: f32,
 }
+#[cfg(feature = "ros2")]
 impl ros2_client::Message for NavigateToPoseFeedback {}

@@ -39,6 +39,7 @@ pub struct PointCloud2 {
     pub point_step: u32,
     /// Bytes per row.
     pub row_step: u32,
+    #[serde(with = "crate::octets")]
     pub data: Vec<u8>,
     pub is_dense: bool,
 }

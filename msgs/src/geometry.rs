@@ -51,7 +51,7 @@ impl Quaternion {
     /// Rotation by `yaw_rad` about +z.
     pub fn from_yaw(yaw_rad: f64) -> Self {
         let h = 0.5 * yaw_rad;
-        Self { x: 0.0, y: 0.0, z: h.sin(), w: h.cos() }
+        Self { x: 0.0, y: 0.0, z: libm::sin(h), w: libm::cos(h) }
     }
 }
 

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 pub struct CompressedImage {
     pub header: Header,
     pub format: String,
+    #[serde(with = "crate::octets")]
     pub data: Vec<u8>,
 }
 super::ros_message!(CompressedImage, "sensor_msgs", "CompressedImage");
@@ -25,6 +26,7 @@ super::ros_message!(UVCoordinate, "visualization_msgs", "UVCoordinate");
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MeshFile {
     pub filename: String,
+    #[serde(with = "crate::octets")]
     pub data: Vec<u8>,
 }
 super::ros_message!(MeshFile, "visualization_msgs", "MeshFile");
