@@ -32,7 +32,7 @@
 
 // Tests compare against the platform's maths library on purpose (see math.rs).
 #![cfg_attr(test, allow(clippy::disallowed_methods))]
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod bag;
 pub mod cloud;

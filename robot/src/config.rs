@@ -270,7 +270,6 @@ impl ConfigFile {
     pub fn to_yaml(&self) -> String {
         serde_yaml::to_string(self).unwrap_or_default()
     }
-
 }
 
 impl Validate for ConfigFile {

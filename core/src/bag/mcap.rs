@@ -30,31 +30,43 @@ pub(crate) mod op {
 /// A message schema (rosbag2: the type name, `ros2msg`, and the definition text).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Schema {
+    /// Its id in the file (a channel's schema id 0 means no schema, so a schema's is ≥ 1).
     pub id: u16,
+    /// The message type (`nav_msgs/msg/OccupancyGrid`).
     pub name: String,
+    /// How `data` is written: `ros2msg` for rosbag2.
     pub encoding: String,
+    /// The definition text (`.msg` text with its dependencies, rosbag2's concatenation).
     pub data: Vec<u8>,
 }
 
 /// A channel: one topic with one schema.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Channel {
+    /// Its id in the file.
     pub id: u16,
+    /// The schema of its messages.
     pub schema_id: u16,
+    /// The topic name (`/map`).
     pub topic: String,
     /// `cdr` for rosbag2.
     pub message_encoding: String,
+    /// Key-value pairs rosbag2 stores per channel (QoS profiles, offered type hash).
     pub metadata: Vec<(String, String)>,
 }
 
 /// One recorded message.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Message {
+    /// The channel it was recorded on.
     pub channel_id: u16,
+    /// The writer's sequence number (0 when it kept none).
     pub sequence: u32,
     /// When it was recorded, nanoseconds (rosbag2: receive time).
     pub log_time_ns: u64,
+    /// When it was published, nanoseconds (rosbag2: the same as `log_time_ns` or the send time).
     pub publish_time_ns: u64,
+    /// The serialised message (CDR for rosbag2).
     pub data: Vec<u8>,
 }
 
@@ -63,9 +75,13 @@ pub struct Message {
 pub struct Mcap {
     /// `ros2` for rosbag2.
     pub profile: String,
+    /// The writer's name and version.
     pub library: String,
+    /// Every schema, in file order.
     pub schemas: Vec<Schema>,
+    /// Every channel, in file order.
     pub channels: Vec<Channel>,
+    /// Every message, sorted by `log_time_ns` (records with equal times in file order).
     pub messages: Vec<Message>,
 }
 

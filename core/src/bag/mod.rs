@@ -33,31 +33,98 @@ use thiserror::Error;
 pub enum BagError {
     /// Not an MCAP file (the detail says what it is, when known).
     #[error("{name}: not an MCAP file: {detail}")]
-    NotMcap { name: String, detail: String },
+    NotMcap {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// What is wrong, in words.
+        detail: String,
+    },
     /// The file ends inside a record, or before its data section is closed.
     #[error("{name}: truncated at byte {offset}: {detail}")]
-    Truncated { name: String, offset: u64, detail: String },
+    Truncated {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// Byte offset in the file.
+        offset: u64,
+        /// What is wrong, in words.
+        detail: String,
+    },
     /// A record whose content is inconsistent.
     #[error("{name}: byte {offset}: {detail}")]
-    Malformed { name: String, offset: u64, detail: String },
+    Malformed {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// Byte offset in the file.
+        offset: u64,
+        /// What is wrong, in words.
+        detail: String,
+    },
     /// A chunk compressed with something this reader does not decode.
     #[error("{name}: byte {offset}: chunk compression {compression:?} is not supported (zstd, lz4 and none are)")]
-    Compression { name: String, offset: u64, compression: String },
+    Compression {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// Byte offset in the file.
+        offset: u64,
+        /// The chunk's compression name.
+        compression: String,
+    },
     /// A chunk whose compressed bytes do not decode to what its header says.
     #[error("{name}: byte {offset}: {compression} chunk: {detail}")]
-    Decompress { name: String, offset: u64, compression: String, detail: String },
+    Decompress {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// Byte offset in the file.
+        offset: u64,
+        /// The chunk's compression name.
+        compression: String,
+        /// What is wrong, in words.
+        detail: String,
+    },
     /// A message that does not decode as its topic's type.
     #[error("{name}: {topic} ({msg_type}) message at t = {t_s:.3} s: {detail}")]
-    Message { name: String, topic: String, msg_type: String, t_s: f64, detail: String },
+    Message {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// The topic.
+        topic: String,
+        /// Its message type.
+        msg_type: String,
+        /// Seconds from the bag's first message.
+        t_s: f64,
+        /// What is wrong, in words.
+        detail: String,
+    },
     /// A topic recorded with a type other than the one a replay reads there.
     #[error("{name}: topic {topic} has type {found}, expected {expected}")]
-    WrongType { name: String, topic: String, found: String, expected: String },
+    WrongType {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// The topic.
+        topic: String,
+        /// The type recorded on the topic.
+        found: String,
+        /// The type the replay reads there.
+        expected: String,
+    },
     /// An input the replay needs is not in the bag (before the instant asked for).
     #[error("{name}: {detail}")]
-    Missing { name: String, detail: String },
+    Missing {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// What is wrong, in words.
+        detail: String,
+    },
     /// An instant outside the bag.
     #[error("{name}: t = {t_s} s is outside the recording (0 to {duration_s:.3} s from its first message)")]
-    OutOfRange { name: String, t_s: f64, duration_s: f64 },
+    OutOfRange {
+        /// The bag's name, as given to [`Bag::parse`] (usually its file name).
+        name: String,
+        /// Seconds from the bag's first message.
+        t_s: f64,
+        /// The bag's length, seconds.
+        duration_s: f64,
+    },
 }
 
 impl BagError {

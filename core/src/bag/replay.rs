@@ -90,11 +90,15 @@ pub enum PoseSource {
 /// One topic of a bag.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TopicInfo {
+    /// The topic name.
     pub topic: String,
+    /// Its message type as recorded (`nav_msgs/msg/OccupancyGrid`).
     pub msg_type: String,
+    /// Messages recorded on it.
     pub count: usize,
     /// First and last message, seconds from the bag's start.
     pub first_s: f64,
+    /// Last message, seconds from the bag's start.
     pub last_s: f64,
 }
 
@@ -113,6 +117,7 @@ pub enum InstantSource {
 pub struct DecisionInstant {
     /// Seconds from the bag's start.
     pub t_s: f64,
+    /// What marked it.
     pub source: InstantSource,
     /// The frontier (else the goal) the robot chose then, map frame.
     pub goal: Option<Pose2>,
@@ -134,20 +139,53 @@ pub struct RobotChoice {
 /// The decision inputs at an instant.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
+    /// The instant, seconds from the bag's start.
     pub t_s: f64,
+    /// The latest map recorded at or before the instant (map frame).
     pub map: OccupancyGrid,
+    /// When that map was recorded, seconds from the bag's start.
     pub map_t_s: f64,
     /// Landmarks in the map frame (empty when none was recorded before T).
     pub landmarks: PointCloud,
+    /// When the landmarks were recorded, seconds from the bag's start (`None`: none were).
     pub landmarks_t_s: Option<f64>,
+    /// The robot's pose at the instant, map frame (through tf, or from the pose topic).
     pub robot: Pose2,
+    /// Where the pose came from.
     pub pose_source: PoseSource,
     /// When the newest message the pose rests on was recorded, seconds from the bag's start.
     pub pose_t_s: f64,
+    /// What the robot had chosen by then: its latest status with a goal (`None`: no status named one).
     pub robot_choice: Option<RobotChoice>,
 }
 
-/// A parsed bag.
+/// A parsed bag: its topics, its decision instants, and the decision inputs at any instant
+/// (what `fitslam select --bag` and the studio's recording view read).
+///
+/// ```
+/// use fitslam_core::bag::{Bag, BagTopics, McapWriter};
+/// use fitslam_core::fixtures::corridor_two_frontiers;
+/// use fitslam_core::ros::{msg_of_occupancy, transform_of_pose2};
+/// use fitslam_msgs::{Header, OccupancyGrid, TFMessage, Time, TransformStamped, cdr};
+///
+/// // A one-second recording: the map at 1 s, the robot's pose through tf at 1 s and 2 s.
+/// let world = corridor_two_frontiers(true);
+/// let mut w = McapWriter::new("doc example");
+/// let (map, tf) = (w.channel::<OccupancyGrid>("/map"), w.channel::<TFMessage>("/tf"));
+/// let header = |t_s: f64| Header::new(Time::from_secs_f64(t_s), "map");
+/// w.message(map, 1_000_000_000, &cdr::to_vec(&msg_of_occupancy(&world.grid, header(1.0)))?);
+/// for (t_s, x_m) in [(1.0, world.robot.x_m), (2.0, world.robot.x_m + 0.5)] {
+///     let pose = fitslam_core::Pose2 { x_m, ..world.robot };
+///     let link = TransformStamped { header: header(t_s), child_frame_id: "base_link".into(), transform: transform_of_pose2(pose) };
+///     w.message(tf, (t_s * 1e9) as u64, &cdr::to_vec(&TFMessage { transforms: vec![link] })?);
+/// }
+/// let bag = Bag::parse(&w.finish(), "doc.mcap")?;
+/// assert_eq!(bag.duration_s(), 1.0);
+/// let at_end = bag.snapshot(&BagTopics::default(), 1.0)?;
+/// assert_eq!(at_end.map, world.grid);
+/// assert!((at_end.robot.x_m - (world.robot.x_m + 0.5)).abs() < 1e-9); // the latest pose
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct Bag {
     name: String,
@@ -176,10 +214,12 @@ impl Bag {
         Ok(Self { name: name.into(), mcap, start_ns, end_ns })
     }
 
+    /// The name it was parsed with.
     pub fn name(&self) -> &str {
         &self.name
     }
 
+    /// The container: schemas, channels, every message.
     pub fn mcap(&self) -> &Mcap {
         &self.mcap
     }

@@ -15,7 +15,7 @@ use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion};
 use thiserror::Error;
 
 /// Largest map accepted from a message, cells (2²⁵ ≈ 33 M; 4× the core's own grids,
-/// [`crate::grid::MAX_CELLS`]: a large SLAM map is thresholded, not mapped into).
+/// 2²³: a large SLAM map is thresholded, not mapped into).
 pub const MAX_MAP_CELLS: usize = 1 << 25;
 
 /// Largest yaw of a map's origin that is still taken as axis-aligned, radians.

@@ -15,15 +15,21 @@ use std::collections::BTreeMap;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Phase {
+    /// No map received yet.
     WaitingForMap,
+    /// A map, but no pose of the robot in it yet.
     WaitingForPose,
+    /// The robot's pose is older than `node.pose_timeout_s`: no decision until a fresh one.
     PoseStale,
+    /// Deciding, or waiting for a decision that finds a goal.
     Planning,
+    /// A goal was sent and is being driven to.
     Navigating,
     /// Paused by a `pause` command: no goal runs, none is sent.
     Paused,
     /// The mission is over and the robot drives back to its start (`return_to_start`).
     Returning,
+    /// The mission ended (`done_reason` says why).
     Done,
     /// Read only: a phase this version does not know (a newer node's), or none recorded.
     #[default]
@@ -61,6 +67,7 @@ pub struct NodeGoal {
     /// in statuses of nodes that did not record it.
     #[serde(default)]
     pub frontier_m: Option<[f64; 2]>,
+    /// When it was sent, the node's clock, seconds.
     #[serde(default)]
     pub sent_s: f64,
     /// When the server accepted it (topic goals: when sent).
@@ -86,15 +93,25 @@ pub struct NodeStats {
     pub decisions: u64,
     /// Decisions that found no plan even after footprint clearing.
     pub decision_errors: u64,
+    /// Goals sent to the navigation stack.
     pub goals_sent: u64,
+    /// Goals the navigation stack reached.
     pub succeeded: u64,
+    /// Goals it aborted (blacklisted).
     pub failed: u64,
+    /// Goals its server rejected (blacklisted).
     pub rejected: u64,
+    /// Goals not reached in `node.goal_timeout_s` (blacklisted).
     pub timed_out: u64,
+    /// Goals given up without blame: no answer from the server, or their cell no longer free.
     pub lost: u64,
+    /// Goals replaced by a new decision before they ended.
     pub replaced: u64,
+    /// Maps received (occupancy grids, or clouds mapped by the node).
     pub maps: u64,
+    /// Messages dropped as invalid (the warnings say why).
     pub messages_rejected: u64,
+    /// Messages dropped as older than the ones already used.
     pub messages_late: u64,
     /// Cloud maps forgotten around a trapped robot (`explore.trap_recoveries`).
     pub trap_recoveries: u64,
@@ -126,19 +143,27 @@ impl NodeStats {
 pub struct NodeStatus {
     /// The node's clock, seconds.
     pub t_s: f64,
+    /// Where the node stands.
     pub phase: Phase,
+    /// The goal being driven to, if any.
     pub goal: Option<NodeGoal>,
     /// The robot's pose in the map frame, when known and fresh.
     pub robot: Option<Pose2>,
-    /// Frontier candidates of the last decision, and how many of them were ranked.
+    /// Frontier candidates of the last decision.
     pub candidates: usize,
+    /// Of the last decision's candidates, how many were ranked (reachable, not blacklisted).
     pub ranked: usize,
+    /// Entries of the blacklist.
     pub blacklisted: usize,
+    /// Landmark voxels u2 reads (from the latest landmark cloud).
     pub landmark_voxels: usize,
     /// Width and height of the latest map, cells.
     pub map_cells: Option<[usize; 2]>,
+    /// The node's counters.
     pub stats: NodeStats,
+    /// Why the mission ended, in words, once it has.
     pub done_reason: Option<String>,
+    /// The latest warning's text.
     pub last_warning: Option<String>,
     /// Warnings logged so far, by kind (`goal`, `goal_lost`, `wait`, `qos`, …): none is lost
     /// when several come between two statuses.

@@ -27,6 +27,7 @@ pub struct MissionRecorder {
 }
 
 impl MissionRecorder {
+    /// A recorder with the node's four topics declared and nothing written yet.
     pub fn new() -> Self {
         let mut w = McapWriter::new("fitslam explore");
         let ch = [

@@ -32,10 +32,10 @@ use crate::tf::TfBuffer;
 use fitslam_core::explore::{Action, Explorer, Situation, WaitReason};
 use fitslam_core::frontier::Boundary;
 use fitslam_core::grid::inflate_lethal;
+use fitslam_core::params::{InvalidParam, Valid, Validate};
 use fitslam_core::ros::pose2_of_isometry;
 use fitslam_core::traversability::{TraversabilityLayers, TraversabilityMap};
 use fitslam_core::utility::LandmarkVoxels;
-use fitslam_core::params::{InvalidParam, Valid, Validate};
 use fitslam_core::{OccupancyGrid, Params, Pose2};
 use std::collections::{BTreeMap, HashMap};
 
