@@ -190,7 +190,7 @@ fn a_broken_bag_gives_one_message_naming_it_and_keeps_the_scene() {
 /// A whole simulated mission recorded as the node's topics, opened in the studio: at every
 /// decision instant the recording view shows the exploration policy's own answer on the
 /// instant's inputs (a fresh explorer: no trail, no goal reached, no blacklist), as `fitslam
-/// select --bag` does (tests/replay.rs).
+/// select --bag` does (tests/bag.rs).
 #[test]
 fn at_every_instant_of_a_recorded_mission_the_view_shows_the_explorers_answer() {
     use fitslam_core::sim::recorder::MissionRecorder;

@@ -1,5 +1,6 @@
 use super::*;
 use crate::slam::optimizer::{LevenbergMarquardt, Optimizer, OptimizerParams};
+use nalgebra::{Quaternion, UnitQuaternion};
 
 const SMALL_2D: &str = "# two poses\nVERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1.5 0.1 0.2\n\
     EDGE_SE2 0 1 1.4 0.0 0.25 100 0 0 100 0 400\nFIX 0\n";
