@@ -13,16 +13,8 @@ use fitslam_core::slam::{Gauge, Se2Residual, g2o::read_g2o};
 
 /// Every target by name: the name is the AFL binary's and the corpus directory's
 /// (`fuzz/corpus/<name>/`).
-pub const TARGETS: [(&str, fn(&[u8])); 8] = [
-    ("ply", ply),
-    ("pcd", pcd),
-    ("csv", csv),
-    ("map_yaml", map_yaml),
-    ("pgm", pgm),
-    ("las", las),
-    ("g2o", g2o),
-    ("bag", bag),
-];
+pub const TARGETS: [(&str, fn(&[u8])); 8] =
+    [("ply", ply), ("pcd", pcd), ("csv", csv), ("map_yaml", map_yaml), ("pgm", pgm), ("las", las), ("g2o", g2o), ("bag", bag)];
 
 /// PLY, ascii and binary of either byte order.
 pub fn ply(data: &[u8]) {
