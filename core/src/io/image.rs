@@ -197,8 +197,9 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
 }
 
 /// Refuses a PNG whose PLTE chunk is not a whole number of RGB entries, as the PNG spec does: the
-/// png crate (0.18.1) accepts any length from 3 to 768 bytes and then panics expanding such a
-/// palette. Scans the chunk headers only.
+/// png crate (0.18.1, the latest release) accepts any length from 3 to 768 bytes and then panics
+/// expanding such a palette (image-rs/image-png#694, fixed upstream by #682 after that release).
+/// Scans the chunk headers only.
 fn check_png_palette(bytes: &[u8], name: &str) -> Result<(), MapError> {
     let mut at = 8usize; // after the signature
     while let Some(&[l0, l1, l2, l3, t0, t1, t2, t3]) = bytes.get(at..at.saturating_add(8)) {
@@ -404,7 +405,8 @@ mod tests {
     }
 
     /// fuzz: a palette PNG whose PLTE chunk is not a multiple of 3 bytes made the png crate panic
-    /// ("range end index 3 out of range for slice of length 2" in its palette expansion).
+    /// ("range end index 3 out of range for slice of length 2" in its palette expansion;
+    /// image-rs/image-png#694).
     #[test]
     fn palette_of_a_partial_rgb_entry_is_an_error_not_a_panic() {
         let mut valid = Vec::new();
