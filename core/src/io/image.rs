@@ -204,7 +204,7 @@ fn check_png_palette(bytes: &[u8], name: &str) -> Result<(), MapError> {
     let mut at = 8usize; // after the signature
     while let Some(&[l0, l1, l2, l3, t0, t1, t2, t3]) = bytes.get(at..at.saturating_add(8)) {
         let len = u32::from_be_bytes([l0, l1, l2, l3]) as usize;
-        if [t0, t1, t2, t3] == *b"PLTE" && len % 3 != 0 {
+        if [t0, t1, t2, t3] == *b"PLTE" && !len.is_multiple_of(3) {
             return Err(image_err(name, format!("invalid PNG: a PLTE chunk of {len} bytes is not a whole number of RGB entries")));
         }
         at = at.saturating_add(12).saturating_add(len); // length, type, data, CRC
