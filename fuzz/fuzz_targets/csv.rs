@@ -1,7 +1,4 @@
-#![no_main]
-//! Any bytes given to the CSV loader give a cloud or an error, never a panic.
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = fitslam_core::io::csv::load_csv(data, "fuzz.csv");
-});
+//! AFL target `csv`: see `fitslam_fuzz::csv`.
+fn main() {
+    afl::fuzz!(|data: &[u8]| fitslam_fuzz::csv(data));
+}

@@ -1,8 +1,4 @@
-#![no_main]
-//! Any bytes given to the LAS/LAZ loader give a cloud or an error, never a panic. Seed the corpus
-//! with assets/data/lidar/vegetation_1_3.las.
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = fitslam_core::io::load_cloud(data, "fuzz.las");
-});
+//! AFL target `las`: see `fitslam_fuzz::las`.
+fn main() {
+    afl::fuzz!(|data: &[u8]| fitslam_fuzz::las(data));
+}

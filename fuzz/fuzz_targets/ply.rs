@@ -1,7 +1,4 @@
-#![no_main]
-//! Any bytes given to the PLY loader give a cloud or an error, never a panic.
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let _ = fitslam_core::io::ply::load_ply(data, "fuzz.ply");
-});
+//! AFL target `ply`: see `fitslam_fuzz::ply`.
+fn main() {
+    afl::fuzz!(|data: &[u8]| fitslam_fuzz::ply(data));
+}

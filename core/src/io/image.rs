@@ -196,8 +196,25 @@ fn decode_pgm(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
     Ok(Raster { width, height, channels: 1, bytes_per_sample, max_value: f64::from(maxval), data })
 }
 
+/// Refuses a PNG whose PLTE chunk is not a whole number of RGB entries, as the PNG spec does: the
+/// png crate (0.18.1, the latest release) accepts any length from 3 to 768 bytes and then panics
+/// expanding such a palette (image-rs/image-png#694, fixed upstream by #682 after that release).
+/// Scans the chunk headers only.
+fn check_png_palette(bytes: &[u8], name: &str) -> Result<(), MapError> {
+    let mut at = 8usize; // after the signature
+    while let Some(&[l0, l1, l2, l3, t0, t1, t2, t3]) = bytes.get(at..at.saturating_add(8)) {
+        let len = u32::from_be_bytes([l0, l1, l2, l3]) as usize;
+        if [t0, t1, t2, t3] == *b"PLTE" && !len.is_multiple_of(3) {
+            return Err(image_err(name, format!("invalid PNG: a PLTE chunk of {len} bytes is not a whole number of RGB entries")));
+        }
+        at = at.saturating_add(12).saturating_add(len); // length, type, data, CRC
+    }
+    Ok(())
+}
+
 fn decode_png(bytes: &[u8], name: &str) -> Result<Raster, MapError> {
     let png_err = |e: png::DecodingError| image_err(name, format!("invalid PNG: {e}"));
+    check_png_palette(bytes, name)?;
     let cap = bytes.len().saturating_mul(MAX_DEFLATE_RATIO).saturating_add(1 << 16).min(MAX_DECODED_BYTES);
     let mut decoder = png::Decoder::new_with_limits(std::io::Cursor::new(bytes), png::Limits { bytes: cap });
     decoder.set_transformations(png::Transformations::EXPAND);
@@ -384,6 +401,40 @@ mod tests {
         let png = write_png_gray8(4, 4, &[7; 16]).unwrap();
         for cut in [8, 20, png.len() - 13] {
             assert!(decode_image(&png[..cut], "t.png").is_err(), "cut {cut}");
+        }
+    }
+
+    /// fuzz: a palette PNG whose PLTE chunk is not a multiple of 3 bytes made the png crate panic
+    /// ("range end index 3 out of range for slice of length 2" in its palette expansion;
+    /// image-rs/image-png#694).
+    #[test]
+    fn palette_of_a_partial_rgb_entry_is_an_error_not_a_panic() {
+        let mut valid = Vec::new();
+        {
+            let mut encoder = png::Encoder::new(&mut valid, 2, 1);
+            encoder.set_color(png::ColorType::Indexed);
+            encoder.set_depth(png::BitDepth::Eight);
+            encoder.set_palette(vec![0, 0, 0, 255, 255, 255]);
+            let mut writer = encoder.write_header().unwrap();
+            writer.write_image_data(&[0, 1]).unwrap();
+            writer.finish().unwrap();
+        }
+        let r = decode_image(&valid, "p.png").unwrap();
+        assert_eq!((r.pixel(0).0, r.pixel(1).0), (0.0, 1.0));
+        // The same file with a PLTE chunk of `n` bytes (a correct CRC, so only the length is wrong).
+        let with_palette = |n: usize| {
+            let at = valid.windows(4).position(|w| w == b"PLTE").unwrap() - 4;
+            let mut chunk = (n as u32).to_be_bytes().to_vec();
+            chunk.extend_from_slice(b"PLTE");
+            chunk.extend((0..n).map(|i| (i * 40) as u8));
+            let crc = crc32fast::hash(&chunk[4..]);
+            chunk.extend_from_slice(&crc.to_be_bytes());
+            [&valid[..at], &chunk[..], &valid[at + 12 + 6..]].concat()
+        };
+        assert!(decode_image(&with_palette(9), "p.png").is_ok());
+        for n in [4, 5, 7, 8, 767] {
+            let e = decode_image(&with_palette(n), "p.png").unwrap_err().to_string();
+            assert_eq!(e, format!("p.png: invalid PNG: a PLTE chunk of {n} bytes is not a whole number of RGB entries"));
         }
     }
 

@@ -30,6 +30,28 @@ use serde_yaml::Value;
 /// Largest |yaw| treated as zero: yaw written through a quaternion round trip is rarely exactly 0.
 const YAW_TOLERANCE_RAD: f64 = 1e-9;
 
+/// Most `[` / `{` open at once. libyaml's scanner takes time quadratic in the flow nesting depth
+/// (32 KB of `[` takes tens of seconds), and serde_yaml refuses a document nested deeper than 128
+/// levels anyway, after scanning all of it. Counted over the raw bytes, comments and strings
+/// included: a map file holds one `[x, y, yaw]`.
+const MAX_FLOW_DEPTH: usize = 128;
+
+/// Whether more than `limit` `[` / `{` are open at some point of `text`.
+fn flow_nesting_exceeds(text: &str, limit: usize) -> bool {
+    let mut depth = 0usize;
+    for b in text.bytes() {
+        match b {
+            b'[' | b'{' => depth += 1,
+            b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        if depth > limit {
+            return true;
+        }
+    }
+    false
+}
+
 /// How pixel values become cell values (map_server's `mode`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MapMode {
@@ -87,6 +109,9 @@ impl MapYaml {
     pub fn parse(bytes: &[u8], name: &str) -> Result<Self, MapError> {
         let yaml_err = |detail: String| MapError::Yaml { name: name.to_string(), detail };
         let text = std::str::from_utf8(super::without_bom(bytes)).map_err(|e| yaml_err(format!("not UTF-8 ({e})")))?;
+        if flow_nesting_exceeds(text, MAX_FLOW_DEPTH) {
+            return Err(yaml_err(format!("more than {MAX_FLOW_DEPTH} '[' or '{{' open at once")));
+        }
         let doc: Value = serde_yaml::from_str(text).map_err(|e| yaml_err(e.to_string()))?;
         let map = doc.as_mapping().ok_or_else(|| yaml_err("the document is not a mapping of keys".to_string()))?;
         let get = |key: &'static str| map.get(key).filter(|v| !v.is_null()).ok_or(MapError::MissingKey { name: name.to_string(), key });
@@ -437,6 +462,21 @@ mod tests {
             y.push_str(&format!("a{i}: &a{i} [*a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}, *a{p}]\n"));
         }
         assert!(matches!(MapYaml::parse(y.as_bytes(), "bomb.yaml"), Err(MapError::Yaml { .. })));
+    }
+
+    /// fuzz: a YAML of 8,000 nested `[` took 2.6 s in libyaml's scanner (quadratic in the depth;
+    /// AFL's inputs of 25 KB took 20 s) before serde_yaml refused it as too deep.
+    #[test]
+    fn deep_flow_nesting_is_refused_before_scanning() {
+        let deep = format!("image: m.pgm\norigin: {}", "[".repeat(8_000));
+        let e = MapYaml::parse(deep.as_bytes(), "deep.yaml").unwrap_err();
+        assert_eq!(e.to_string(), "deep.yaml: invalid YAML: more than 128 '[' or '{' open at once");
+        let e = MapYaml::parse("{".repeat(129).as_bytes(), "deep.yaml").unwrap_err();
+        assert!(e.to_string().ends_with("more than 128 '[' or '{' open at once"), "{e}");
+        // Many collections one after another are not deep; brackets closed in comments neither.
+        let items = vec!["[[1], {a: 2}]"; 500].join(", ");
+        let wide = format!("{YAML}extra: [{items}]\n# {}\n", "[]".repeat(200));
+        assert_eq!(MapYaml::parse(wide.as_bytes(), "wide.yaml").unwrap(), MapYaml::parse(YAML.as_bytes(), "m.yaml").unwrap());
     }
 
     #[test]
