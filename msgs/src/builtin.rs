@@ -4,11 +4,13 @@ use serde::{Deserialize, Serialize};
 
 const NS_PER_S: u64 = 1_000_000_000;
 
-/// `builtin_interfaces/Time`: seconds and nanoseconds since the epoch (or since the start of a
-/// simulation).
+/// `builtin_interfaces/msg/Time`: a point in time as seconds and nanoseconds since the Unix
+/// epoch (or since the start of a simulation, with `use_sim_time`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct Time {
+    /// Whole seconds, over the full `i32` range (−1.7 s is `sec` −2 plus 0.3 s in `nanosec`).
     pub sec: i32,
+    /// Nanoseconds added to `sec`, in `0..1_000_000_000`.
     pub nanosec: u32,
 }
 super::ros_message!(Time, "builtin_interfaces", "Time");
@@ -38,10 +40,12 @@ impl Time {
     }
 }
 
-/// `builtin_interfaces/Duration`.
+/// `builtin_interfaces/msg/Duration`: a signed span of time as seconds and nanoseconds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Duration {
+    /// Whole seconds, negative for a negative span (`nanosec` is still added).
     pub sec: i32,
+    /// Nanoseconds added to `sec`, in `0..1_000_000_000`.
     pub nanosec: u32,
 }
 super::ros_message!(Duration, "builtin_interfaces", "Duration");

@@ -42,6 +42,8 @@
 //! # Ok::<(), fitslam_msgs::cdr::CdrError>(())
 //! ```
 
+#![deny(missing_docs)]
+
 pub mod builtin;
 pub mod cdr;
 pub mod definitions;

@@ -6,13 +6,15 @@
 use super::{Duration, PoseStamped};
 use serde::{Deserialize, Serialize};
 
-/// Action package and name for `ros2_client::ActionTypeName`.
+/// Action package, for `ros2_client::ActionTypeName`.
 pub const ACTION_PACKAGE: &str = "nav2_msgs";
+/// Action name, for `ros2_client::ActionTypeName`.
 pub const ACTION_NAME: &str = "NavigateToPose";
 
-/// Goal.
+/// `nav2_msgs/action/NavigateToPose` goal: the pose to drive to and the behaviour tree to use.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NavigateToPoseGoal {
+    /// Pose to reach, in the frame named by its header (usually `map`).
     pub pose: PoseStamped,
     /// Behaviour tree file or ID; empty = Nav2's default.
     pub behavior_tree: String,
@@ -20,10 +22,15 @@ pub struct NavigateToPoseGoal {
 #[cfg(feature = "ros2")]
 impl ros2_client::Message for NavigateToPoseGoal {}
 
-/// Result: `error_code` 0 is success (NONE); 9000+ are Nav2's codes.
+/// `nav2_msgs/action/NavigateToPose` result: `error_code` 0 is success (NONE); 9000+ are Nav2's
+/// codes.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct NavigateToPoseResult {
+    /// 0 (`NONE`) on success, else one of the action's error codes (9000 `UNKNOWN`,
+    /// 9001 `FAILED_TO_LOAD_BEHAVIOR_TREE`, …); 0 too when the server's layout lacks the field.
     pub error_code: u16,
+    /// Why the goal failed, as text; empty when the server sends none or its layout lacks the
+    /// field.
     pub error_msg: String,
 }
 #[cfg(feature = "ros2")]
@@ -49,13 +56,18 @@ impl<'de> Deserialize<'de> for NavigateToPoseResult {
     }
 }
 
-/// Feedback.
+/// `nav2_msgs/action/NavigateToPose` feedback: the robot's progress towards the goal.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NavigateToPoseFeedback {
+    /// The robot's pose in Nav2's global frame.
     pub current_pose: PoseStamped,
+    /// Time spent on this goal so far.
     pub navigation_time: Duration,
+    /// Nav2's estimate of the time left to reach the goal.
     pub estimated_time_remaining: Duration,
+    /// Recovery behaviours run so far for this goal.
     pub number_of_recoveries: i16,
+    /// Length of the remaining path to the goal, metres.
     pub distance_remaining: f32,
 }
 #[cfg(feature = "ros2")]

@@ -12,6 +12,7 @@ use std::marker::PhantomData;
 
 /// A one-byte element: `u8` or `i8`.
 pub trait Octet: Copy + Serialize + for<'de> Deserialize<'de> {
+    /// The element with the bits of `b` (reinterpreted for `i8`: 255 is −1).
     fn from_u8(b: u8) -> Self;
     /// The elements as bytes (borrowed for `u8`).
     fn as_bytes(v: &[Self]) -> Cow<'_, [u8]>;
@@ -43,10 +44,14 @@ impl Octet for i8 {
     }
 }
 
+/// Writes a `uint8[]` / `int8[]` field: one byte buffer for binary formats (CDR), a sequence of
+/// numbers for human-readable ones (JSON).
 pub fn serialize<S: Serializer, T: Octet>(v: &[T], s: S) -> Result<S::Ok, S::Error> {
     if s.is_human_readable() { v.serialize(s) } else { s.serialize_bytes(&T::as_bytes(v)) }
 }
 
+/// Reads a `uint8[]` / `int8[]` field: a byte buffer from binary formats, a sequence of numbers
+/// from human-readable ones (or from binary formats that give the elements one by one).
 pub fn deserialize<'de, D: Deserializer<'de>, T: Octet>(d: D) -> Result<Vec<T>, D::Error> {
     if d.is_human_readable() { Vec::<T>::deserialize(d) } else { d.deserialize_byte_buf(Octets(PhantomData)) }
 }

@@ -30,22 +30,51 @@ use thiserror::Error;
 pub enum CdrError {
     /// Fewer than the 4 bytes of the encapsulation header.
     #[error("{len} bytes: too short for the 4-byte CDR encapsulation header")]
-    NoHeader { len: usize },
+    NoHeader {
+        /// Bytes given.
+        len: usize,
+    },
     /// An encapsulation other than plain CDR (XCDR2, parameter lists).
     #[error("CDR encapsulation {kind:#06x} is not supported (expected plain CDR, 0x0000 or 0x0001)")]
-    Encapsulation { kind: u16 },
+    Encapsulation {
+        /// The representation identifier, the header's first two bytes read big-endian.
+        kind: u16,
+    },
     /// The message ends inside a field.
     #[error("ends inside {field} (byte {at} of {len} after the header)")]
-    Truncated { field: String, at: usize, len: usize },
+    Truncated {
+        /// Dotted path of the field, e.g. `header.frame_id` (`message` at the top level).
+        field: String,
+        /// Where the read that ran past the end starts (after alignment padding), in bytes from
+        /// the end of the header.
+        at: usize,
+        /// Bytes after the header.
+        len: usize,
+    },
     /// A string that is not UTF-8 or lacks its terminating NUL.
     #[error("{field}: {detail}")]
-    BadString { field: String, detail: &'static str },
+    BadString {
+        /// Dotted path of the field (`message` at the top level).
+        field: String,
+        /// What is wrong: `no terminating NUL` or `not UTF-8`.
+        detail: &'static str,
+    },
     /// A sequence count larger than the bytes left could hold.
     #[error("{field}: {count} elements do not fit in the {left} bytes left")]
-    SequenceTooLong { field: String, count: u32, left: usize },
+    SequenceTooLong {
+        /// Dotted path of the field (`message` at the top level).
+        field: String,
+        /// Element count the message declares.
+        count: u32,
+        /// Bytes left after the count.
+        left: usize,
+    },
     /// A string or sequence too long for CDR's `u32` length.
     #[error("a string or sequence of {len} elements is too long for CDR (at most {max})", max = u32::MAX - 1)]
-    TooLong { len: usize },
+    TooLong {
+        /// Elements of the sequence, or bytes of the string with its terminating NUL.
+        len: usize,
+    },
     /// A serde type with no CDR form in a ROS 2 message (maps, options, enums, `char`,
     /// sequences of unknown length, untyped values).
     #[error("{0} has no CDR form in a ROS 2 message")]
