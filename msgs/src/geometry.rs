@@ -57,7 +57,7 @@ pub struct Quaternion {
 super::ros_message!(Quaternion, "geometry_msgs", "Quaternion");
 
 impl Default for Quaternion {
-    /// The identity rotation (the ROS default is all zeros, which is not a rotation).
+    /// The identity rotation, as `geometry_msgs/msg/Quaternion` declares it (`float64 w 1`).
     fn default() -> Self {
         Self { x: 0.0, y: 0.0, z: 0.0, w: 1.0 }
     }
