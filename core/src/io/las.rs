@@ -10,15 +10,25 @@
 //! 100 × the file size and the chunk table (which the `laz` crate
 //! reserves for up front) may not declare more chunks than the file has bytes; and the x, y, z
 //! scale factors must be finite and non-zero and the offsets finite. Points are then read in
-//! batches, so memory follows the points actually present.
+//! batches of at most [`BATCH_BYTES`] of records, so memory follows the points actually present
+//! whatever record length the header declares.
+//!
+//! The `laz` decoder trusts the compressed stream: corrupt data makes it panic (index out of
+//! bounds, failed assertions, arithmetic overflow in debug builds) rather than return an error.
+//! Decoding therefore runs inside `catch_unwind`, and such a panic becomes a [`CloudError::Las`]
+//! naming the file ("corrupt LAZ data"). The panic's own message still goes to the panic hook
+//! (stderr by default); on `wasm32-unknown-unknown`, where panics abort, a corrupt LAZ file
+//! still traps.
 
 use super::CloudError;
 use crate::cloud::PointCloud;
 use nalgebra::Point3;
 use std::io::Cursor;
 
-/// Points read per batch.
+/// Most points read per batch.
 const BATCH_POINTS: u64 = 65_536;
+/// Most bytes of point records read per batch (a record is at most 65,535 bytes).
+const BATCH_BYTES: u64 = 4 << 20;
 /// LAZ compresses a real point to a few bytes; a hundred points per byte is beyond any real file.
 pub(crate) const LAZ_MAX_POINTS_PER_BYTE: u64 = 100;
 
@@ -66,9 +76,18 @@ fn check_transforms(bytes: &[u8], name: &str) -> Result<(), CloudError> {
     Ok(())
 }
 
-/// Checks the fields of the public header block the `las` crate trusts. Returns the number of
-/// points and whether the data is compressed.
-fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
+/// What [`preflight`] reads from the public header.
+struct Layout {
+    /// Number of point records.
+    count: u64,
+    /// Bytes per point record.
+    record_len: u64,
+    /// LAZ: the point data is compressed.
+    compressed: bool,
+}
+
+/// Checks the fields of the public header block the `las` crate trusts.
+fn preflight(bytes: &[u8], name: &str) -> Result<Layout, CloudError> {
     if !bytes.starts_with(b"LASF") {
         return Err(las_err(name, "not a LAS file (no 'LASF' signature)"));
     }
@@ -118,7 +137,7 @@ fn preflight(bytes: &[u8], name: &str) -> Result<(u64, bool), CloudError> {
             return Err(CloudError::WrongPointCount { name: name.to_string(), keyword: "number of point records", declared: count, found });
         }
     }
-    Ok((count, compressed))
+    Ok(Layout { count, record_len, compressed })
 }
 
 /// Mirrors laz's `ChunkTable::read_offset`: the i64 at the start of the point data (or, when it
@@ -137,13 +156,23 @@ fn check_chunk_table(bytes: &[u8], data_start: u64, name: &str) -> Result<(), Cl
 
 /// Loads a LAS (or, with the `laz` feature, LAZ) point cloud; `name` is used in messages.
 pub(crate) fn load_las(bytes: &[u8], name: &str) -> Result<PointCloud, CloudError> {
-    let (count, compressed) = preflight(bytes, name)?;
-    if compressed && !cfg!(feature = "laz") {
+    let layout = preflight(bytes, name)?;
+    if layout.compressed && !cfg!(feature = "laz") {
         return Err(CloudError::Unsupported {
             name: name.to_string(),
             what: "LAZ (compressed LAS) in this build (convert to .las or .ply)".to_string(),
         });
     }
+    if !layout.compressed {
+        return read_points(bytes, &layout, name);
+    }
+    std::panic::catch_unwind(|| read_points(bytes, &layout, name))
+        .unwrap_or_else(|_| Err(las_err(name, "corrupt LAZ data (the decoder failed on the compressed points)")))
+}
+
+/// Reads every point through the `las` crate, in batches.
+fn read_points(bytes: &[u8], layout: &Layout, name: &str) -> Result<PointCloud, CloudError> {
+    let count = layout.count;
     // The crate needs an owned, 'static reader; the copy costs one pass over the file.
     let mut reader = las::Reader::new(Cursor::new(bytes.to_vec())).map_err(|e| las_err(name, e.to_string()))?;
     let declared = reader.header().number_of_points();
@@ -153,9 +182,10 @@ pub(crate) fn load_las(bytes: &[u8], name: &str) -> Result<PointCloud, CloudErro
     let capacity = usize::try_from(count).unwrap_or(usize::MAX).min(bytes.len() / 20 + 1);
     let mut points = Vec::with_capacity(capacity);
     let mut classification = Vec::with_capacity(capacity);
+    let per_batch = (BATCH_BYTES / layout.record_len.max(1)).clamp(1, BATCH_POINTS);
     let mut batch = las::PointDataBuilder::new().for_header(reader.header()).build();
     loop {
-        let n = reader.fill_points(BATCH_POINTS, &mut batch).map_err(|e| las_err(name, e.to_string()))?;
+        let n = reader.fill_points(per_batch, &mut batch).map_err(|e| las_err(name, e.to_string()))?;
         if n == 0 {
             break;
         }
