@@ -7,6 +7,9 @@
 //! does, shared with the AFL binaries, while this workspace crate never builds the fuzz crate (which
 //! needs cargo-afl and AFL++).
 
+// A test harness: a corpus file that cannot be read is a failed test.
+#![allow(clippy::unwrap_used)]
+
 #[path = "../../fuzz/src/lib.rs"]
 mod targets;
 

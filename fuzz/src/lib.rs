@@ -11,9 +11,12 @@ use fitslam_core::bag::{Bag, BagTopics};
 use fitslam_core::io::{MapMode, MapThresholds, MapYaml};
 use fitslam_core::slam::{Gauge, Se2Residual, g2o::read_g2o};
 
+/// A fuzz target: takes any bytes, must not panic, hang or exhaust memory.
+pub type Target = fn(&[u8]);
+
 /// Every target by name: the name is the AFL binary's and the corpus directory's
 /// (`fuzz/corpus/<name>/`).
-pub const TARGETS: [(&str, fn(&[u8])); 8] =
+pub const TARGETS: [(&str, Target); 8] =
     [("ply", ply), ("pcd", pcd), ("csv", csv), ("map_yaml", map_yaml), ("pgm", pgm), ("las", las), ("g2o", g2o), ("bag", bag)];
 
 /// PLY, ascii and binary of either byte order.
