@@ -20,6 +20,8 @@
 //! (stderr by default); on `wasm32-unknown-unknown`, where panics abort, a corrupt LAZ file
 //! still traps.
 
+mod layers;
+
 use super::CloudError;
 use crate::cloud::PointCloud;
 use nalgebra::Point3;
@@ -129,7 +131,8 @@ fn preflight(bytes: &[u8], name: &str) -> Result<Layout, CloudError> {
                 found: 0,
             });
         }
-        check_chunk_table(bytes, offset_to_points, name)?;
+        let data_end = check_chunk_table(bytes, offset_to_points, name)?;
+        layers::check_layered_chunks(bytes, offset_to_points, data_end, name)?;
     } else {
         let end = count.checked_mul(record_len).and_then(|b| b.checked_add(offset_to_points));
         if end.is_none_or(|e| e > len) {
@@ -142,16 +145,18 @@ fn preflight(bytes: &[u8], name: &str) -> Result<Layout, CloudError> {
 
 /// Mirrors laz's `ChunkTable::read_offset`: the i64 at the start of the point data (or, when it
 /// does not point forward, the file's last 8 bytes) locates the table `[u32 version, u32 count]`.
-fn check_chunk_table(bytes: &[u8], data_start: u64, name: &str) -> Result<(), CloudError> {
+/// Returns where the point data ends: at the table, or at the end of the file without one.
+fn check_chunk_table(bytes: &[u8], data_start: u64, name: &str) -> Result<u64, CloudError> {
+    let len = bytes.len() as u64;
     let i64_at = |at: usize| u64_at(bytes, at).map(|v| v as i64);
-    let Ok(start) = usize::try_from(data_start) else { return Ok(()) };
+    let Ok(start) = usize::try_from(data_start) else { return Ok(len) };
     let forward = |v: Option<i64>| v.filter(|&o| o > data_start as i64);
     let offset = forward(i64_at(start)).or_else(|| forward(bytes.len().checked_sub(8).and_then(i64_at)));
     let chunks = offset.and_then(|o| usize::try_from(o).ok()).and_then(|t| t.checked_add(4)).and_then(|at| u32_at(bytes, at));
     if let Some(chunks) = chunks.filter(|&c| c as usize > bytes.len()) {
         return Err(las_err(name, format!("LAZ chunk table declares {chunks} chunks in a {} byte file", bytes.len())));
     }
-    Ok(())
+    Ok(offset.and_then(|o| u64::try_from(o).ok()).map_or(len, |o| o.min(len)))
 }
 
 /// Loads a LAS (or, with the `laz` feature, LAZ) point cloud; `name` is used in messages.
@@ -272,10 +277,20 @@ mod tests {
 
     /// The vegetation file rewritten by the las crate as LAS `version` with point `format`.
     fn vegetation_as(version: (u8, u8), format: u8) -> Vec<u8> {
+        vegetation_written(version, format, false)
+    }
+    /// The vegetation cloud written as LAS `version`, point `format`, LAZ when `compressed`;
+    /// colour and NIR filled in where the format has them.
+    fn vegetation_written(version: (u8, u8), format: u8, compressed: bool) -> Vec<u8> {
         let mut reader = las::Reader::new(Cursor::new(VEG.to_vec())).unwrap();
-        let points: Vec<las::Point> = reader.read_all().unwrap().points().map(|p| p.unwrap()).collect();
+        let mut points: Vec<las::Point> = reader.read_all().unwrap().points().map(|p| p.unwrap()).collect();
         let mut builder = las::Builder::from(version);
         builder.point_format = las::point::Format::new(format).unwrap();
+        builder.point_format.is_compressed = compressed;
+        for p in &mut points {
+            p.color = builder.point_format.has_color.then(|| las::Color::new(1, 2, 3));
+            p.nir = builder.point_format.has_nir.then_some(4);
+        }
         builder.transforms = *reader.header().transforms();
         let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
         for p in points {
@@ -298,6 +313,24 @@ mod tests {
 
     #[cfg(feature = "laz")]
     #[test]
+    fn layered_laz_reads_like_las_and_a_corrupt_layer_size_is_refused() {
+        let original = load_las(VEG, "v.las").unwrap();
+        for format in [6, 7, 8] {
+            let laz = vegetation_written((1, 4), format, true);
+            assert_eq!(load_las(&laz, "v.laz").unwrap(), original, "LAZ format {format}");
+        }
+        // Format 6: one point14 item (30 bytes, 9 layers). The first chunk's first layer size
+        // follows the chunk table offset (8 bytes), the raw first point and the point count.
+        let mut laz = vegetation_written((1, 4), 6, true);
+        let data_start = u32_at(&laz, 96).unwrap() as usize;
+        let size_at = data_start + 8 + 30 + 4;
+        laz[size_at..size_at + 4].copy_from_slice(&0xffff_fff0u32.to_le_bytes());
+        let e = load_las(&laz, "v.laz").unwrap_err().to_string();
+        assert!(e.starts_with("v.laz") && e.contains(&format!("LAZ chunk at byte {} declares", data_start + 8)), "{e}");
+    }
+
+    #[test]
+    #[cfg(feature = "laz")]
     fn laz_reads_like_las() {
         let laz = vegetation_laz();
         assert!(laz.len() < VEG.len(), "LAZ {} bytes vs LAS {}", laz.len(), VEG.len());
