@@ -20,7 +20,7 @@
 //! (stderr by default); on `wasm32-unknown-unknown`, where panics abort, a corrupt LAZ file
 //! still traps.
 
-mod layers;
+mod laszip;
 
 use super::CloudError;
 use crate::cloud::PointCloud;
@@ -132,7 +132,7 @@ fn preflight(bytes: &[u8], name: &str) -> Result<Layout, CloudError> {
             });
         }
         let data_end = check_chunk_table(bytes, offset_to_points, name)?;
-        layers::check_layered_chunks(bytes, offset_to_points, data_end, name)?;
+        laszip::check_laszip(bytes, record_len, offset_to_points, data_end, name)?;
     } else {
         let end = count.checked_mul(record_len).and_then(|b| b.checked_add(offset_to_points));
         if end.is_none_or(|e| e > len) {
@@ -327,6 +327,11 @@ mod tests {
         laz[size_at..size_at + 4].copy_from_slice(&0xffff_fff0u32.to_le_bytes());
         let e = load_las(&laz, "v.laz").unwrap_err().to_string();
         assert!(e.starts_with("v.laz") && e.contains(&format!("LAZ chunk at byte {} declares", data_start + 8)), "{e}");
+        // A header whose point record length disagrees with the LASzip items (point14: 30 bytes).
+        let mut laz = vegetation_written((1, 4), 6, true);
+        laz[105..107].copy_from_slice(&31u16.to_le_bytes());
+        let e = load_las(&laz, "v.laz").unwrap_err().to_string();
+        assert!(e.contains("LAZ items describe 30-byte points, the header 31-byte ones"), "{e}");
     }
 
     #[test]
