@@ -9,8 +9,9 @@
 //! LAS, an extended VLR must fit in the input, and for LAZ the declared count may not exceed
 //! 100 × the file size and the chunk table (which the `laz` crate
 //! reserves for up front) may not declare more chunks than the file has bytes; and the x, y, z
-//! scale factors must be finite and non-zero and the offsets finite. Points are then read in
-//! batches of at most [`BATCH_BYTES`] of records, so memory follows the points actually present
+//! scale factors must be finite and non-zero and the offsets finite; for LAZ, the LASzip items
+//! and the layered chunks' sizes too (`laszip.rs`). Points are then read in
+//! batches of at most 4 MiB of records (`BATCH_BYTES`), so memory follows the points actually present
 //! whatever record length the header declares.
 //!
 //! The `laz` decoder trusts the compressed stream: corrupt data makes it panic (index out of
