@@ -145,8 +145,16 @@ fn explore_over_dds(sim: &mut dyn SimRobot, name: &str, domain: u16, min_explore
             let free_somewhere = published
                 .iter()
                 .any(|m| inflate_lethal(m, ROBOT_RADIUS_M).at_world(g.x_m, g.y_m).is_some_and(|&v| CellClass::of(v) == CellClass::Free));
-            if !free_somewhere || sim.truth_lethal(g.x_m, g.y_m) || req.goal.pose.header.frame_id != "map" {
-                bad_goals.push(format!("{g:?} in '{}'", req.goal.pose.header.frame_id));
+            let truth_lethal = sim.truth_lethal(g.x_m, g.y_m);
+            if !free_somewhere || truth_lethal || req.goal.pose.header.frame_id != "map" {
+                let why = if !free_somewhere {
+                    "not free in any recent map"
+                } else if truth_lethal {
+                    "lethal in the ground truth"
+                } else {
+                    "wrong frame"
+                };
+                bad_goals.push(format!("{g:?} in '{}': {why}", req.goal.pose.header.frame_id));
             }
             goals.push(g);
             let _ =
