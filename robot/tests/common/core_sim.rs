@@ -153,6 +153,12 @@ impl SimRobot for CoreSim {
         self.sim.world().gt_lethal_at(x_m, y_m)
     }
 
+    /// The map comes from LiDAR scans through the traversability estimate: a cell seen from
+    /// afar can read free while the terrain there is too steep.
+    fn map_is_truth(&self) -> bool {
+        false
+    }
+
     fn explored_fraction(&self) -> f64 {
         let w = self.sim.world();
         let known = w.explorable.iter().zip(&self.map.data).filter(|(e, v)| **e && **v != UNKNOWN).count();

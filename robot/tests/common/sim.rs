@@ -29,6 +29,9 @@ pub trait SimRobot {
     fn advance(&mut self, dt_s: f64) -> bool;
     /// Whether the ground truth at (x, y) is lethal.
     fn truth_lethal(&self, x_m: f64, y_m: f64) -> bool;
+    /// Whether `map` is the ground truth itself (seen cells copied), rather than an estimate
+    /// built from sensors that can misclassify a cell.
+    fn map_is_truth(&self) -> bool;
     /// Share of the reachable free ground-truth cells that are known free.
     fn explored_fraction(&self) -> f64;
 }
@@ -228,6 +231,10 @@ impl SimRobot for GridSim {
 
     fn truth_lethal(&self, x_m: f64, y_m: f64) -> bool {
         self.truth.at_world(x_m, y_m).is_none_or(|&v| CellClass::of(v) == CellClass::Lethal)
+    }
+
+    fn map_is_truth(&self) -> bool {
+        true
     }
 
     fn explored_fraction(&self) -> f64 {
