@@ -171,8 +171,8 @@ pub fn run_and_write(
     progress: &ProgressBar,
     extra: ExtraOutputs,
 ) -> Result<RunOutput> {
-    if extra.slam_g2o.is_some() && localisation != Localisation::Slam {
-        anyhow::bail!("--slam-g2o needs --localisation slam (this mission has no factor graph)");
+    if extra.slam_g2o.is_some() && !localisation.is_slam() {
+        anyhow::bail!("--slam-g2o needs --localisation slam or pose-graph (this mission has no factor graph)");
     }
     let bag = extra.bag;
     let world_name = &setup.world_name;

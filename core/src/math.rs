@@ -82,6 +82,15 @@ pub(crate) fn powf(x: f64, y: f64) -> f64 {
     libm::pow(x, y)
 }
 
+/// A standard normal sample (Box–Muller, one of the pair), through this module's `ln` and `cos`
+/// so that a seed gives the same bits on every target.
+pub fn standard_normal<R: rand::Rng + ?Sized>(rng: &mut R) -> f64 {
+    use rand::RngExt;
+    let u1: f64 = rng.random::<f64>().max(1e-300);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * ln(u1)).sqrt() * cos(std::f64::consts::TAU * u2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

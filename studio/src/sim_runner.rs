@@ -93,9 +93,8 @@ pub fn localisation_label(l: Localisation) -> String {
     match l {
         Localisation::GroundTruth => "ground truth".into(),
         Localisation::Odometry => "odometry".into(),
-        Localisation::Slam => "graph SLAM".into(),
-        #[allow(unreachable_patterns)]
-        other => format!("{other:?}").to_lowercase(),
+        Localisation::Slam => "landmark SLAM".into(),
+        Localisation::PoseGraph => "pose-graph SLAM".into(),
     }
 }
 

@@ -159,7 +159,7 @@ impl Mission {
         let layers = tmap.compute(&params.traversability);
         let time_limit_s = mission.time_limit_s.unwrap_or(world.spec.time_limit_s);
         let mut sim = WorldSim::new(world, &mission, &params, seed);
-        let localiser = new_localiser(localisation, &mut sim, &mission.slam)?;
+        let localiser = new_localiser(localisation, &mut sim, &mission.slam, seed)?;
         let start = sim.pose();
         let mut m = Self {
             localiser,
@@ -179,7 +179,7 @@ impl Mission {
             next_replan_s: 0.0,
             planning_grid: None,
             last_scan: (start, 0.0),
-            last_camera_s: if localisation == Localisation::Slam { 0.0 } else { f64::NEG_INFINITY },
+            last_camera_s: if localisation.is_slam() { 0.0 } else { f64::NEG_INFINITY },
             end: None,
             mission,
             sim,
@@ -533,7 +533,7 @@ impl Mission {
         &self.explorer
     }
 
-    /// The SLAM front end and its back end ([`Localisation::Slam`] only), for inspection.
+    /// The SLAM front end and its back end ([`Localisation::Slam`] and [`Localisation::PoseGraph`]), for inspection.
     pub fn slam_frontend(&self) -> Option<&SlamFrontend> {
         self.localiser.slam()
     }

@@ -1,17 +1,21 @@
 //! The SLAM back end as the simulator and the robot see it ([`SlamBackend`]): keyframes in
 //! (odometry, gravity, landmark observations), the keyframe poses, the landmarks with their
-//! marginal covariances and the current pose's covariance out. [`super::GraphSlam`] implements it.
+//! marginal covariances and the current pose's covariance out. Two models implement it: the
+//! landmark smoother [`super::GraphSlam`] (keyframes and landmarks as variables) and the pose
+//! graph [`super::PoseGraphSlam`] (keyframes only, landmarks anchored in them).
 
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::factors::NoiseError;
-use super::graph::GraphError;
+use super::g2o::G2oFile;
+use super::graph::{FactorGraph, GraphError};
 use super::incremental::IncrementalError;
 use super::lie::Se3;
-use super::marginals::MarginalError;
+use super::marginals::{MarginalError, Marginals};
 use super::optimizer::{OptError, Summary};
+use super::values::{Values, VarId};
 
 /// Proprioception between consecutive keyframes: the relative motion measured by odometry and,
 /// optionally, the IMU's gravity direction at the new keyframe.
@@ -116,8 +120,26 @@ pub enum SlamError {
     NonFinite,
 }
 
+/// What a pose graph's links were so far (zeros for a model without such links).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkStats {
+    /// Keyframes linked to the previous one by visual odometry (and the wheels).
+    pub visual_links: u64,
+    /// Keyframes linked to the previous one by the wheels alone (visual tracking lost, or no
+    /// view shared with the previous keyframe).
+    pub wheel_links: u64,
+    /// Loop closures verified and accepted.
+    pub closures_accepted: u64,
+    /// Loop closures (verified or aliased) rejected by the gate.
+    pub closures_rejected: u64,
+    /// Wrong closures place recognition proposed (aliasing).
+    pub false_closures: u64,
+    /// … of which the gate let through.
+    pub false_closures_accepted: u64,
+}
+
 /// A SLAM back end as the simulator and the robot see it.
-pub trait SlamBackend {
+pub trait SlamBackend: std::fmt::Debug + Send {
     /// Adds a keyframe reached by `odometry` from the previous one, with what it observes, and
     /// updates the estimate.
     fn add_keyframe(&mut self, odometry: &Odometry, observations: &[LandmarkObservation]) -> Result<KeyframeUpdate, SlamError>;
@@ -130,4 +152,38 @@ pub trait SlamBackend {
     /// Marginal covariance of the latest keyframe, ξ = (δt, δφ), body frame, anchored at the
     /// first keyframe.
     fn current_pose_covariance(&self) -> Result<Matrix6<f64>, SlamError>;
+    /// Number of keyframes, the first included.
+    fn keyframe_count(&self) -> usize;
+    /// `world_from_robot` of the latest keyframe.
+    fn current_pose(&self) -> Se3;
+    /// Number of landmarks in the map.
+    fn landmark_count(&self) -> usize;
+    /// Whether landmark `landmark_id` is in the map.
+    fn has_landmark(&self, landmark_id: u64) -> bool;
+    /// Landmark positions by increasing id, without covariances. O(landmarks).
+    fn landmark_positions(&self) -> Vec<(u64, Vector3<f64>)>;
+    /// Landmarks last seen at keyframe `since_keyframe` or later, by increasing id, with their
+    /// marginal covariances.
+    fn recent_landmarks(&self, since_keyframe: usize) -> Result<Vec<LandmarkEstimate>, SlamError>;
+    /// Whether [`Self::current_pose_covariance`] is cheap enough to ask at every keyframe (an
+    /// incremental solver's root); otherwise the front end compounds odometry in between.
+    fn exact_marginal_every_keyframe(&self) -> bool;
+    /// Every factor (for inspection, export and tests).
+    fn graph(&self) -> &FactorGraph;
+    /// The current estimate of every variable, only the first keyframe fixed.
+    fn estimate(&self) -> Values;
+    /// Where the marginals are taken, only the first keyframe fixed (an incremental solver's
+    /// linearisation point θ, the estimate being θ ⊕ Δ; a batch solver's estimate).
+    fn linearization_point(&self) -> Values;
+    /// The variable of the latest keyframe.
+    fn current_variable(&self) -> VarId;
+    /// Marginals of the full problem at the current estimate (one sparse factorisation of the
+    /// whole graph: the reference for the incremental solvers' own).
+    fn marginals(&self) -> Result<Marginals, SlamError>;
+    /// The graph as a g2o file and how many factors have no g2o form (left out).
+    fn to_g2o(&self) -> (G2oFile, usize);
+    /// What its links were (a pose graph's; zeros by default).
+    fn link_stats(&self) -> LinkStats {
+        LinkStats::default()
+    }
 }

@@ -38,7 +38,9 @@
 //! | [`g2o`] | g2o 2D/3D pose graphs: read, write, to a problem |
 //! | [`victoria`] | Victoria Park (GTSAM `load2D` semantics) |
 //! | [`backend`] | `SlamBackend`: what the simulator and the robot ask of a SLAM back end (keyframes in; poses, landmarks, covariances out) |
-//! | `graph_slam` | `GraphSlam`, the keyframe graph SLAM back end: incremental (iSAM2) or batch (sliding window + full), covariances |
+//! | `graph_slam` | `GraphSlam`, the landmark smoother: keyframes and landmarks as variables, incremental (iSAM2) or batch (sliding window + full), covariances |
+//! | `pose_graph` | `PoseGraphSlam`, the RTAB-Map-like pose graph: keyframes only, visual-odometry and loop-closure links from 3D–3D alignment, closure rejection, landmarks anchored in keyframes |
+//! | `propagation` | first-order covariance through SE(3) compositions |
 //! | [`keyframes`] | keyframe SLAM front end: odometry in SE(3), landmark and gravity factors, keyframe clouds and re-registration |
 
 pub mod backend;
@@ -52,13 +54,17 @@ pub mod lie;
 pub(crate) mod linear_system;
 pub mod marginals;
 pub mod optimizer;
+pub(crate) mod pose_graph;
 pub mod problem;
+pub(crate) mod propagation;
 #[cfg(test)]
 mod real_data_tests;
 pub mod values;
 pub mod victoria;
 
-pub use backend::{CovarianceTraces, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
+pub use backend::{
+    CovarianceTraces, Gravity, KeyframeUpdate, LandmarkEstimate, LandmarkObservation, LinkStats, Odometry, SlamBackend, SlamError,
+};
 pub use factors::{Factor, FactorError, GaussianNoise, RobustKernel, Se2Residual};
 pub use graph::{FactorGraph, GraphError};
 pub use graph_slam::{ANCHOR_SIGMA, GraphSlam, GraphSlamParams, OBSERVATION_CAUCHY_K, SlamSolver};
@@ -69,5 +75,6 @@ pub use marginals::{FactorStats, MarginalError, Marginals};
 pub use optimizer::{
     GaussNewton, LambdaSchedule, LevenbergMarquardt, OptError, Optimizer, OptimizerParams, StepReport, Summary, Termination,
 };
+pub use pose_graph::{PoseGraphParams, PoseGraphSlam};
 pub use problem::{Gauge, Problem};
 pub use values::{Values, VarId, Variable};

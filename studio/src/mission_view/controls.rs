@@ -39,7 +39,7 @@ pub(super) fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_
     });
     let combo =
         egui::ComboBox::from_label("localisation").selected_text(sim_runner::localisation_label(m.config.localisation)).show_ui(ui, |ui| {
-            const NAMES: [&str; 3] = ["localisation_ground_truth", "localisation_odometry", "localisation_slam"];
+            const NAMES: [&str; 4] = ["localisation_ground_truth", "localisation_odometry", "localisation_slam", "localisation_pose_graph"];
             for (k, l) in Localisation::ALL.into_iter().enumerate() {
                 let r = ui.selectable_value(&mut m.config.localisation, l, sim_runner::localisation_label(l));
                 rects.push((NAMES[k], r.rect));

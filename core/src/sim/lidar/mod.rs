@@ -20,7 +20,6 @@
 use super::heightfield::Heightfield;
 use crate::math;
 use nalgebra::{Point3, Rotation3, Vector3};
-use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
@@ -399,11 +398,9 @@ pub fn scan(
     rays
 }
 
-/// A standard normal sample (Box–Muller; one of the pair).
+/// A standard normal sample ([`math::standard_normal`]).
 pub(crate) fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(1e-300);
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * math::ln(u1)).sqrt() * math::cos(std::f64::consts::TAU * u2)
+    math::standard_normal(rng)
 }
 
 #[cfg(test)]

@@ -12,13 +12,14 @@ use crate::math;
 use crate::pose::Pose2;
 use crate::sim::camera::CameraObservation;
 use crate::sim::world_sim::{BodyPose, Motion, WorldSim};
-use crate::slam::keyframes::{SlamFrontend, SlamParams};
+use crate::slam::keyframes::{SlamFrontend, SlamModel, SlamParams};
 use crate::slam::{CovarianceTraces, Se3, SlamError};
 use crate::traversability::TraversabilityMap;
 use nalgebra::{Matrix3, Matrix6, Point3, UnitQuaternion, Vector3};
 
 /// The simulator's SLAM.
 pub(crate) struct KeyframeSlamLocaliser {
+    kind: Localisation,
     frontend: SlamFrontend,
     params: SlamParams,
     est: Pose2,
@@ -37,15 +38,20 @@ pub(crate) struct KeyframeSlamLocaliser {
 }
 
 impl KeyframeSlamLocaliser {
-    /// The first keyframe is the start pose (the map frame), with the camera's first view.
-    /// Fails on a start pose the SLAM cannot take (not finite).
-    pub fn new(sim: &mut WorldSim, params: SlamParams) -> Result<Self, SlamError> {
+    /// The first keyframe is the start pose (the map frame), with the camera's first view;
+    /// `model` is the back end. Fails on a start pose the SLAM cannot take (not finite).
+    pub fn new(sim: &mut WorldSim, params: SlamParams, model: SlamModel, seed: u64) -> Result<Self, SlamError> {
         let (gp, gr) = sim.body_pose();
         let counts = sim.observe_features();
         let observations = sim.last_observations().to_vec();
         let start = Se3::new(UnitQuaternion::from_rotation_matrix(&gr), gp.coords);
-        let frontend = SlamFrontend::new(params.clone(), start, &observations)?;
+        let frontend = SlamFrontend::with_model(params.clone(), model, start, &observations, seed)?;
+        let kind = match model {
+            SlamModel::LandmarkSmoother => Localisation::Slam,
+            SlamModel::PoseGraph => Localisation::PoseGraph,
+        };
         Ok(Self {
+            kind,
             tracking: VisualTracking::new(sim.vision_params()),
             wrong_associations: counts.wrong as u64,
             features: Vec::new(),
@@ -77,7 +83,7 @@ impl KeyframeSlamLocaliser {
 
 impl Localiser for KeyframeSlamLocaliser {
     fn kind(&self) -> Localisation {
-        Localisation::Slam
+        self.kind
     }
 
     fn propagate(&mut self, sim: &mut WorldSim, _motion: &Motion, dt_s: f64) {
@@ -161,6 +167,7 @@ impl Localiser for KeyframeSlamLocaliser {
             landmarks_mapped: b.landmark_count(),
             tracking: self.tracking.stats(),
             wrong_associations: self.wrong_associations,
+            links: b.link_stats(),
         }
     }
 

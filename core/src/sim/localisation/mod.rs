@@ -1,6 +1,7 @@
 //! How the simulated robot knows where it is, behind one trait (`Localiser`): the true pose
 //! (`GroundTruth`), dead-reckoned wheel odometry + IMU yaw (`DeadReckoning`), or keyframe
-//! graph SLAM (`KeyframeSlamLocaliser`, notes §1). Each turns the world simulator's
+//! SLAM (`KeyframeSlamLocaliser`, notes §1) with either back end: the landmark smoother or the
+//! pose graph. Each turns the world simulator's
 //! measurements ([`WorldSim`]) into an estimate, registers the sensed points into the robot's map
 //! with it, and keeps the landmark map the planner's u2 reads.
 //!
@@ -38,7 +39,8 @@ use std::collections::BTreeMap;
 /// assert_eq!("ground_truth".parse::<Localisation>()?, Localisation::GroundTruth);
 /// assert_eq!(Localisation::GroundTruth.to_string(), "ground-truth");
 /// let error = "gps".parse::<Localisation>().unwrap_err();
-/// assert_eq!(error.expected, "ground-truth, odometry, slam");
+/// assert_eq!(error.expected, "ground-truth, odometry, slam, pose-graph");
+/// assert_eq!("pose_graph".parse::<Localisation>()?, Localisation::PoseGraph);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -49,14 +51,19 @@ pub enum Localisation {
     GroundTruth,
     /// Dead-reckoned wheel odometry + IMU yaw, covariance propagated (no loop closures).
     Odometry,
-    /// Keyframe graph SLAM (odometry + IMU + camera landmarks, loop closures): 6×6 marginal
-    /// covariance, map re-registration.
+    /// Keyframe SLAM with the landmark smoother (odometry + IMU + camera landmarks as
+    /// variables, loop closures through re-observed landmarks): 6×6 marginal covariance, map
+    /// re-registration.
     Slam,
+    /// Keyframe SLAM with the pose graph (RTAB-Map's class: visual-odometry and loop-closure
+    /// links between keyframes, landmarks anchored in them): 6×6 marginal covariance, map
+    /// re-registration.
+    PoseGraph,
 }
 
 impl Localisation {
     /// Every variant, in declaration order.
-    pub const ALL: [Localisation; 3] = [Localisation::GroundTruth, Localisation::Odometry, Localisation::Slam];
+    pub const ALL: [Localisation; 4] = [Localisation::GroundTruth, Localisation::Odometry, Localisation::Slam, Localisation::PoseGraph];
 
     /// The name used on the command line, in the studio and in file names (`ground-truth`).
     pub fn name(self) -> &'static str {
@@ -64,7 +71,13 @@ impl Localisation {
             Localisation::GroundTruth => "ground-truth",
             Localisation::Odometry => "odometry",
             Localisation::Slam => "slam",
+            Localisation::PoseGraph => "pose-graph",
         }
+    }
+
+    /// Whether a keyframe SLAM localises (either back end).
+    pub fn is_slam(self) -> bool {
+        matches!(self, Localisation::Slam | Localisation::PoseGraph)
     }
 }
 
@@ -77,7 +90,7 @@ impl std::fmt::Display for Localisation {
 impl std::str::FromStr for Localisation {
     type Err = crate::params::UnknownName;
 
-    /// `ground-truth` (or `ground_truth`), `odometry`, `slam`.
+    /// `ground-truth` (or `ground_truth`), `odometry`, `slam`, `pose-graph` (or `pose_graph`).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let s = s.replace('_', "-");
         Self::ALL.into_iter().find(|l| l.name() == s).ok_or_else(|| crate::params::UnknownName::new("localisation", &s, &Self::ALL))
@@ -111,6 +124,8 @@ pub(crate) struct LocalisationStats {
     pub tracking: TrackingStats,
     /// Features the front end matched to the wrong landmark ([`crate::sim::vision`]).
     pub wrong_associations: u64,
+    /// The pose graph's links (zeros for the other localisations).
+    pub links: crate::slam::LinkStats,
 }
 
 /// A localisation of the simulated robot. The mission calls, per control tick, [`Self::propagate`]
@@ -165,16 +180,20 @@ pub(crate) trait Localiser {
     }
 }
 
-/// The localiser of `kind` for a robot whose world simulator is `sim`.
+/// The localiser of `kind` for a robot whose world simulator is `sim`; `seed` drives the pose
+/// graph's aliased loop closures.
 pub(crate) fn new_localiser(
     kind: Localisation,
     sim: &mut WorldSim,
     slam: &crate::slam::keyframes::SlamParams,
+    seed: u64,
 ) -> Result<Box<dyn Localiser>, crate::slam::SlamError> {
+    use crate::slam::keyframes::SlamModel;
     Ok(match kind {
         Localisation::GroundTruth => Box::new(GroundTruth::new(sim)),
         Localisation::Odometry => Box::new(DeadReckoning::new(sim)),
-        Localisation::Slam => Box::new(KeyframeSlamLocaliser::new(sim, slam.clone())?),
+        Localisation::Slam => Box::new(KeyframeSlamLocaliser::new(sim, slam.clone(), SlamModel::LandmarkSmoother, seed)?),
+        Localisation::PoseGraph => Box::new(KeyframeSlamLocaliser::new(sim, slam.clone(), SlamModel::PoseGraph, seed)?),
     })
 }
 

@@ -1,6 +1,7 @@
 //! [`GraphSlam`]'s factor graph as a g2o file, in the order the mission built it.
 
 use super::GraphSlam;
+use crate::slam::backend::SlamBackend;
 use crate::slam::g2o::{G2oEdge, G2oFile, G2oVertex};
 use crate::slam::lie::Se3;
 use crate::slam::values::Variable;
@@ -12,7 +13,7 @@ impl GraphSlam {
     /// `EDGE_SE3:QUAT`, the observations as `EDGE_SE3_TRACKXYZ` through sensor offset 0 (the
     /// identity). The anchor and the gravity factors have no g2o form and the robust kernel is
     /// dropped: returns the file and how many factors it leaves out. O(variables + factors).
-    pub fn to_g2o(&self) -> (G2oFile, usize) {
+    pub(super) fn g2o_file(&self) -> (G2oFile, usize) {
         let estimate = self.estimate();
         let n = estimate.len();
         // Variables from one keyframe's to the next are that keyframe's new landmarks.

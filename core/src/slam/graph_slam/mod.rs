@@ -35,6 +35,7 @@ use nalgebra::{Matrix3, Matrix6, Vector3};
 
 use super::backend::{KeyframeUpdate, LandmarkEstimate, LandmarkObservation, Odometry, SlamBackend, SlamError};
 use super::factors::{BetweenSe3, GaussianNoise, GravitySe3, PointObservation3, PriorSe3, RobustKernel};
+use super::g2o::G2oFile;
 use super::graph::FactorGraph;
 use super::incremental::Isam2;
 use super::lie::Se3;
@@ -151,36 +152,6 @@ impl GraphSlam {
         &self.params
     }
 
-    /// Every factor (for inspection and tests; the incremental solver's includes the anchor).
-    pub fn graph(&self) -> &FactorGraph {
-        match &self.solver {
-            Solver::Batch(b) => &b.graph,
-            Solver::Incremental(i) => i.isam.graph(),
-        }
-    }
-
-    /// The current estimate of every variable, with only the first keyframe fixed.
-    pub fn estimate(&self) -> Values {
-        self.first_fixed(match &self.solver {
-            Solver::Batch(b) => b.values.clone(),
-            Solver::Incremental(i) => i.isam.estimate(),
-        })
-    }
-
-    /// Where the marginals are taken, with only the first keyframe fixed: the incremental
-    /// solver's linearisation point θ (the estimate is θ ⊕ Δ), the batch solver's estimate.
-    pub fn linearization_point(&self) -> Values {
-        match &self.solver {
-            Solver::Batch(_) => self.estimate(),
-            Solver::Incremental(i) => self.first_fixed(i.isam.linearization_point().clone()),
-        }
-    }
-
-    /// The variable of the latest keyframe.
-    pub fn current_variable(&self) -> VarId {
-        self.keyframes.last().copied().unwrap_or(VarId(0))
-    }
-
     fn first_fixed(&self, mut v: Values) -> Values {
         for k in 0..v.len() {
             v.set_fixed(VarId(k), false);
@@ -189,35 +160,6 @@ impl GraphSlam {
             v.set_fixed(first, true);
         }
         v
-    }
-
-    /// Number of keyframes, the first included.
-    pub fn keyframe_count(&self) -> usize {
-        self.keyframes.len()
-    }
-
-    /// `world_from_robot` of the latest keyframe.
-    pub fn current_pose(&self) -> Se3 {
-        self.keyframes.last().and_then(|&v| self.solver.se3(v)).unwrap_or_default()
-    }
-
-    /// Landmark positions by increasing id, without covariances. O(landmarks).
-    pub fn landmark_positions(&self) -> Vec<(u64, Vector3<f64>)> {
-        self.landmarks.iter().map(|(&id, s)| (id, self.solver.point3(s.var).unwrap_or_default())).collect()
-    }
-
-    /// Landmarks last seen at keyframe `since_keyframe` or later, by increasing id, with their
-    /// exact marginal covariances (batch: one factorisation, then 3 sparse forward solves per
-    /// landmark, [`Marginals::covariances`]; incremental: the clique joints on their paths to
-    /// the root, [`Isam2::marginal_covariances`]). Cheaper than [`SlamBackend::landmarks`] when
-    /// few are recent.
-    pub fn recent_landmarks(&self, since_keyframe: usize) -> Result<Vec<LandmarkEstimate>, SlamError> {
-        let recent: Vec<(u64, VarId)> =
-            self.landmarks.iter().filter(|(_, s)| s.last_seen_keyframe >= since_keyframe).map(|(&id, s)| (id, s.var)).collect();
-        if recent.is_empty() || self.keyframes.len() < 2 {
-            return Ok(Vec::new());
-        }
-        self.estimates_of(&recent)
     }
 
     /// Positions and marginal covariances of `landmarks` (id, variable).
@@ -236,16 +178,6 @@ impl GraphSlam {
                 covariance: Matrix3::from_fn(|r, c| cov[(r, c)]),
             })
             .collect())
-    }
-
-    /// Number of landmarks in the map.
-    pub fn landmark_count(&self) -> usize {
-        self.landmarks.len()
-    }
-
-    /// Whether landmark `landmark_id` is in the map.
-    pub fn has_landmark(&self, landmark_id: u64) -> bool {
-        self.landmarks.contains_key(&landmark_id)
     }
 
     /// Adds the observation factors of keyframe `k` (`noises` from [`observation_noises`]);
@@ -302,12 +234,6 @@ impl GraphSlam {
         }
         b.run()
     }
-
-    /// Marginals of the full problem at the current estimate (one sparse factorisation of the
-    /// whole graph, whichever the solver: the reference for the incremental one).
-    pub fn marginals(&self) -> Result<Marginals, SlamError> {
-        Ok(Marginals::new(self.graph(), &self.estimate(), self.params.optimizer.factorisation)?)
-    }
 }
 
 /// The noise model of every observation, after checking that its point is finite.
@@ -324,6 +250,85 @@ fn observation_noises(observations: &[LandmarkObservation], kernel: RobustKernel
 }
 
 impl SlamBackend for GraphSlam {
+    /// Where the marginals are taken, with only the first keyframe fixed: the incremental
+    /// solver's linearisation point θ (the estimate is θ ⊕ Δ), the batch solver's estimate.
+    fn linearization_point(&self) -> Values {
+        match &self.solver {
+            Solver::Batch(_) => self.estimate(),
+            Solver::Incremental(i) => self.first_fixed(i.isam.linearization_point().clone()),
+        }
+    }
+
+    /// The variable of the latest keyframe.
+    fn current_variable(&self) -> VarId {
+        self.keyframes.last().copied().unwrap_or(VarId(0))
+    }
+
+    /// Every factor (for inspection and tests; the incremental solver's includes the anchor).
+    fn graph(&self) -> &FactorGraph {
+        match &self.solver {
+            Solver::Batch(b) => &b.graph,
+            Solver::Incremental(i) => i.isam.graph(),
+        }
+    }
+
+    /// The current estimate of every variable, with only the first keyframe fixed.
+    fn estimate(&self) -> Values {
+        self.first_fixed(match &self.solver {
+            Solver::Batch(b) => b.values.clone(),
+            Solver::Incremental(i) => i.isam.estimate(),
+        })
+    }
+
+    /// Number of keyframes, the first included.
+    fn keyframe_count(&self) -> usize {
+        self.keyframes.len()
+    }
+
+    /// `world_from_robot` of the latest keyframe.
+    fn current_pose(&self) -> Se3 {
+        self.keyframes.last().and_then(|&v| self.solver.se3(v)).unwrap_or_default()
+    }
+
+    /// Landmark positions by increasing id, without covariances. O(landmarks).
+    fn landmark_positions(&self) -> Vec<(u64, Vector3<f64>)> {
+        self.landmarks.iter().map(|(&id, s)| (id, self.solver.point3(s.var).unwrap_or_default())).collect()
+    }
+
+    /// Landmarks last seen at keyframe `since_keyframe` or later, by increasing id, with their
+    /// exact marginal covariances (batch: one factorisation, then 3 sparse forward solves per
+    /// landmark, [`Marginals::covariances`]; incremental: the clique joints on their paths to
+    /// the root, [`Isam2::marginal_covariances`]). Cheaper than [`SlamBackend::landmarks`] when
+    /// few are recent.
+    fn recent_landmarks(&self, since_keyframe: usize) -> Result<Vec<LandmarkEstimate>, SlamError> {
+        let recent: Vec<(u64, VarId)> =
+            self.landmarks.iter().filter(|(_, s)| s.last_seen_keyframe >= since_keyframe).map(|(&id, s)| (id, s.var)).collect();
+        if recent.is_empty() || self.keyframes.len() < 2 {
+            return Ok(Vec::new());
+        }
+        self.estimates_of(&recent)
+    }
+
+    /// Number of landmarks in the map.
+    fn landmark_count(&self) -> usize {
+        self.landmarks.len()
+    }
+
+    /// Whether landmark `landmark_id` is in the map.
+    fn has_landmark(&self, landmark_id: u64) -> bool {
+        self.landmarks.contains_key(&landmark_id)
+    }
+
+    /// Marginals of the full problem at the current estimate (one sparse factorisation of the
+    /// whole graph, whichever the solver: the reference for the incremental one).
+    fn marginals(&self) -> Result<Marginals, SlamError> {
+        Ok(Marginals::new(self.graph(), &self.estimate(), self.params.optimizer.factorisation)?)
+    }
+
+    fn exact_marginal_every_keyframe(&self) -> bool {
+        self.params.solver == SlamSolver::Incremental
+    }
+
     fn add_keyframe(&mut self, odometry: &Odometry, observations: &[LandmarkObservation]) -> Result<KeyframeUpdate, SlamError> {
         if !odometry.previous_from_current.is_finite() {
             return Err(SlamError::NonFinite);
@@ -418,5 +423,9 @@ impl SlamBackend for GraphSlam {
             Solver::Incremental(i) => i.isam.marginal_covariance(current)?,
         };
         Ok(Matrix6::from_fn(|r, c| cov[(r, c)]))
+    }
+
+    fn to_g2o(&self) -> (G2oFile, usize) {
+        self.g2o_file()
     }
 }

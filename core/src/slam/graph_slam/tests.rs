@@ -5,14 +5,11 @@ use crate::slam::Isam2Params;
 use crate::slam::backend::{CovarianceTraces, Gravity};
 use crate::slam::lie::so3_exp;
 use nalgebra::{DMatrix, Vector6};
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
-    // Box-Muller.
-    let u1: f64 = rng.random::<f64>().max(1e-300);
-    let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    crate::math::standard_normal(rng)
 }
 
 /// A sample of N(0, diag(sigmas²)).

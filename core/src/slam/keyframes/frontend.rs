@@ -1,6 +1,7 @@
 //! The keyframe SLAM front end (see the module doc).
 
 use nalgebra::{Matrix3, Matrix6, Point3, Vector3};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 use super::clouds::tilt_variance;
@@ -8,7 +9,7 @@ use super::odometry::with_floor;
 use super::*;
 use crate::cloud::PointCloud;
 use crate::slam::lie::so3_log;
-use crate::slam::{GraphSlam, Gravity, LandmarkObservation, Odometry, Se3, SlamBackend, SlamError, SlamSolver};
+use crate::slam::{GraphSlam, Gravity, LandmarkObservation, Odometry, PoseGraphSlam, Se3, SlamBackend, SlamError};
 use crate::traversability::TraversabilityMap;
 
 /// A landmark observed by the camera: its id (known data association), the measured point in the
@@ -32,11 +33,23 @@ pub(crate) struct KeyframeOutcome {
     pub reregister: bool,
 }
 
-/// The front end and its [`GraphSlam`]; see the module doc.
+/// Which SLAM model the front end feeds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SlamModel {
+    /// [`GraphSlam`]: keyframes and landmarks as variables (a full bundle adjustment,
+    /// ORB-SLAM's class).
+    #[default]
+    LandmarkSmoother,
+    /// [`PoseGraphSlam`]: keyframes only, landmarks anchored in them (RTAB-Map's class).
+    PoseGraph,
+}
+
+/// The front end and its back end; see the module doc.
 #[derive(Debug)]
 pub struct SlamFrontend {
     params: SlamParams,
-    slam: GraphSlam,
+    slam: Box<dyn SlamBackend>,
     /// Odometry since the latest keyframe, `T_rel`, and its covariance (right tangent).
     keyframe_from_current: Se3,
     pub(super) relative_cov: Matrix6<f64>,
@@ -55,11 +68,25 @@ pub struct SlamFrontend {
 
 impl SlamFrontend {
     /// Starts at `world_from_start` (the first keyframe, fixed) with the camera's first
-    /// observations.
+    /// observations, feeding the landmark smoother.
     pub fn new(params: SlamParams, world_from_start: Se3, observations: &[CameraObservation]) -> Result<Self, SlamError> {
+        Self::with_model(params, SlamModel::LandmarkSmoother, world_from_start, observations, 0)
+    }
+
+    /// … feeding `model`; `seed` drives the pose graph's aliased loop closures.
+    pub fn with_model(
+        params: SlamParams,
+        model: SlamModel,
+        world_from_start: Se3,
+        observations: &[CameraObservation],
+        seed: u64,
+    ) -> Result<Self, SlamError> {
         let mut scratch = Vec::new();
         to_landmark_observations(observations, &mut scratch);
-        let slam = GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?;
+        let slam: Box<dyn SlamBackend> = match model {
+            SlamModel::LandmarkSmoother => Box::new(GraphSlam::new(params.graph.clone(), world_from_start, &scratch)?),
+            SlamModel::PoseGraph => Box::new(PoseGraphSlam::new(params.pose_graph.clone(), world_from_start, &scratch, seed)?),
+        };
         let mut clouds = KeyframeClouds::new(params.cloud_voxel_m);
         clouds.start_keyframe(0.0);
         let mut me = Self {
@@ -87,9 +114,9 @@ impl SlamFrontend {
         &self.params
     }
 
-    /// The keyframe graph it feeds.
-    pub fn backend(&self) -> &GraphSlam {
-        &self.slam
+    /// The back end it feeds.
+    pub fn backend(&self) -> &dyn SlamBackend {
+        self.slam.as_ref()
     }
 
     /// The sensor points of every keyframe.
@@ -164,7 +191,7 @@ impl SlamFrontend {
         self.relative_cov = Matrix6::zeros();
         self.keyframes_since_marginal += 1;
         self.keyframe_cov = compounded;
-        let exact_due = self.params.graph.solver == SlamSolver::Incremental
+        let exact_due = self.slam.exact_marginal_every_keyframe()
             || update.full
             || self.keyframes_since_marginal >= self.params.marginal_every_keyframes;
         if let Some(c) = exact_due.then(|| self.slam.current_pose_covariance().ok()).flatten() {

@@ -69,9 +69,10 @@ mod params;
 
 pub use clouds::KeyframeClouds;
 
+pub(crate) use crate::slam::propagation::{anchored_landmark_covariance, compound_covariance};
 pub(crate) use clouds::{height_variance, reregister};
-pub use frontend::{CameraObservation, SlamFrontend};
-pub(crate) use odometry::{BodyIncrement, anchored_landmark_covariance, compound_covariance, propagate_relative};
+pub use frontend::{CameraObservation, SlamFrontend, SlamModel};
+pub(crate) use odometry::{BodyIncrement, propagate_relative};
 pub use params::SlamParams;
 
 #[cfg(test)]

@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::slam::GraphSlamParams;
 use crate::slam::optimizer::OptimizerParams;
+use crate::slam::{GraphSlamParams, PoseGraphParams};
 
 /// Parameters of the SLAM front end (see the module doc).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -36,8 +36,10 @@ pub struct SlamParams {
     pub reregister_shift_m: f64,
     /// Lever arm turning a keyframe's rotation change into a shift, metres. Default 2.
     pub reregister_lever_m: f64,
-    /// The keyframe graph's parameters (solver, loop closures, observation kernel, optimiser).
+    /// The landmark smoother's parameters (solver, loop closures, observation kernel, optimiser).
     pub graph: GraphSlamParams,
+    /// The pose graph's parameters (visual odometry, place recognition, closure rejection).
+    pub pose_graph: PoseGraphParams,
 }
 
 impl Default for SlamParams {
@@ -58,6 +60,7 @@ impl Default for SlamParams {
                 optimizer: OptimizerParams { max_iterations: 10, relative_tolerance: 1e-6, ..OptimizerParams::default() },
                 ..GraphSlamParams::default()
             },
+            pose_graph: PoseGraphParams::default(),
         }
     }
 }
@@ -94,6 +97,6 @@ impl SlamParams {
         nonneg("graph.optimizer.absolute_tolerance", o.absolute_tolerance)?;
         pos("graph.optimizer.lambda_initial_factor", o.lambda_initial_factor)?;
         pos("graph.optimizer.lambda_max", o.lambda_max)?;
-        Ok(())
+        self.pose_graph.validate()
     }
 }
