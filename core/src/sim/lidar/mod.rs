@@ -12,13 +12,23 @@
 //! - the ray walks the quadtree: a node whose maximum lies below the ray's lowest z over the
 //!   node is skipped whole (and the walk climbs a level), otherwise it descends; on a patch the
 //!   height along the ray is a quadratic in t, so the first crossing is the smallest root of
-//!   z(t) − h(t) in the patch's t interval, in closed form.
+//!   z(t) − h(t) in the patch's t interval, in closed form;
+//! - the walk's crossing times are estimates (products by the direction's reciprocal), a node is
+//!   skipped only when the ray clears it by far more than their rounding, and a patch is tested
+//!   over its exact span (the quotients of its own sides' crossings), so the answer is the one of
+//!   a walk on exact crossings, bit for bit (test `the_walk_answers_as_the_exact_node_by_node_walk_bit_for_bit`);
+//! - a sweep's rays share a [`horizon::Horizon`]: a ray that passes above everything it can still
+//!   reach ends at once.
 //!
 //! Per ray: O(levels × nodes crossed + patches near the terrain), no allocation; per scan
-//! O(rings × azimuths × that), the origin's lookup done once. [`RayCaster::new`] is O(cells).
+//! O(rings × azimuths × that), the origin's lookup and the horizon done once, the rays cast
+//! azimuth by azimuth (one azimuth's rings cross the same nodes). [`RayCaster::new`] is O(cells).
+
+mod horizon;
 
 use super::heightfield::Heightfield;
 use crate::math;
+use horizon::Horizon;
 use nalgebra::{Point3, Rotation3, Vector3};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -155,7 +165,7 @@ impl RayCaster {
             // Built for another field: correct, if slow.
             return RayCaster::new(field).cast(field, origin, dir, max_range_m);
         }
-        self.cast_from(field, self.ray_origin(field, origin), dir, max_range_m)
+        self.cast_from(field, self.ray_origin(field, origin), dir, max_range_m, None)
     }
 
     /// Whether this caster's mip-map is `field`'s.
@@ -182,8 +192,15 @@ impl RayCaster {
     }
 
     /// [`Self::cast`] from an origin prepared by [`Self::ray_origin`] (on `field`, which this
-    /// caster was built for).
-    fn cast_from(&self, field: &Heightfield, origin: RayOrigin, dir: Vector3<f64>, max_range_m: f64) -> Option<f64> {
+    /// caster was built for); `horizon`, when given, was built for this origin and `max_range_m`.
+    fn cast_from(
+        &self,
+        field: &Heightfield,
+        origin: RayOrigin,
+        dir: Vector3<f64>,
+        max_range_m: f64,
+        horizon: Option<&Horizon>,
+    ) -> Option<f64> {
         let (au, av, oz, mut p, mut q) = match origin {
             RayOrigin::Outside => return None,
             RayOrigin::Below => return Some(0.0),
@@ -198,8 +215,26 @@ impl RayCaster {
         let (bu, bv, dz) = (dir.x * inv_res, dir.y * inv_res, dir.z);
         let top = self.levels.len() - 1;
         let mut level = 0usize;
+        let ray = [au, bu, av, bv, oz, dz];
+        let origin_patch = (p, q);
+        // The walk's crossing times are estimates (a product by the reciprocal instead of a
+        // quotient): nodes are skipped only when the ray clears them by far more than the
+        // estimates' rounding, and a patch is tested on its exact crossings ([`exact_patch_hit`]).
+        let (ru, rv) = (1.0 / bu, 1.0 / bv);
         let mut t = 0.0f64;
+        // The horizon's bounds along this ray's direction, its horizontal distance (sample units)
+        // per unit t and its lowest z over [t, max_range_m] going down: the test below ends a ray
+        // that stays above every patch it can still reach, whose walk would end in `None`.
+        let ahead = horizon.map(|hz| hz.along(bu, bv));
+        let h_uv = (bu * bu + bv * bv).sqrt();
+        let z_end = oz + dz * max_range_m;
         loop {
+            if let Some(ahead) = ahead {
+                let z_floor = if dz < 0.0 { z_end } else { oz + dz * t };
+                if z_floor - slack(z_floor, dz * t) > Horizon::max_beyond(ahead, t * h_uv) {
+                    return None;
+                }
+            }
             let (ni, nj) = (p >> level, q >> level);
             // The node's patch range and its u, v extent, clipped to the grid.
             let (p_lo, p_hi) = (ni << level, (((ni + 1) << level) - 1).min(w));
@@ -207,16 +242,16 @@ impl RayCaster {
             let (u_lo, u_hi) = ((p_lo as f64 - 1.0).max(-0.5), (p_hi as f64).min(w as f64 - 0.5));
             let (v_lo, v_hi) = ((q_lo as f64 - 1.0).max(-0.5), (q_hi as f64).min(h as f64 - 0.5));
             let tx = if bu > 0.0 {
-                (u_hi - au) / bu
+                (u_hi - au) * ru
             } else if bu < 0.0 {
-                (u_lo - au) / bu
+                (u_lo - au) * ru
             } else {
                 f64::INFINITY
             };
             let ty = if bv > 0.0 {
-                (v_hi - av) / bv
+                (v_hi - av) * rv
             } else if bv < 0.0 {
-                (v_lo - av) / bv
+                (v_lo - av) * rv
             } else {
                 f64::INFINITY
             };
@@ -224,16 +259,18 @@ impl RayCaster {
             let seg_end = t_exit.min(max_range_m);
             let z_low = oz + dz * if dz < 0.0 { seg_end } else { t };
             let node_max = f64::from(self.levels[level].max_m(ni, nj));
-            if z_low <= node_max {
+            if z_low - slack(z_low, dz * seg_end) <= node_max {
                 if level > 0 {
                     level -= 1;
                     continue;
                 }
-                if let Some(hit) = patch_hit(field, p, q, [au, bu, av, bv, oz, dz], t, seg_end) {
-                    return Some(hit);
+                match exact_patch_hit(field, (p, q), origin_patch, ray, max_range_m) {
+                    PatchHit::Hit(hit) => return Some(hit),
+                    PatchHit::BeyondRange => return None,
+                    PatchHit::Miss => {}
                 }
             }
-            if seg_end >= max_range_m {
+            if t_exit > max_range_m * (1.0 + SLACK) {
                 return None;
             }
             // Step into the next node along the exit side(s); the other index follows the ray,
@@ -243,6 +280,61 @@ impl RayCaster {
             q = next_patch(ty <= tx, q, (q_lo, q_hi), av + bv * t, bv, h)?;
             level = (level + 1).min(top);
         }
+    }
+}
+
+/// Relative margin of the walk's estimated crossing times (their rounding is ~1e-16).
+const SLACK: f64 = 1e-9;
+
+/// How far below its estimate `z` (= a + `dz_t`) a height computed from an estimated crossing
+/// time can truly be, with room to spare.
+#[inline]
+fn slack(z: f64, dz_t: f64) -> f64 {
+    SLACK * (1.0 + z.abs() + dz_t.abs())
+}
+
+/// What [`exact_patch_hit`] found.
+enum PatchHit {
+    /// The first hit, at this distance.
+    Hit(f64),
+    /// No hit in the patch.
+    Miss,
+    /// The ray enters the patch at or past its range: no hit here or further on.
+    BeyondRange,
+}
+
+/// [`patch_hit`] on patch (`p`, `q`) over the ray's exact span in it: entering at 0 in the
+/// origin's patch, else at the later of its crossings of the patch's entry sides, and leaving at
+/// the earlier of its crossings of the exit sides (or `max_range_m`). These are the crossing
+/// times, quotient for quotient, of a walk that steps patch by patch (or node by node: a node's
+/// side is a side of the patches along it). O(1).
+#[inline]
+fn exact_patch_hit(field: &Heightfield, (p, q): (usize, usize), origin: (usize, usize), ray: [f64; 6], max_range_m: f64) -> PatchHit {
+    let [au, bu, av, bv, ..] = ray;
+    let g = &field.geometry;
+    let (w, h) = (g.width as f64, g.height as f64);
+    let (u_lo, u_hi) = ((p as f64 - 1.0).max(-0.5), (p as f64).min(w - 0.5));
+    let (v_lo, v_hi) = ((q as f64 - 1.0).max(-0.5), (q as f64).min(h - 0.5));
+    // (entry, exit) crossing of one axis's sides.
+    let crossings = |lo: f64, hi: f64, a: f64, b: f64| {
+        if b > 0.0 {
+            ((lo - a) / b, (hi - a) / b)
+        } else if b < 0.0 {
+            ((hi - a) / b, (lo - a) / b)
+        } else {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        }
+    };
+    let (u_in, u_out) = crossings(u_lo, u_hi, au, bu);
+    let (v_in, v_out) = crossings(v_lo, v_hi, av, bv);
+    let t0 = if (p, q) == origin { 0.0 } else { u_in.max(v_in) };
+    if t0 >= max_range_m {
+        return PatchHit::BeyondRange;
+    }
+    let seg_end = u_out.min(v_out).max(t0).min(max_range_m);
+    match patch_hit(field, p, q, ray, t0, seg_end) {
+        Some(t) => PatchHit::Hit(t),
+        None => PatchHit::Miss,
     }
 }
 
@@ -380,21 +472,35 @@ pub fn scan(
         &owned
     };
     let origin = caster.ray_origin(field, sensor_m);
-    let mut rays = 0;
-    for k in 0..params.rings {
-        let el = ring_elevation_rad(params, k);
-        let (ce, se) = (math::cos(el), math::sin(el));
-        for &(ca, sa) in &azimuths {
+    let horizon = match origin {
+        RayOrigin::Above { au, av, .. } => Horizon::new(caster, au, av, params.max_range_m),
+        _ => None,
+    };
+    // Cast azimuth by azimuth (a column's rings cross the same patches, so the mip-map and the
+    // heights they read stay in cache), then draw the noise and emit the points ring by ring, the
+    // sweep's order: the same points, the same draws.
+    let rings: Vec<(f64, f64)> = (0..params.rings)
+        .map(|k| {
+            let el = ring_elevation_rad(params, k);
+            (math::cos(el), math::sin(el))
+        })
+        .collect();
+    let mut hits = vec![(Vector3::zeros(), None); rings.len() * n_az];
+    for (a, &(ca, sa)) in azimuths.iter().enumerate() {
+        for (k, &(ce, se)) in rings.iter().enumerate() {
             let dir = world_from_sensor * Vector3::new(ce * ca, ce * sa, se);
-            rays += 1;
-            if let Some(r) = caster.cast_from(field, origin, dir, params.max_range_m) {
-                let noisy = r + params.range_sigma_m * gaussian(rng);
-                if r >= params.min_range_m {
-                    out.push(sensor_m + dir * noisy);
-                }
+            hits[k * n_az + a] = (dir, caster.cast_from(field, origin, dir, params.max_range_m, horizon.as_ref()));
+        }
+    }
+    for &(dir, hit) in &hits {
+        if let Some(r) = hit {
+            let noisy = r + params.range_sigma_m * gaussian(rng);
+            if r >= params.min_range_m {
+                out.push(sensor_m + dir * noisy);
             }
         }
     }
+    let rays = hits.len();
     rays
 }
 
