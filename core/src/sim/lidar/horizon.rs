@@ -8,7 +8,9 @@
 //! of the ray at that distance or farther, in its direction, so its node is one of those: a ray
 //! whose lowest z from t on (its z at t going up, at the range going down) is above the bound at
 //! its distance at t passes above every patch it can still enter. The walk would skip them one by
-//! one and return `None`; [`super::RayCaster`] returns `None` at once — the same answer. The
+//! one and return `None`; [`super::RayCaster`] returns `None` at once — the same answer. Likewise
+//! `within[s][k]` bounds the nodes whose distances overlap bin k: up to the first bin where the ray
+//! is not clearly above that bound it cannot meet the terrain, and its walk starts there. The
 //! node extents are widened by a margin far above the rounding of t and of the coordinates.
 //!
 //! Built per sweep in O((range / node size)² · sectors a node spans); O(1) per query.
@@ -32,6 +34,8 @@ pub(super) struct Horizon {
     /// `SECTORS + 1` rows of `bins` bounds, metres; the last row bounds every direction (rays
     /// without a horizontal direction).
     beyond: Vec<f64>,
+    /// The same rows, each bin bounding the nodes whose distances overlap it (not a suffix).
+    within: Vec<f64>,
 }
 
 /// A pseudo-angle of (x, y) ≠ 0 in [0, 4): monotone in the angle from +x counter-clockwise.
@@ -54,6 +58,7 @@ impl Horizon {
         let reach = max_range_m / caster.geometry.resolution_m * (1.0 + MARGIN) + 2.0;
         let bins = (reach / BIN) as usize + 2;
         let mut beyond = vec![f64::NEG_INFINITY; (SECTORS + 1) * bins];
+        let mut within = vec![f64::NEG_INFINITY; (SECTORS + 1) * bins];
         // Node i spans patches i·2^level ..= (i + 1)·2^level − 1, i.e. u ∈ [i·2^level − 1, (i + 1)·2^level − 1].
         let size = (1usize << level) as f64;
         let node_range = |a: f64, n: usize| {
@@ -76,7 +81,9 @@ impl Horizon {
                     continue;
                 }
                 let far = (du_far * du_far + dv_far * dv_far).sqrt() * (1.0 + MARGIN) + MARGIN;
+                let near = (du_near * du_near + dv_near * dv_near).sqrt() * (1.0 - MARGIN) - MARGIN;
                 let k = ((far / BIN) as usize).min(bins - 1);
+                let k_near = ((near.max(0.0) / BIN) as usize).min(k);
                 let m = f64::from(nodes.max_m(i, j));
                 // The sectors the node's directions span: all of them when it is near the origin,
                 // else the arc of its corners' pseudo-angles (under half a turn).
@@ -97,6 +104,9 @@ impl Horizon {
                 let mut mark = |s: usize| {
                     let b = &mut beyond[s * bins + k];
                     *b = b.max(m);
+                    for b in &mut within[s * bins + k_near..=s * bins + k] {
+                        *b = b.max(m);
+                    }
                 };
                 for s in s_lo..=s_hi.min(s_lo + SECTORS as isize - 1) {
                     mark(s.rem_euclid(SECTORS as isize) as usize);
@@ -109,14 +119,36 @@ impl Horizon {
                 row[k] = row[k].max(row[k + 1]);
             }
         }
-        Some(Self { bins, beyond })
+        Some(Self { bins, beyond, within })
     }
 
-    /// The bounds of the rays along (`bu`, `bv`), by distance bin.
+    /// The bounds of the rays along (`bu`, `bv`), by distance bin: at or beyond the bin, and
+    /// overlapping it.
     #[inline]
-    pub(super) fn along(&self, bu: f64, bv: f64) -> &[f64] {
+    pub(super) fn along(&self, bu: f64, bv: f64) -> (&[f64], &[f64]) {
         let s = if bu == 0.0 && bv == 0.0 { SECTORS } else { ((pseudo_angle(bu, bv) * (SECTORS as f64 / 4.0)) as usize).min(SECTORS - 1) };
-        &self.beyond[s * self.bins..(s + 1) * self.bins]
+        let row = s * self.bins..(s + 1) * self.bins;
+        (&self.beyond[row.clone()], &self.within[row])
+    }
+
+    /// Where a ray along `within` (from [`Self::along`]) can first meet the terrain: the start
+    /// distance (sample units) of the first bin where the ray's lowest z, `oz + dz_per_d · d` at
+    /// the bin's far end going down (near end going up), up to `d_max`, is not clearly above the
+    /// bin's bound; `None` when no bin up to `d_max` is. O(bins).
+    #[inline]
+    pub(super) fn first_reach(within: &[f64], d_max: f64, oz: f64, dz_per_d: f64) -> Option<f64> {
+        let down = dz_per_d < 0.0;
+        for (k, &bound) in within.iter().enumerate() {
+            let d0 = k as f64 * BIN;
+            if d0 > d_max {
+                return None;
+            }
+            let z = oz + dz_per_d * if down { (d0 + BIN).min(d_max) } else { d0 };
+            if z - 1e-9 * (1.0 + z.abs() + (dz_per_d * d_max).abs()) <= bound {
+                return Some(d0);
+            }
+        }
+        None
     }
 
     /// The highest terrain at or beyond horizontal distance `d` (sample units, ≥ 0) in `bounds`

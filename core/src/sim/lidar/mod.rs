@@ -17,12 +17,14 @@
 //!   skipped only when the ray clears it by far more than their rounding, and a patch is tested
 //!   over its exact span (the quotients of its own sides' crossings), so the answer is the one of
 //!   a walk on exact crossings, bit for bit (test `the_walk_answers_as_the_exact_node_by_node_walk_bit_for_bit`);
-//! - a sweep's rays share a [`horizon::Horizon`]: a ray that passes above everything it can still
-//!   reach ends at once.
+//! - a sweep's rays share a [`horizon::Horizon`]: a ray starts its walk where it can first meet
+//!   the terrain and ends it once it passes above everything it can still reach;
+//! - going down, the walk climbs back only into parents it has not opened (a node the ray does not
+//!   clear at its exit it never clears).
 //!
 //! Per ray: O(levels × nodes crossed + patches near the terrain), no allocation; per scan
-//! O(rings × azimuths × that), the origin's lookup and the horizon done once, the rays cast
-//! azimuth by azimuth (one azimuth's rings cross the same nodes). [`RayCaster::new`] is O(cells).
+//! O(rings × azimuths × that), the origin's lookup and the horizon done once, ring by ring (a
+//! ring's neighbouring rays end on neighbouring patches, in cache). [`RayCaster::new`] is O(cells).
 
 mod horizon;
 
@@ -222,16 +224,40 @@ impl RayCaster {
         // estimates' rounding, and a patch is tested on its exact crossings ([`exact_patch_hit`]).
         let (ru, rv) = (1.0 / bu, 1.0 / bv);
         let mut t = 0.0f64;
+        // Bit k: the level-k node holding the ray was entered and not skipped.
+        let mut open = 0u64;
         // The horizon's bounds along this ray's direction, its horizontal distance (sample units)
         // per unit t and its lowest z over [t, max_range_m] going down: the test below ends a ray
         // that stays above every patch it can still reach, whose walk would end in `None`.
         let ahead = horizon.map(|hz| hz.along(bu, bv));
         let h_uv = (bu * bu + bv * bv).sqrt();
         let z_end = oz + dz * max_range_m;
+        // Nothing can be hit before the horizon's first reachable bin: the walk starts there
+        // (just before, on the patch holding the ray; its test spans the whole patch), or the ray
+        // misses if it is outside the map by then.
+        if let Some((_, within)) = ahead
+            && h_uv > 0.0
+        {
+            let d_max = max_range_m * h_uv * (1.0 + SLACK);
+            let d = Horizon::first_reach(within, d_max, oz, dz / h_uv)?;
+            if d > 0.0 {
+                let t_start = d / h_uv * (1.0 - SLACK);
+                let (u, v) = (au + bu * t_start, av + bv * t_start);
+                let inside = |x: f64, n: usize| x > -0.5 + 1e-6 && x < n as f64 - 0.5 - 1e-6;
+                let outside = |x: f64, n: usize| !(x > -0.5 - 1e-6 && x < n as f64 - 0.5 + 1e-6);
+                if outside(u, w) || outside(v, h) {
+                    return None;
+                }
+                if inside(u, w) && inside(v, h) {
+                    t = t_start;
+                    (p, q) = (patch_index(u, w), patch_index(v, h));
+                }
+            }
+        }
         loop {
-            if let Some(ahead) = ahead {
+            if let Some((beyond, _)) = ahead {
                 let z_floor = if dz < 0.0 { z_end } else { oz + dz * t };
-                if z_floor - slack(z_floor, dz * t) > Horizon::max_beyond(ahead, t * h_uv) {
+                if z_floor - slack(z_floor, dz * t) > Horizon::max_beyond(beyond, t * h_uv) {
                     return None;
                 }
             }
@@ -261,6 +287,7 @@ impl RayCaster {
             let node_max = f64::from(self.levels[level].max_m(ni, nj));
             if z_low - slack(z_low, dz * seg_end) <= node_max {
                 if level > 0 {
+                    open |= 1 << level;
                     level -= 1;
                     continue;
                 }
@@ -276,9 +303,16 @@ impl RayCaster {
             // Step into the next node along the exit side(s); the other index follows the ray,
             // kept inside this node's range against rounding.
             t = t_exit;
+            let (p_was, q_was) = (p, q);
             p = next_patch(tx <= ty, p, (p_lo, p_hi), au + bu * t, bu, w)?;
             q = next_patch(ty <= tx, q, (q_lo, q_hi), av + bv * t, bv, h)?;
-            level = (level + 1).min(top);
+            // Going down, a node that was not skipped never will be (its lowest z is at its exit):
+            // the walk climbs back only into a parent it has not opened.
+            let moved = (p_was ^ p) | (q_was ^ q);
+            open &= !(u64::MAX >> (moved.leading_zeros() + u64::BITS - usize::BITS).min(63));
+            if dz >= 0.0 || open & (1 << (level + 1)) == 0 {
+                level = (level + 1).min(top);
+            }
         }
     }
 }
@@ -476,31 +510,21 @@ pub fn scan(
         RayOrigin::Above { au, av, .. } => Horizon::new(caster, au, av, params.max_range_m),
         _ => None,
     };
-    // Cast azimuth by azimuth (a column's rings cross the same patches, so the mip-map and the
-    // heights they read stay in cache), then draw the noise and emit the points ring by ring, the
-    // sweep's order: the same points, the same draws.
-    let rings: Vec<(f64, f64)> = (0..params.rings)
-        .map(|k| {
-            let el = ring_elevation_rad(params, k);
-            (math::cos(el), math::sin(el))
-        })
-        .collect();
-    let mut hits = vec![(Vector3::zeros(), None); rings.len() * n_az];
-    for (a, &(ca, sa)) in azimuths.iter().enumerate() {
-        for (k, &(ce, se)) in rings.iter().enumerate() {
+    let mut rays = 0;
+    for k in 0..params.rings {
+        let el = ring_elevation_rad(params, k);
+        let (ce, se) = (math::cos(el), math::sin(el));
+        for &(ca, sa) in &azimuths {
             let dir = world_from_sensor * Vector3::new(ce * ca, ce * sa, se);
-            hits[k * n_az + a] = (dir, caster.cast_from(field, origin, dir, params.max_range_m, horizon.as_ref()));
-        }
-    }
-    for &(dir, hit) in &hits {
-        if let Some(r) = hit {
-            let noisy = r + params.range_sigma_m * gaussian(rng);
-            if r >= params.min_range_m {
-                out.push(sensor_m + dir * noisy);
+            rays += 1;
+            if let Some(r) = caster.cast_from(field, origin, dir, params.max_range_m, horizon.as_ref()) {
+                let noisy = r + params.range_sigma_m * gaussian(rng);
+                if r >= params.min_range_m {
+                    out.push(sensor_m + dir * noisy);
+                }
             }
         }
     }
-    let rays = hits.len();
     rays
 }
 
