@@ -251,6 +251,10 @@ pub(super) fn estimate_cell(
     let z_ref = sum.z_ref_m;
     let relative = p.step_relative_to_plane && plane.height_at(0.0, 0.0).is_some();
     let (mut raw_hi, mut raw_lo, mut hi, mut lo) = (f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+    // The extremes as plain comparisons: the accumulators start infinite and never become NaN, so
+    // `a.max(x)` is `x > a ? x : a` (and min alike) without its NaN test on `a`. The plane's height
+    // is `PlaneFit::height_at` written out (`relative` checked it exists), the same operations.
+    let ([cx, cy, cz], [nx, ny, nz]) = (plane.centroid, plane.normal);
     sums.disc.for_each(g, index, |k, _, _| {
         let m = &moments[k];
         // Empty cells (z_max = −∞, z_min = +∞) would change nothing: skipped, with their
@@ -258,12 +262,13 @@ pub(super) fn estimate_cell(
         if m.count == 0 {
             return;
         }
-        raw_hi = raw_hi.max(m.z_max);
-        raw_lo = raw_lo.min(m.z_min);
+        raw_hi = if m.z_max > raw_hi { m.z_max } else { raw_hi };
+        raw_lo = if m.z_min < raw_lo { m.z_min } else { raw_lo };
         if relative {
-            let z = z_ref + plane.height_at(m.mean[0] - x_c, m.mean[1] - y_c).unwrap_or(0.0);
-            hi = hi.max(m.z_max - z);
-            lo = lo.min(m.z_min - z);
+            let z = z_ref + (cz - (nx * ((m.mean[0] - x_c) - cx) + ny * ((m.mean[1] - y_c) - cy)) / nz);
+            let (above, below) = (m.z_max - z, m.z_min - z);
+            hi = if above > hi { above } else { hi };
+            lo = if below < lo { below } else { lo };
         }
     });
     let raw_step_m = raw_hi - raw_lo;
