@@ -16,7 +16,9 @@
 //! - the walk's crossing times are estimates (products by the direction's reciprocal), a node is
 //!   skipped only when the ray clears it by far more than their rounding, and a patch is tested
 //!   over its exact span (the quotients of its own sides' crossings), so the answer is the one of
-//!   a walk on exact crossings, bit for bit (test `the_walk_answers_as_the_exact_node_by_node_walk_bit_for_bit`);
+//!   a walk on exact crossings, bit for bit, but for a ray through a patch corner to the last bit,
+//!   where the exact walk's own entry time depends on its rounding (test
+//!   `the_walk_answers_as_the_exact_node_by_node_walk_bit_for_bit`);
 //! - a sweep's rays share a [`horizon::Horizon`]: a ray starts its walk where it can first meet
 //!   the terrain and ends it once it passes above everything it can still reach;
 //! - going down, the walk climbs back only into parents it has not opened (a node the ray does not
