@@ -593,7 +593,7 @@ impl Mission {
     #[cfg(test)]
     pub(crate) fn reregister_now(&mut self) {
         if let Some(fe) = self.localiser.slam() {
-            fe.reregister_map(&mut self.tmap);
+            fe.rebuild_map(&mut self.tmap);
         }
     }
 }
