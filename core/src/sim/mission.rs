@@ -576,6 +576,7 @@ impl Mission {
             new_maps: l.tracking.new_maps,
             lost_s: l.tracking.lost_s,
             wrong_associations: l.wrong_associations,
+            links: l.links,
             total_plan_ms: e.total_plan_ms,
         }
     }
