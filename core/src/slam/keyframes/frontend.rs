@@ -129,7 +129,7 @@ impl SlamFrontend {
         self.loop_closures
     }
 
-    /// Traversability rebuilds requested so far.
+    /// Re-registrations of the map done so far.
     pub(crate) fn reregistrations(&self) -> u64 {
         self.reregistrations
     }
@@ -207,9 +207,6 @@ impl SlamFrontend {
             self.loop_closures += 1;
             let poses = self.slam.keyframe_poses();
             out.reregister = poses.iter().zip(&self.registered).any(|(now, then)| moved(&self.params, then, now));
-            if out.reregister {
-                self.reregistrations += 1;
-            }
         }
         Ok(out)
     }
@@ -249,7 +246,9 @@ impl SlamFrontend {
     pub(crate) fn reregister_map(&mut self, map: &mut TraversabilityMap) -> usize {
         let poses = self.slam.keyframe_poses();
         let params = &self.params;
-        reregister_moved(map, &mut self.clouds, &mut self.registered, &poses, |then, now| moved(params, then, now))
+        let n = reregister_moved(map, &mut self.clouds, &mut self.registered, &poses, |then, now| moved(params, then, now));
+        self.reregistrations += u64::from(n > 0);
+        n
     }
 
     /// Rebuilds the whole of `map` from the keyframe clouds at their registered poses.
