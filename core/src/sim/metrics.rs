@@ -122,6 +122,9 @@ pub struct Summary {
     pub lost_s: f64,
     /// Features matched to the wrong landmark (SLAM only; [`super::vision`]).
     pub wrong_associations: u64,
+    /// The pose graph's links and loop closures (zeros for the other localisations).
+    #[serde(flatten)]
+    pub links: crate::slam::LinkStats,
     /// Wall time of every selector run, ms (0 without a clock; not deterministic).
     pub total_plan_ms: f64,
 }

@@ -271,7 +271,7 @@ impl Mission {
         }
 
         // Sensing. A SLAM keyframe first, so that this tick's scan belongs to it.
-        self.localiser.keyframe(&mut self.sim, &mut self.tmap);
+        self.localiser.keyframe(&mut self.sim);
         let est = self.localiser.pose();
         let (p, t) = self.last_scan;
         let moved = math::hypot(est.x_m - p.x_m, est.y_m - p.y_m);
@@ -334,7 +334,7 @@ impl Mission {
     /// the end of the mission.
     fn decide(&mut self, replanning: bool) -> Option<EndReason> {
         let mut grid = self.occupancy();
-        self.localiser.prepare_decision();
+        self.localiser.prepare_decision(&mut self.tmap);
         let u2 = &self.explorer.planner().u2;
         let cloud = self.localiser.landmark_map(u2.sigma_landmark_m);
         let voxels = LandmarkVoxels::new(&cloud, u2.voxel_m, u2.sigma_landmark_m).unwrap_or_else(|_| LandmarkVoxels::empty(u2.voxel_m));
@@ -576,6 +576,7 @@ impl Mission {
             new_maps: l.tracking.new_maps,
             lost_s: l.tracking.lost_s,
             wrong_associations: l.wrong_associations,
+            links: l.links,
             total_plan_ms: e.total_plan_ms,
         }
     }
@@ -593,7 +594,7 @@ impl Mission {
     #[cfg(test)]
     pub(crate) fn reregister_now(&mut self) {
         if let Some(fe) = self.localiser.slam() {
-            fe.reregister_map(&mut self.tmap);
+            fe.rebuild_map(&mut self.tmap);
         }
     }
 }

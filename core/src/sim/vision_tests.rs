@@ -8,7 +8,6 @@ use super::world::{World, WorldSpec};
 use super::{Localisation, MissionParams, WorldSim};
 use crate::params::Params;
 use crate::slam::RobustKernel;
-use crate::traversability::TraversabilityMap;
 
 /// A flat 16 m square world whose ground has landmarks with probability `texture` per 10 cm
 /// lattice site everywhere (contrast 0: one texture level), no rocks.
@@ -37,7 +36,6 @@ fn drive_square(world: World, mp: &MissionParams, seed: u64) -> Drive {
 /// … with `localisation`.
 fn drive_square_with(localisation: Localisation, world: World, mp: &MissionParams, seed: u64) -> Drive {
     let params = Params::default();
-    let mut map = TraversabilityMap::new(world.field.geometry).unwrap();
     let mut sim = WorldSim::new(world, mp, &params, seed);
     let mut loc = new_localiser(localisation, &mut sim, &mp.slam, seed).unwrap();
     let dt = mp.dt_s;
@@ -48,7 +46,7 @@ fn drive_square_with(localisation: Localisation, world: World, mp: &MissionParam
             for _ in 0..(duration_s / dt).round() as usize {
                 let motion = sim.drive(cmd, dt);
                 loc.propagate(&mut sim, &motion, dt);
-                loc.keyframe(&mut sim, &mut map);
+                loc.keyframe(&mut sim);
                 let (est, truth) = (loc.body_pose(&sim).0, sim.body_pose().0);
                 sq += (est - truth).norm_squared();
                 n += 1;

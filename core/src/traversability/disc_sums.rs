@@ -112,6 +112,23 @@ impl Disc {
         Self { offsets, flat, r_cells }
     }
 
+    /// The disc sum of cell `c` from the cell moments of its disc, in offset order.
+    fn sum_of(&self, g: &GridGeometry, c: usize, moments: &[CellMoments]) -> DiscSum {
+        let mut sum = DiscSum::default();
+        let (x_c, y_c) = centre_local(g, c);
+        self.for_each(g, c, |k, _, _| {
+            let m = &moments[k];
+            if m.count == 0 {
+                return;
+            }
+            if sum.count == 0 {
+                sum.z_ref_m = m.mean[2];
+            }
+            sum.add_moments(m.count, [m.mean[0] - x_c, m.mean[1] - y_c, m.mean[2] - sum.z_ref_m], &m.scatter, m.var_sum_m2);
+        });
+        sum
+    }
+
     /// Calls `f(k, col, row)` for every cell k = (col, row) of the disc around `index` that lies
     /// in the grid, in offset order (the column and row come from the offsets, k = index + the
     /// flat offset: no division per cell; the bounds are checked only near the grid's border).
@@ -164,19 +181,37 @@ impl DiscSums {
         sums.clear();
         sums.resize(g.len(), DiscSum::default());
         for (c, sum) in sums.iter_mut().enumerate() {
-            let (x_c, y_c) = centre_local(g, c);
-            disc.for_each(g, c, |k, _, _| {
-                let m = &moments[k];
-                if m.count == 0 {
-                    return;
-                }
-                if sum.count == 0 {
-                    sum.z_ref_m = m.mean[2];
-                }
-                sum.add_moments(m.count, [m.mean[0] - x_c, m.mean[1] - y_c, m.mean[2] - sum.z_ref_m], &m.scatter, m.var_sum_m2);
-            });
+            *sum = disc.sum_of(g, c, moments);
         }
         Self { radius_m, disc, sums }
+    }
+
+    /// Recomputes from `moments` the sums of every cell whose disc holds one of `cells` (after
+    /// those cells' moments were rebuilt) and calls `changed` with each, once. The same sums,
+    /// bit for bit, as a full [`Self::from_moments_in`]. `mark` is scratch, one flag per cell,
+    /// all false on entry and on return. O(|cells| × disc cells²).
+    pub(super) fn rebuild_around(
+        &mut self,
+        g: &GridGeometry,
+        moments: &[CellMoments],
+        cells: &[u32],
+        mark: &mut Vec<bool>,
+        mut changed: impl FnMut(usize),
+    ) {
+        mark.resize(g.len(), false);
+        let mut around = Vec::new();
+        for &c in cells {
+            self.disc.for_each(g, c as usize, |k, _, _| {
+                if !std::mem::replace(&mut mark[k], true) {
+                    around.push(k);
+                }
+            });
+        }
+        for &k in &around {
+            mark[k] = false;
+            self.sums[k] = self.disc.sum_of(g, k, moments);
+            changed(k);
+        }
     }
 
     /// Prefetches ([`prefetch`]) the sums of the disc around `index` (near the grid's border the

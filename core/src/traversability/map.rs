@@ -60,6 +60,9 @@ pub struct TraversabilityMap {
     pub(super) known: Vec<bool>,
     /// (disc radius, min_points, min_spread_ratio) the known flags were computed with.
     pub(super) known_with: Option<(u64, u32, u64)>,
+    /// Scratch flags of [`Self::rebuild_cells`] (empty until used; all false between calls).
+    region: Vec<bool>,
+    around: Vec<bool>,
 }
 
 /// A set of cells — a flag per cell and the list of flagged ones, in marking order — or all.
@@ -155,6 +158,8 @@ impl TraversabilityMap {
             stale_known: StaleCells::new(cells),
             known: vec![false; cells],
             known_with: None,
+            region: Vec::new(),
+            around: Vec::new(),
         })
     }
 
@@ -291,6 +296,45 @@ impl TraversabilityMap {
         if let Some(d) = &self.discs {
             d.prefetch_disc(index);
         }
+    }
+
+    /// Re-registers part of the map: empties the moments of `cells` (each listed once), bins
+    /// into them the points of `world_points` that fall in one of them (the others are
+    /// skipped), and recomputes the disc sums of every cell whose disc meets them; those become
+    /// stale. Each rebuilt cell then holds what [`Self::clear`] and inserting the same points
+    /// would give it, bit for bit. O(points + |cells| × disc cells²).
+    pub fn rebuild_cells<I: IntoIterator<Item = (Point3<f64>, f64)>>(&mut self, cells: &[u32], world_points: I) -> InsertStats {
+        let g = self.geometry;
+        self.region.resize(g.len(), false);
+        let cells: Vec<u32> = cells.iter().copied().filter(|&c| (c as usize) < g.len()).collect();
+        for &c in &cells {
+            self.region[c as usize] = true;
+            self.moments[c as usize] = CellMoments::EMPTY;
+        }
+        let mut stats = InsertStats::default();
+        for (p, var_m2) in world_points {
+            let var_m2 = if var_m2.is_finite() { var_m2.max(0.0) } else { 0.0 };
+            let cell =
+                (p.x.is_finite() && p.y.is_finite() && p.z.is_finite()).then(|| g.cell_of(p.x, p.y).and_then(|c| g.index(c))).flatten();
+            let Some(i) = cell.filter(|&i| self.region[i]) else {
+                stats.ignored += 1;
+                continue;
+            };
+            let z0 = *self.z_origin_m.get_or_insert(p.z);
+            self.moments[i].add_with_variance([p.x - g.origin_x_m, p.y - g.origin_y_m, p.z - z0], var_m2);
+            stats.inserted += 1;
+        }
+        for &c in &cells {
+            self.region[c as usize] = false;
+        }
+        if let Some(d) = self.discs.as_mut() {
+            let (se, sk) = (&mut self.stale_estimate, &mut self.stale_known);
+            d.rebuild_around(&g, &self.moments, &cells, &mut self.around, |c| {
+                se.mark(c);
+                sk.mark(c);
+            });
+        }
+        stats
     }
 
     /// Removes every point (e.g. before re-registering all scans after a loop closure). Keeps

@@ -40,7 +40,7 @@ mod plane;
 mod render;
 mod sampling;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub(crate) use crate::grid::MAX_CELLS;
 pub use estimate::GroundModel;

@@ -44,7 +44,7 @@ fn interior() -> impl Iterator<Item = Cell> {
 }
 
 /// Bitwise equality of every layer (NaN equals NaN).
-fn assert_same(a: &TraversabilityLayers, b: &TraversabilityLayers) {
+pub(crate) fn assert_same(a: &TraversabilityLayers, b: &TraversabilityLayers) {
     for (x, y) in [
         (&a.slope_rad, &b.slope_rad),
         (&a.step_m, &b.step_m),

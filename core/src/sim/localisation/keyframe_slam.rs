@@ -31,6 +31,8 @@ pub(crate) struct KeyframeSlamLocaliser {
     tracking: VisualTracking,
     /// Features matched to the wrong landmark by the front end so far.
     wrong_associations: u64,
+    /// A loop closure moved keyframes since the map was last re-registered.
+    reregister_pending: bool,
     features: Vec<CameraObservation>,
     /// Buffers for registering a scan.
     body_points: Vec<Vector3<f64>>,
@@ -54,6 +56,7 @@ impl KeyframeSlamLocaliser {
             kind,
             tracking: VisualTracking::new(sim.vision_params()),
             wrong_associations: counts.wrong as u64,
+            reregister_pending: false,
             features: Vec::new(),
             est: sim.pose(),
             frontend,
@@ -95,9 +98,10 @@ impl Localiser for KeyframeSlamLocaliser {
     }
 
     /// A keyframe when due: the front end reports features from the true pose, tracking keeps
-    /// those the SLAM may use, the accelerometer measures up; after a loop closure that moved
-    /// the keyframes the map is rebuilt from their clouds.
-    fn keyframe(&mut self, sim: &mut WorldSim, map: &mut TraversabilityMap) {
+    /// those the SLAM may use, the accelerometer measures up; a loop closure that moved the
+    /// keyframes leaves the map to be re-registered before the next decision (consecutive
+    /// closures of one revisit then cost one re-registration).
+    fn keyframe(&mut self, sim: &mut WorldSim) {
         if !self.frontend.keyframe_due() {
             return;
         }
@@ -110,9 +114,7 @@ impl Localiser for KeyframeSlamLocaliser {
         let outcome = self.frontend.add_keyframe(&self.features, Some(up));
         self.est = pose2_of(&self.frontend.estimate());
         match outcome {
-            Ok(o) if o.reregister => {
-                self.frontend.reregister_map(map);
-            }
+            Ok(o) if o.reregister => self.reregister_pending = true,
             Ok(_) => {}
             Err(_) => self.slam_errors += 1,
         }
@@ -144,7 +146,10 @@ impl Localiser for KeyframeSlamLocaliser {
         map.insert_points_with_variance(self.registered.iter().copied());
     }
 
-    fn prepare_decision(&mut self) {
+    fn prepare_decision(&mut self, map: &mut TraversabilityMap) {
+        if std::mem::take(&mut self.reregister_pending) {
+            self.frontend.reregister_map(map);
+        }
         self.frontend.refresh_landmark_covariances();
     }
 

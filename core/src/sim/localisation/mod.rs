@@ -138,9 +138,8 @@ pub(crate) trait Localiser {
     /// The robot drove `motion` in `dt_s`: the estimate follows the wheels and the gyro.
     fn propagate(&mut self, sim: &mut WorldSim, motion: &Motion, dt_s: f64);
 
-    /// After a tick's motion: a SLAM takes a keyframe when one is due, and rebuilds `map` when a
-    /// loop closure moved the keyframes. Nothing by default.
-    fn keyframe(&mut self, _sim: &mut WorldSim, _map: &mut TraversabilityMap) {}
+    /// After a tick's motion: a SLAM takes a keyframe when one is due. Nothing by default.
+    fn keyframe(&mut self, _sim: &mut WorldSim) {}
 
     /// The planar estimate.
     fn pose(&self) -> crate::Pose2;
@@ -160,8 +159,10 @@ pub(crate) trait Localiser {
     /// camera at keyframes only). Nothing by default.
     fn observe(&mut self, _sim: &mut WorldSim) {}
 
-    /// Before a decision: brings the landmark covariances up to date. Nothing by default.
-    fn prepare_decision(&mut self) {}
+    /// Before a decision: a SLAM re-registers in `map` the keyframes its loop closures moved
+    /// since the last decision, and brings the landmark covariances up to date. Nothing by
+    /// default.
+    fn prepare_decision(&mut self, _map: &mut TraversabilityMap) {}
 
     /// The landmark map (estimated positions in id order, with covariances; `sigma_landmark_m`
     /// where the localisation has none of its own).

@@ -129,7 +129,7 @@ impl SlamFrontend {
         self.loop_closures
     }
 
-    /// Traversability rebuilds requested so far.
+    /// Re-registrations of the map done so far.
     pub(crate) fn reregistrations(&self) -> u64 {
         self.reregistrations
     }
@@ -206,16 +206,7 @@ impl SlamFrontend {
         if update.full {
             self.loop_closures += 1;
             let poses = self.slam.keyframe_poses();
-            let lever = self.params.reregister_lever_m;
-            let moved = poses.iter().zip(&self.registered).any(|(now, then)| {
-                let d = then.between(now);
-                d.translation.norm() + lever * so3_log(&d.rotation).norm() > self.params.reregister_shift_m
-            });
-            if moved {
-                self.registered = poses;
-                self.reregistrations += 1;
-                out.reregister = true;
-            }
+            out.reregister = poses.iter().zip(&self.registered).any(|(now, then)| moved(&self.params, then, now));
         }
         Ok(out)
     }
@@ -250,9 +241,20 @@ impl SlamFrontend {
         map.forget_disc(x_m, y_m, radius_m)
     }
 
-    /// Rebuilds `map` from the keyframe clouds with the current keyframe poses.
-    pub(crate) fn reregister_map(&self, map: &mut TraversabilityMap) -> usize {
-        reregister(map, &self.clouds, &self.registered)
+    /// Re-registers in `map` the keyframes that moved since their points were registered
+    /// ([`reregister_moved`]); returns how many did.
+    pub(crate) fn reregister_map(&mut self, map: &mut TraversabilityMap) -> usize {
+        let poses = self.slam.keyframe_poses();
+        let params = &self.params;
+        let n = reregister_moved(map, &mut self.clouds, &mut self.registered, &poses, |then, now| moved(params, then, now));
+        self.reregistrations += u64::from(n > 0);
+        n
+    }
+
+    /// Rebuilds the whole of `map` from the keyframe clouds at their registered poses.
+    #[cfg(test)]
+    pub(crate) fn rebuild_map(&self, map: &mut TraversabilityMap) -> usize {
+        super::reregister(map, &self.clouds, &self.registered)
     }
 
     /// When `landmark_refresh_keyframes` keyframes were added since the last refresh, recomputes
@@ -284,6 +286,13 @@ impl SlamFrontend {
         }
         PointCloud { points, covariances: Some(covs), classification: None }
     }
+}
+
+/// Whether a keyframe registered at `then` and now at `now` moved enough to re-register its
+/// points: |Δt| + `reregister_lever_m` · |Δφ| > `reregister_shift_m`.
+fn moved(params: &SlamParams, then: &Se3, now: &Se3) -> bool {
+    let d = then.between(now);
+    d.translation.norm() + params.reregister_lever_m * so3_log(&d.rotation).norm() > params.reregister_shift_m
 }
 
 /// The observations in the back end's form, by increasing id.

@@ -70,7 +70,9 @@ mod params;
 pub use clouds::KeyframeClouds;
 
 pub(crate) use crate::slam::propagation::{anchored_landmark_covariance, compound_covariance};
-pub(crate) use clouds::{height_variance, reregister};
+#[cfg(test)]
+pub(crate) use clouds::reregister;
+pub(crate) use clouds::{height_variance, reregister_moved};
 pub use frontend::{CameraObservation, SlamFrontend, SlamModel};
 pub(crate) use odometry::{BodyIncrement, propagate_relative};
 pub use params::SlamParams;

@@ -70,6 +70,45 @@ fn reregistration_moves_the_map_with_the_keyframes() {
     assert_eq!(reregister(&mut map, &clouds, &[at(1.0, 1.0, 0.0)]), 16);
 }
 
+/// Moving one keyframe rebuilds the cells its points leave and reach: after `update`, the map
+/// and its layers are the same, bit for bit, as a rebuild of the whole map from the keyframes'
+/// registered poses; a keyframe that moved less than the threshold keeps its registration.
+#[test]
+fn moved_keyframes_rebuild_their_cells_as_a_whole_rebuild_would() {
+    let g = GridGeometry::new(0.0, 0.0, 0.05, 100, 100);
+    let params = crate::params::TraversabilityParams::default();
+    let mut clouds = KeyframeClouds::new(0.05);
+    // Three keyframes, each a bumpy 0.6 m × 0.6 m patch around it (body frame).
+    for k in 0..3 {
+        clouds.start_keyframe(1e-6 * f64::from(k));
+        for i in 0..12 {
+            for j in 0..12 {
+                let (x, y) = (-0.3 + 0.05 * f64::from(i), -0.3 + 0.05 * f64::from(j));
+                clouds.push(&Vector3::new(x, y, 0.02 * ((i * 7 + j * 3 + k) % 5) as f64));
+            }
+        }
+    }
+    let at = |x: f64, y: f64, yaw: f64| Se3::new(UnitQuaternion::from_euler_angles(0.0, 0.0, yaw), Vector3::new(x, y, 0.0));
+    let before = [at(1.0, 1.0, 0.0), at(1.5, 1.2, 0.3), at(3.0, 3.0, 0.0)];
+    let mut map = TraversabilityMap::new(g).unwrap();
+    reregister(&mut map, &clouds, &before);
+    let mut layers = map.compute(&params);
+    map.update(&params, &mut layers); // builds the disc sums
+    // Keyframe 1 moves 0.2 m (its patch overlaps keyframe 0's), keyframe 2 by 1 mm.
+    let now = [before[0], at(1.7, 1.2, 0.35), at(3.001, 3.0, 0.0)];
+    let mut registered = before.to_vec();
+    let moved = reregister_moved(&mut map, &mut clouds, &mut registered, &now, |a, b| a.between(b).translation.norm() > 0.01);
+    assert_eq!(moved, 1);
+    assert_eq!(registered, vec![before[0], now[1], before[2]]);
+    assert!(map.update(&params, &mut layers) < g.len(), "only the cells around the moved patch");
+    let mut whole = TraversabilityMap::new(g).unwrap();
+    reregister(&mut whole, &clouds, &registered);
+    assert_eq!(map.moments(), whole.moments());
+    crate::traversability::tests::assert_same(&layers, &whole.compute(&params));
+    // Nothing moved: nothing happens.
+    assert_eq!(reregister_moved(&mut map, &mut clouds, &mut registered, &now, |a, b| a.between(b).translation.norm() > 0.01), 0);
+}
+
 #[test]
 fn forgotten_points_stay_out_of_every_later_reregistration() {
     let g = GridGeometry::new(0.0, 0.0, 0.05, 80, 80);
