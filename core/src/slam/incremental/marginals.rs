@@ -17,21 +17,80 @@ impl Isam2 {
         Ok(self.marginal_covariances(&[id])?.remove(0))
     }
 
-    /// The marginal covariances of `ids`, in order. Each clique's joint on the paths to the
-    /// root is computed once for the whole call, so variables sharing ancestors (landmarks seen
-    /// recently sit near the root) cost one propagation.
+    /// The marginal covariances of `ids`, in order. The cliques on the paths from the root to
+    /// the requested variables are walked depth first: a clique's joint is computed once, from
+    /// its parent's, and dropped as soon as its last needed child has taken its separator block,
+    /// so the joints held at once are those of one root-to-leaf path and their pending siblings'
+    /// parents, not those of every clique visited (variables sharing ancestors, such as landmarks
+    /// seen recently near the root, still cost one propagation).
     pub fn marginal_covariances(&self, ids: &[VarId]) -> Result<Vec<DMatrix<f64>>, IncrementalError> {
-        let mut joints: BTreeMap<usize, DMatrix<f64>> = BTreeMap::new();
-        let mut out = Vec::with_capacity(ids.len());
-        for &id in ids {
+        let broken = || IncrementalError::NotPositiveDefinite;
+        // Requests per clique, and the needed cliques with their needed children.
+        let mut requests: BTreeMap<usize, Vec<(usize, VarId)>> = BTreeMap::new();
+        let mut needed_children: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        let mut roots = Vec::new();
+        let mut links = Vec::new();
+        for (i, &id) in ids.iter().enumerate() {
             let c = self.clique_index(id)?;
-            self.fill_joints(c, &mut joints)?;
-            let clique = self.cliques[c].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
-            let o = self.offset_in(clique, id).ok_or(IncrementalError::UnknownVariable(id))?;
-            let d = self.dim[id.0];
-            out.push(joints[&c].view((o, o), (d, d)).into_owned());
+            requests.entry(c).or_default().push((i, id));
+            let mut at = c;
+            while !needed_children.contains_key(&at) {
+                needed_children.insert(at, Vec::new());
+                match self.cliques[at].as_ref().ok_or_else(broken)?.parent {
+                    Some(p) => {
+                        links.push((p, at));
+                        at = p;
+                    }
+                    None => roots.push(at),
+                }
+            }
         }
-        Ok(out)
+        for (parent, child) in links {
+            needed_children.get_mut(&parent).ok_or_else(broken)?.push(child);
+        }
+        let mut out: Vec<Option<DMatrix<f64>>> = vec![None; ids.len()];
+        // Joints still needed by a child, with how many children have yet to take theirs.
+        let mut held: BTreeMap<usize, (DMatrix<f64>, usize)> = BTreeMap::new();
+        let mut stack: Vec<usize> = roots;
+        while let Some(k) = stack.pop() {
+            let cl = self.cliques[k].as_ref().ok_or_else(broken)?;
+            let cov_s = match cl.parent {
+                None => DMatrix::zeros(0, 0),
+                Some(p) => {
+                    let pcl = self.cliques[p].as_ref().ok_or_else(broken)?;
+                    let (pj, pending) = held.get_mut(&p).ok_or_else(broken)?;
+                    let cov_s = self.separator_block(cl, pcl, pj)?;
+                    *pending -= 1;
+                    if *pending == 0 {
+                        held.remove(&p);
+                    }
+                    cov_s
+                }
+            };
+            let joint = clique::joint_covariance(&cl.matrix, cl.frontal_dim, &cov_s).ok_or_else(broken)?;
+            for &(i, id) in requests.get(&k).map_or(&[][..], Vec::as_slice) {
+                let o = self.offset_in(cl, id).ok_or(IncrementalError::UnknownVariable(id))?;
+                let d = self.dim[id.0];
+                out[i] = Some(joint.view((o, o), (d, d)).into_owned());
+            }
+            let children = &needed_children[&k];
+            if !children.is_empty() {
+                held.insert(k, (joint, children.len()));
+                stack.extend(children.iter().rev());
+            }
+        }
+        out.into_iter().map(|c| c.ok_or_else(broken)).collect()
+    }
+
+    /// The block of a parent's joint covariance on a child's separator, in the child's order.
+    fn separator_block(&self, child: &Clique, parent: &Clique, parent_joint: &DMatrix<f64>) -> Result<DMatrix<f64>, IncrementalError> {
+        let ns = child.dim() - child.frontal_dim;
+        let mut map = Vec::with_capacity(ns);
+        for v in &child.separator {
+            let po = self.offset_in(parent, *v).ok_or(IncrementalError::UnknownVariable(*v))?;
+            map.extend(po..po + self.dim[v.0]);
+        }
+        Ok(DMatrix::from_fn(ns, ns, |i, j| parent_joint[(map[i], map[j])]))
     }
 
     pub(super) fn clique_index(&self, id: VarId) -> Result<usize, IncrementalError> {
@@ -48,37 +107,5 @@ impl Isam2 {
             o += self.dim[u.0];
         }
         None
-    }
-
-    /// Computes the joint covariance of clique `c` and of every ancestor not in `joints` yet:
-    /// a clique's joint from its separator's block of its parent's joint (the conditionals are
-    /// linear-Gaussian), the root's from its conditional alone.
-    pub(super) fn fill_joints(&self, c: usize, joints: &mut BTreeMap<usize, DMatrix<f64>>) -> Result<(), IncrementalError> {
-        let broken = || IncrementalError::NotPositiveDefinite;
-        let mut path = Vec::new();
-        let mut at = Some(c);
-        while let Some(k) = at.filter(|k| !joints.contains_key(k)) {
-            path.push(k);
-            at = self.cliques[k].as_ref().ok_or_else(broken)?.parent;
-        }
-        for &k in path.iter().rev() {
-            let cl = self.cliques[k].as_ref().ok_or_else(broken)?;
-            let ns = cl.dim() - cl.frontal_dim;
-            let cov_s = match cl.parent {
-                None => DMatrix::zeros(0, 0),
-                Some(p) => {
-                    let (pcl, pj) = (self.cliques[p].as_ref().ok_or_else(broken)?, &joints[&p]);
-                    let mut map = Vec::with_capacity(ns);
-                    for v in &cl.separator {
-                        let po = self.offset_in(pcl, *v).ok_or(IncrementalError::UnknownVariable(*v))?;
-                        map.extend(po..po + self.dim[v.0]);
-                    }
-                    DMatrix::from_fn(ns, ns, |i, j| pj[(map[i], map[j])])
-                }
-            };
-            let joint = clique::joint_covariance(&cl.matrix, cl.frontal_dim, &cov_s).ok_or_else(broken)?;
-            joints.insert(k, joint);
-        }
-        Ok(())
     }
 }
