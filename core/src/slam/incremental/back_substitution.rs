@@ -28,7 +28,7 @@ impl Isam2 {
             }
             x_f.clear();
             x_f.resize(clique.frontal_dim, 0.0);
-            clique::solve_conditional(&clique.matrix, clique.frontal_dim, &x_s, &mut x_f);
+            clique::solve_conditional(&clique.factor, clique.frontal_dim, &x_s, &mut x_f);
             let mut change = 0.0f64;
             let mut k = 0;
             for v in &clique.frontals {

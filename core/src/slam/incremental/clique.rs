@@ -2,11 +2,14 @@
 //! `p(Δ_F | Δ_S)` of its frontal variables F given its separator S, `R Δ_F = d − T Δ_S`, and the
 //! marginal factor on S it passes to its parent (the Schur complement of its frontal block).
 //!
-//! Both live in one dense matrix in information form: the joint `[H b; bᵀ c]` of the clique's
+//! Both live in one matrix in information form: the joint `[H b; bᵀ c]` of the clique's
 //! factors and of its children's marginal factors on (F, S), with `H Δ = b`, `b = −Jᵀ Ω e`, is
 //! partially Cholesky-factorised over F (lower triangle, column-major): afterwards its F columns
 //! hold `L_FF = Rᵀ`, `L_SF = Tᵀ` and, in the last row, `d`; its trailing block holds the marginal
-//! factor `H_SS − T ᵀT` and `b_S − Tᵀ d`. Elimination is O(m² · |F|) for m scalar rows.
+//! factor `H_SS − T ᵀT` and `b_S − Tᵀ d`. Elimination is O(m² · |F|) for m scalar rows, on a
+//! dense scratch matrix; the clique keeps only its lower triangle, packed by columns
+//! ([`LowerPacked`]), half the memory of the square (the tree's cliques are most of a large
+//! SLAM's memory).
 
 use nalgebra::DMatrix;
 
@@ -24,19 +27,61 @@ pub(super) struct Clique {
     pub children: Vec<usize>,
     /// Scalar dimension of the frontal variables.
     pub frontal_dim: usize,
-    /// The partially factorised joint, `(m + 1) × (m + 1)` with m the scalar size of F ∪ S.
-    pub matrix: DMatrix<f64>,
+    /// The partially factorised joint, `(m + 1) × (m + 1)` with m the scalar size of F ∪ S, its
+    /// lower triangle.
+    pub factor: LowerPacked,
 }
 
 impl Clique {
     /// Scalar size of F ∪ S (the rhs is row and column `m`).
     pub fn dim(&self) -> usize {
-        self.matrix.nrows() - 1
+        self.factor.n.saturating_sub(1)
     }
 
     /// The variables of the clique, frontals first.
     pub fn variables(&self) -> impl Iterator<Item = VarId> + '_ {
         self.frontals.iter().chain(self.separator.iter()).copied()
+    }
+}
+
+/// The lower triangle of an `n × n` matrix packed by columns: column j holds rows j..n, from
+/// offset `j·n − j(j−1)/2`.
+#[derive(Clone, Debug, Default)]
+pub(super) struct LowerPacked {
+    /// Rows (and columns) of the matrix.
+    pub n: usize,
+    data: Vec<f64>,
+}
+
+impl LowerPacked {
+    /// The lower triangle of the square `a`.
+    pub fn from_lower(a: &DMatrix<f64>) -> Self {
+        let n = a.nrows();
+        let s = a.as_slice();
+        let mut data = Vec::with_capacity(n * (n + 1) / 2);
+        for j in 0..n {
+            data.extend_from_slice(&s[j * n + j..j * n + n]);
+        }
+        Self { n, data }
+    }
+
+    /// Column `j`, rows `j..n` (element `i` of the matrix at index `i − j`).
+    #[inline]
+    pub fn column(&self, j: usize) -> &[f64] {
+        let start = j * self.n - j * j.saturating_sub(1) / 2;
+        &self.data[start..start + self.n - j]
+    }
+
+    /// Element (`i`, `j`) of the lower triangle, `i ≥ j`.
+    #[inline]
+    pub fn at(&self, i: usize, j: usize) -> f64 {
+        self.column(j)[i - j]
+    }
+
+    /// The `rows × cols` block at (`r0`, `c0`), which must lie in the lower triangle, with the
+    /// entries above the diagonal zero when `lower` (a diagonal block's triangle).
+    fn block(&self, (r0, c0): (usize, usize), (rows, cols): (usize, usize), lower: bool) -> DMatrix<f64> {
+        DMatrix::from_fn(rows, cols, |i, j| if lower && i < j { 0.0 } else { self.at(r0 + i, c0 + j) })
     }
 }
 
@@ -110,35 +155,34 @@ const PANEL: usize = 4;
 
 /// Back-substitution of one conditional: `Δ_F = R⁻¹ (d − T Δ_S)`, with `x_s` the separator's
 /// values (scalar order) and the result written into `x_f` (length `nf`).
-pub(super) fn solve_conditional(a: &DMatrix<f64>, nf: usize, x_s: &[f64], x_f: &mut [f64]) {
-    let m = a.nrows();
-    let s = a.as_slice();
+pub(super) fn solve_conditional(a: &LowerPacked, nf: usize, x_s: &[f64], x_f: &mut [f64]) {
+    let m = a.n;
     let ns = m - 1 - nf;
     for k in 0..nf {
-        let col = &s[k * m..k * m + m];
-        let mut r = col[m - 1];
+        let col = a.column(k);
+        let mut r = col[m - 1 - k];
         for i in 0..ns {
-            r -= col[nf + i] * x_s[i];
+            r -= col[nf + i - k] * x_s[i];
         }
         x_f[k] = r;
     }
     for k in (0..nf).rev() {
-        let col = &s[k * m..k * m + m];
+        let col = a.column(k);
         let mut r = x_f[k];
         for i in k + 1..nf {
-            r -= col[i] * x_f[i];
+            r -= col[i - k] * x_f[i];
         }
-        x_f[k] = r / col[k];
+        x_f[k] = r / col[0];
     }
 }
 
 /// The joint covariance of (F, S) from the separator's covariance `cov_s` (`ns × ns`; empty at a
 /// root): `Σ_FF = R⁻¹R⁻ᵀ + K Σ_SS Kᵀ`, `Σ_FS = −K Σ_SS`, `K = R⁻¹ T` (the conditional's
 /// mean is linear in Δ_S). O(nf² (nf + ns) + nf ns²). `None` if R is singular.
-pub(super) fn joint_covariance(a: &DMatrix<f64>, nf: usize, cov_s: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let m = a.nrows() - 1;
+pub(super) fn joint_covariance(a: &LowerPacked, nf: usize, cov_s: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let m = a.n - 1;
     let ns = m - nf;
-    let l_ff = a.view((0, 0), (nf, nf)).lower_triangle();
+    let l_ff = a.block((0, 0), (nf, nf), true);
     let r = l_ff.transpose();
     let mut out = DMatrix::zeros(m, m);
     // R⁻¹ R⁻ᵀ: solve R X = R⁻ᵀ, with R⁻ᵀ = L⁻¹ from the lower factor.
@@ -151,7 +195,7 @@ pub(super) fn joint_covariance(a: &DMatrix<f64>, nf: usize, cov_s: &DMatrix<f64>
         return None;
     }
     if ns > 0 {
-        let mut k = a.view((nf, 0), (ns, nf)).transpose();
+        let mut k = a.block((nf, 0), (ns, nf), false).transpose();
         if !r.solve_upper_triangular_mut(&mut k) {
             return None;
         }
@@ -167,8 +211,8 @@ pub(super) fn joint_covariance(a: &DMatrix<f64>, nf: usize, cov_s: &DMatrix<f64>
 
 /// The covariance of the frontal scalars `offset..offset + dim` of a root clique (no separator):
 /// columns of `R⁻¹R⁻ᵀ` by two triangular solves, O(nf² · dim).
-pub(super) fn root_block_covariance(a: &DMatrix<f64>, nf: usize, offset: usize, dim: usize) -> Option<DMatrix<f64>> {
-    let l_ff = a.view((0, 0), (nf, nf)).lower_triangle();
+pub(super) fn root_block_covariance(a: &LowerPacked, nf: usize, offset: usize, dim: usize) -> Option<DMatrix<f64>> {
+    let l_ff = a.block((0, 0), (nf, nf), true);
     let mut e = DMatrix::zeros(nf, dim);
     for i in 0..dim {
         e[(offset + i, i)] = 1.0;
@@ -233,6 +277,7 @@ mod tests {
         let (h, b) = joint();
         let mut a = augmented(&h, &b);
         eliminate_frontals(&mut a, 3).unwrap();
+        let packed = LowerPacked::from_lower(&a);
         // The trailing block is the Schur complement; its solution is the separator's part.
         let hss = h.view((3, 3), (2, 2)) - h.view((3, 0), (2, 3)) * h.view((0, 0), (3, 3)).try_inverse().unwrap() * h.view((0, 3), (3, 2));
         for i in 0..2 {
@@ -242,16 +287,16 @@ mod tests {
         }
         let x = h.clone().lu().solve(&b).unwrap();
         let mut xf = [0.0; 3];
-        solve_conditional(&a, 3, &[x[3], x[4]], &mut xf);
+        solve_conditional(&packed, 3, &[x[3], x[4]], &mut xf);
         for k in 0..3 {
             assert!((xf[k] - x[k]).abs() < 1e-12);
         }
         let cov = h.clone().try_inverse().unwrap();
         let cov_s = cov.view((3, 3), (2, 2)).into_owned();
-        let joint = joint_covariance(&a, 3, &cov_s).unwrap();
+        let joint = joint_covariance(&packed, 3, &cov_s).unwrap();
         // Without the separator's uncertainty, a block of R⁻¹R⁻ᵀ.
-        let conditional = joint_covariance(&a, 3, &DMatrix::zeros(2, 2)).unwrap();
-        assert!((root_block_covariance(&a, 3, 1, 2).unwrap() - conditional.view((1, 1), (2, 2))).amax() < 1e-12);
+        let conditional = joint_covariance(&packed, 3, &DMatrix::zeros(2, 2)).unwrap();
+        assert!((root_block_covariance(&packed, 3, 1, 2).unwrap() - conditional.view((1, 1), (2, 2))).amax() < 1e-12);
         assert!((joint - cov).amax() < 1e-12);
     }
 }

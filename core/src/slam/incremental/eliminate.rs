@@ -86,7 +86,7 @@ impl Isam2 {
             let frontals: Vec<VarId> = frontals.iter().map(|&l| top[l]).collect();
             let separator: Vec<VarId> = sep.iter().map(|&l| top[l]).collect();
             let frontal_dim = frontals.iter().map(|v| self.dim[v.0]).sum();
-            let clique = Clique { frontals, separator, parent: None, children: Vec::new(), frontal_dim, matrix: DMatrix::zeros(0, 0) };
+            let clique = Clique { frontals, separator, parent: None, children: Vec::new(), frontal_dim, factor: LowerPacked::default() };
             let slot = match self.free_slots.pop() {
                 Some(s) => {
                     self.cliques[s] = Some(clique);
@@ -209,22 +209,23 @@ impl Isam2 {
                 let o = self.scratch[v.0];
                 map.extend(o..o + self.dim[v.0]);
             }
-            let cs = child.matrix.as_slice();
-            let stride = cm + 1;
             for j in 0..map.len() {
+                // Column nf + j of the child's factor: rows nf + j.. of its marginal factor, then
+                // the rhs (row cm).
+                let col = child.factor.column(nf + j);
                 for i in j..map.len() {
-                    let value = cs[(nf + j) * stride + nf + i];
+                    let value = col[i - j];
                     let (gi, gj) = (map[i].max(map[j]), map[i].min(map[j]));
                     a[(gi, gj)] += value;
                 }
-                a[(m, map[j])] += cs[(nf + j) * stride + cm];
+                a[(m, map[j])] += col[cm - nf - j];
             }
         }
         for v in clique.variables() {
             self.scratch[v.0] = NONE;
         }
         clique::eliminate_frontals(&mut a, clique.frontal_dim)?;
-        clique.matrix = a;
+        clique.factor = LowerPacked::from_lower(&a);
         self.cliques[slot] = Some(clique);
         Ok(())
     }

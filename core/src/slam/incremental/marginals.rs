@@ -11,7 +11,7 @@ impl Isam2 {
         let clique = self.cliques[c].as_ref().ok_or(IncrementalError::UnknownVariable(id))?;
         if clique.parent.is_none() {
             let o = self.offset_in(clique, id).ok_or(IncrementalError::UnknownVariable(id))?;
-            return clique::root_block_covariance(&clique.matrix, clique.frontal_dim, o, self.dim[id.0])
+            return clique::root_block_covariance(&clique.factor, clique.frontal_dim, o, self.dim[id.0])
                 .ok_or(IncrementalError::NotPositiveDefinite);
         }
         Ok(self.marginal_covariances(&[id])?.remove(0))
@@ -67,7 +67,7 @@ impl Isam2 {
                     cov_s
                 }
             };
-            let joint = clique::joint_covariance(&cl.matrix, cl.frontal_dim, &cov_s).ok_or_else(broken)?;
+            let joint = clique::joint_covariance(&cl.factor, cl.frontal_dim, &cov_s).ok_or_else(broken)?;
             for &(i, id) in requests.get(&k).map_or(&[][..], Vec::as_slice) {
                 let o = self.offset_in(cl, id).ok_or(IncrementalError::UnknownVariable(id))?;
                 let d = self.dim[id.0];

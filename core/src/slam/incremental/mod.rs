@@ -40,7 +40,7 @@ use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use self::clique::Clique;
+use self::clique::{Clique, LowerPacked};
 pub use self::g2o_replay::{G2oReplay, ReplayError};
 use super::factors::{Factor, FactorError, Jacobian, MAX_FACTOR_KEYS};
 use super::graph::{FactorGraph, GraphError};
