@@ -27,6 +27,7 @@ pub fn run(args: &OptimizeArgs, residual: Se2Residual) -> Result<()> {
         relinearize_threshold: args.relinearize_threshold,
         relinearize_skip: args.relinearize_skip,
         wildfire_threshold: args.wildfire_threshold,
+        ..Isam2Params::default()
     };
     let mut replay = G2oReplay::new(&file, residual, args.prior_sigma.unwrap_or(DEFAULT_PRIOR_SIGMA)).with_context(|| format!("{path}"))?;
     if let Some(k) = args.landmark_cauchy_k {

@@ -56,31 +56,61 @@ impl Isam2 {
             self.next_position += 1;
         }
 
-        // Supernodes: a variable joins the clique of an elimination-tree child whose separator
-        // is the variable and the variable's own separator.
+        // Supernodes: a variable's clique absorbs each elimination-tree child's clique whenever
+        // the merged clique stores no more than the two apart ([`absorbs`]): always when the
+        // child's separator is the variable and its own separator (a fundamental supernode), and
+        // also when the child's separator lacks a few of them, at the cost of explicit zeros
+        // instead of the child's marginal factor (a relaxed supernode, as CHOLMOD amalgamates).
+        let mut rank = vec![0; top.len()];
+        for (r, &l) in elim.order.iter().enumerate() {
+            rank[l] = r;
+        }
+        let scalars = |vars: &[usize]| vars.iter().map(|&l| dim[l]).sum::<usize>();
         let mut clique_of_local = vec![NONE; top.len()];
         let mut groups: Vec<(Vec<usize>, Vec<usize>)> = Vec::new();
+        let mut alive: Vec<bool> = Vec::new();
         let mut etree_children: Vec<Vec<usize>> = vec![Vec::new(); top.len()];
         for &l in &elim.order {
             let sep = &elim.separators[l];
-            let merge = etree_children[l].iter().copied().find(|&c| elim.separators[c].len() == sep.len() + 1);
-            let g = match merge {
-                Some(c) => {
-                    let g = clique_of_local[c];
-                    groups[g].0.push(l);
-                    groups[g].1.clone_from(sep);
-                    g
+            let sep_dim = scalars(sep);
+            let mut frontals = vec![l];
+            let mut frontal_dim = dim[l];
+            for &c in &etree_children[l] {
+                let g = clique_of_local[c];
+                let child_frontal_dim = scalars(&groups[g].0);
+                let child_sep_dim = scalars(&groups[g].1);
+                let fundamental = child_sep_dim == dim[l] + sep_dim && frontals.len() == 1;
+                if fundamental || absorbs(&self.params, frontal_dim, sep_dim, child_frontal_dim, child_sep_dim) {
+                    frontals.append(&mut groups[g].0);
+                    frontal_dim += child_frontal_dim;
+                    alive[g] = false;
                 }
-                None => {
-                    groups.push((vec![l], sep.clone()));
-                    groups.len() - 1
-                }
-            };
-            clique_of_local[l] = g;
+            }
+            frontals.sort_unstable_by_key(|&v| rank[v]);
+            let g = groups.len();
+            for &v in &frontals {
+                clique_of_local[v] = g;
+            }
+            groups.push((frontals, sep.clone()));
+            alive.push(true);
             if let Some(&p) = sep.first() {
                 etree_children[p].push(l);
             }
         }
+        let groups: Vec<(Vec<usize>, Vec<usize>)> = {
+            let mut renumber = vec![NONE; groups.len()];
+            let mut kept = Vec::new();
+            for (g, group) in groups.into_iter().enumerate() {
+                if alive[g] {
+                    renumber[g] = kept.len();
+                    kept.push(group);
+                }
+            }
+            for c in &mut clique_of_local {
+                *c = renumber[*c];
+            }
+            kept
+        };
         let mut slots = Vec::with_capacity(groups.len());
         for (frontals, sep) in &groups {
             let frontals: Vec<VarId> = frontals.iter().map(|&l| top[l]).collect();
@@ -228,5 +258,41 @@ impl Isam2 {
         clique.factor = LowerPacked::from_lower(&a);
         self.cliques[slot] = Some(clique);
         Ok(())
+    }
+}
+
+/// Whether a clique of `frontal_dim` + `sep_dim` scalars absorbs (a relaxed supernode) a child
+/// clique of `child_frontal_dim` frontal and `child_sep_dim` separator scalars, the separator
+/// within the clique's variables: when the child's marginal factor is large
+/// ([`Isam2Params::relax_min_separator`], where a chain of small cliques would each store a copy
+/// of it), the merged frontal block stays small ([`Isam2Params::relax_max_frontal`]) and the
+/// merged clique's packed factor is no larger than the two apart. O(1).
+fn absorbs(params: &Isam2Params, frontal_dim: usize, sep_dim: usize, child_frontal_dim: usize, child_sep_dim: usize) -> bool {
+    let packed = |m: usize| (m + 1) * (m + 2) / 2;
+    let dim = frontal_dim + sep_dim;
+    child_sep_dim >= params.relax_min_separator
+        && frontal_dim + child_frontal_dim <= params.relax_max_frontal
+        && packed(dim + child_frontal_dim) <= packed(dim) + packed(child_frontal_dim + child_sep_dim)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hand values: a 6-scalar pose with a 120-scalar separator absorbing a 3-scalar landmark
+    /// whose separator is 118 of those scalars stores 130·131/2 = 8515 instead of
+    /// 127·128/2 + 122·123/2 = 8128 + 7503.
+    #[test]
+    fn a_large_separator_is_absorbed_when_the_merge_stores_less() {
+        let p = Isam2Params::default();
+        assert!(absorbs(&p, 6, 120, 3, 118));
+        // A small separator stays a clique of its own (its marginal factor is cheap).
+        assert!(!absorbs(&p, 6, 30, 3, 28));
+        // The frontal block would exceed 48 scalars.
+        assert!(!absorbs(&p, 42, 120, 12, 118));
+        // The child's separator is a small part of the clique's, so the zeros outweigh its
+        // factor: 1019·1020/2 = 519690 > 1007·1008/2 + 109·110/2 = 513523.
+        assert!(!absorbs(&p, 6, 1000, 12, 96));
+        assert!(!absorbs(&Isam2Params { relax_max_frontal: 0, ..p }, 6, 120, 3, 118));
     }
 }

@@ -72,7 +72,7 @@ pub enum IncrementalError {
     Graph(#[from] GraphError),
 }
 
-/// iSAM2's parameters (GTSAM's `ISAM2Params`, same defaults).
+/// iSAM2's parameters (GTSAM's `ISAM2Params`, same defaults; the supernode relaxation is ours).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Isam2Params {
@@ -84,11 +84,20 @@ pub struct Isam2Params {
     /// Back-substitution stops below an unchanged clique whose frontals' steps moved by at most
     /// this (max-abs; 0 recomputes every clique whose input changed). Default 0.001.
     pub wildfire_threshold: f64,
+    /// A clique absorbs an elimination-tree child whose separator has at least this many
+    /// scalars (a relaxed supernode: explicit zeros instead of the child's marginal factor, when
+    /// that stores no more; fundamental supernodes are always merged). Default 96 (16 poses):
+    /// where a chain of small cliques would each store a copy of a large marginal factor.
+    /// Not in GTSAM.
+    pub relax_min_separator: usize,
+    /// Largest frontal block, scalars, a relaxed absorption may make (0 never relaxes), so that
+    /// an update touching the clique re-eliminates little more. Default 48 (8 poses).
+    pub relax_max_frontal: usize,
 }
 
 impl Default for Isam2Params {
     fn default() -> Self {
-        Self { relinearize_threshold: 0.1, relinearize_skip: 10, wildfire_threshold: 0.001 }
+        Self { relinearize_threshold: 0.1, relinearize_skip: 10, wildfire_threshold: 0.001, relax_min_separator: 96, relax_max_frontal: 48 }
     }
 }
 

@@ -144,7 +144,7 @@ fn batch(vars: &[Variable], specs: &[Spec]) -> (FactorGraph, Values) {
 
 /// Exact parameters: every clique back-substituted, every moved variable relinearised.
 fn exact() -> Isam2Params {
-    Isam2Params { relinearize_threshold: 0.0, relinearize_skip: 1, wildfire_threshold: 0.0 }
+    Isam2Params { relinearize_threshold: 0.0, relinearize_skip: 1, wildfire_threshold: 0.0, ..Isam2Params::default() }
 }
 
 /// Replays `specs` in the given batches: a variable enters (at its value in `vars`, ids renumbered
@@ -234,8 +234,12 @@ fn dense_information(graph: &FactorGraph, values: &Values) -> (DMatrix<f64>, Vec
 /// The estimate after convergence equals batch LM's, and every marginal (poses and landmarks)
 /// the dense inverse's, to 1e-6 (relative for covariances).
 fn check_against_batch(vars: &[Variable], specs: &[Spec], batches: &[Vec<usize>]) {
+    check_against_batch_with(vars, specs, batches, exact());
+}
+
+fn check_against_batch_with(vars: &[Variable], specs: &[Spec], batches: &[Vec<usize>], params: Isam2Params) -> Isam2 {
     let (graph, optimum) = batch(vars, specs);
-    let (mut isam, id) = replay(vars, specs, batches, exact());
+    let (mut isam, id) = replay(vars, specs, batches, params);
     converge(&mut isam);
     let estimate = isam.estimate();
     for (v, &nv) in id.iter().enumerate() {
@@ -262,6 +266,21 @@ fn check_against_batch(vars: &[Variable], specs: &[Spec], batches: &[Vec<usize>]
         let err = (ours - expected).amax() / expected.amax();
         assert!(err < 1e-6, "variable {v}, in the batch call: marginal off by {err:e} (relative)");
     }
+    isam
+}
+
+/// Relaxed supernodes (cliques absorbing children whose separators they only contain) change
+/// the tree, not the solution: with the thresholds low enough to merge on a small 3D graph, the
+/// same optimum and marginals as the batch solver, in fewer cliques.
+#[test]
+fn relaxed_supernodes_keep_the_batch_solution_in_fewer_cliques() {
+    let (vars, specs) = graph_3d(30);
+    let batches = per_pose(&specs, 30);
+    let strict = check_against_batch_with(&vars, &specs, &batches, Isam2Params { relax_max_frontal: 0, ..exact() });
+    let relaxed =
+        check_against_batch_with(&vars, &specs, &batches, Isam2Params { relax_min_separator: 6, relax_max_frontal: 24, ..exact() });
+    let cliques = |i: &Isam2| i.cliques.iter().flatten().count();
+    assert!(cliques(&relaxed) < cliques(&strict), "{} relaxed vs {} strict cliques", cliques(&relaxed), cliques(&strict));
 }
 
 /// One update per pose, in pose order, with the factors whose later end it is (the CLI's
@@ -316,7 +335,7 @@ fn the_newest_pose_is_in_the_root_clique() {
 #[test]
 fn variables_are_relinearised_when_their_step_reaches_the_threshold() {
     let far = Se2::new(1.0, 0.0, 0.0);
-    let params = Isam2Params { relinearize_threshold: 0.5, relinearize_skip: 2, wildfire_threshold: 0.0 };
+    let params = Isam2Params { relinearize_threshold: 0.5, relinearize_skip: 2, wildfire_threshold: 0.0, ..Isam2Params::default() };
     let mut isam = Isam2::new(params);
     // Pose 0 initialised at the origin with a prior at x = 1: a step of 1 m.
     let r = isam.update(&[Variable::Se2(Se2::identity())], vec![Spec::Prior2(0, far).build()]).unwrap();
@@ -343,7 +362,7 @@ fn variables_are_relinearised_when_their_step_reaches_the_threshold() {
     }
     // A threshold nothing reaches never relinearises: θ stays at the initial values.
     let (vars, specs) = graph_2d(20);
-    let never = Isam2Params { relinearize_threshold: 1e9, relinearize_skip: 1, wildfire_threshold: 0.0 };
+    let never = Isam2Params { relinearize_threshold: 1e9, relinearize_skip: 1, wildfire_threshold: 0.0, ..Isam2Params::default() };
     let (isam, id) = replay(&vars, &specs, &per_pose(&specs, 20), never);
     for (v, &nv) in id.iter().enumerate() {
         assert_eq!(isam.linearization_point().get(VarId(nv)), Some(&vars[v]));
