@@ -19,7 +19,7 @@
 //!   a walk on exact crossings, bit for bit, but for a ray through a patch corner to the last bit,
 //!   where the exact walk's own entry time depends on its rounding (test
 //!   `the_walk_answers_as_the_exact_node_by_node_walk_bit_for_bit`);
-//! - a sweep's rays share a [`horizon::Horizon`]: a ray starts its walk where it can first meet
+//! - a sweep's rays share a horizon (`horizon::Horizon`): a ray starts its walk where it can first meet
 //!   the terrain and ends it once it passes above everything it can still reach;
 //! - going down, the walk climbs back only into parents it has not opened (a node the ray does not
 //!   clear at its exit it never clears).

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::params::{InvalidParam, check_non_negative};
 use crate::slam::incremental::Isam2Params;
 
-/// Parameters of the pose-graph SLAM; see the module doc of [`super`].
+/// Parameters of the pose-graph SLAM ([`PoseGraphSlam`](crate::slam::PoseGraphSlam); decision 0021).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PoseGraphParams {
