@@ -35,6 +35,7 @@
 #![deny(missing_docs)]
 
 pub mod bag;
+pub(crate) mod cache;
 pub mod cloud;
 pub mod explore;
 pub mod fixtures;

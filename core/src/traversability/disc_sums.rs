@@ -15,6 +15,7 @@
 //! rebuilds (a re-registration drops the sums and rebuilds them from the moments).
 
 use super::moments::{CellMoments, add_outer};
+use crate::cache::prefetch;
 use crate::grid::GridGeometry;
 
 /// Raw moments of one disc (see the module doc), coordinates relative to the cell's centre and
@@ -146,17 +147,6 @@ impl Disc {
             }
         }
     }
-}
-
-/// Asks the cache for the line holding `x`, ahead of its use: a hint that never faults and changes
-/// no result. The map is far larger than the caches and a scan's points (or a drain's stale cells)
-/// are spread over it, so without the hint most of a disc's lines miss on their first touch.
-#[inline(always)]
-pub(super) fn prefetch<T>(x: &T) {
-    #[cfg(target_arch = "x86_64")]
-    safe_arch::prefetch_t0(x);
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = x;
 }
 
 /// The disc sums of every cell of one grid, for one disc radius.

@@ -31,10 +31,11 @@
 //! known/unknown flags without estimating. Against the straightforward gather-then-fuse of notes
 //! §2 the disc sums agree to rounding (proptest `optimised_estimate_agrees_with_straightforward_reference`).
 
-use super::disc_sums::{DiscSum, DiscSums, centre_local, prefetch};
+use super::disc_sums::{DiscSum, DiscSums, centre_local};
 use super::map::TraversabilityMap;
 use super::moments::CellMoments;
 use super::plane::fit_plane;
+use crate::cache::prefetch;
 use crate::grid::{FREE, Grid, GridGeometry, LETHAL, OccupancyGrid, UNKNOWN};
 use crate::params::TraversabilityParams;
 

@@ -18,8 +18,9 @@
 use nalgebra::Point3;
 
 use super::TraversabilityError;
-use super::disc_sums::{DiscSum, DiscSums, prefetch};
+use super::disc_sums::{DiscSum, DiscSums};
 use super::moments::CellMoments;
+use crate::cache::prefetch;
 use crate::cloud::PointCloud;
 use crate::grid::{GridGeometry, MAX_CELLS};
 use crate::params::Params;

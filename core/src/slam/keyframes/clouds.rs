@@ -1,10 +1,11 @@
 //! Keyframe clouds: the sensor points of every keyframe in its body frame, and the map rebuilt
 //! from them after a loop closure moved the keyframes.
 
-use nalgebra::{Matrix6, Point3, Vector3};
+use nalgebra::{Matrix3, Matrix6, Point3, Vector3};
 use std::collections::HashSet;
 
-use crate::grid::GridGeometry;
+use crate::cache::prefetch;
+use crate::grid::{Cell, GridGeometry};
 use crate::math;
 use crate::slam::Se3;
 use crate::traversability::TraversabilityMap;
@@ -19,9 +20,9 @@ pub struct KeyframeClouds {
     starts: Vec<usize>,
     /// Keyframe k's roll/pitch variance, rad² (for the points' height noise at re-registration).
     tilt_var_rad2: Vec<f64>,
-    /// Keyframe k's points ordered by the map block they fall in at its registered pose, as
-    /// runs ([`Self::index_keyframe`]); empty while not indexed.
-    runs: Vec<Vec<Run>>,
+    /// Which map cell each stored point falls in at its keyframe's registered pose
+    /// ([`CellIndex`]); `None` until the first partial re-registration.
+    index: Option<CellIndex>,
     /// Voxels already holding a point of the latest keyframe (membership only, never iterated).
     occupied: HashSet<[i32; 3]>,
     /// Discs whose points stored before them [`reregister`] leaves out ([`Self::forget_disc`]).
@@ -37,6 +38,22 @@ struct ForgottenDisc {
     before: usize,
 }
 
+/// The stored points of each map cell: for every cell of one grid, the indices of the points
+/// that fall in it at their keyframe's registered pose, in increasing (stored) order, so that a
+/// cell is rebuilt from its own points, in the order a whole rebuild would insert them.
+#[derive(Clone, Debug)]
+struct CellIndex {
+    geometry: GridGeometry,
+    members: Vec<Vec<u32>>,
+    /// Points `0..indexed` are in `members` (or outside the grid).
+    indexed: usize,
+    /// The point list of the last rebuild (its allocation, reused).
+    scratch: Vec<u32>,
+}
+
+/// How many points ahead of its use a rebuild asks the cache for a point.
+const GATHER_AHEAD: usize = 16;
+
 impl KeyframeClouds {
     /// No keyframe yet.
     pub fn new(voxel_m: f64) -> Self {
@@ -45,7 +62,7 @@ impl KeyframeClouds {
             points: Vec::new(),
             starts: Vec::new(),
             tilt_var_rad2: Vec::new(),
-            runs: Vec::new(),
+            index: None,
             occupied: HashSet::new(),
             forgotten: Vec::new(),
         }
@@ -58,16 +75,15 @@ impl KeyframeClouds {
         self.forgotten.push(ForgottenDisc { centre_m: [x_m, y_m], radius_m, before: self.points.len() });
     }
 
-    /// Whether the stored point `index`, registered at world (`x_m`, `y_m`), is forgotten on the
-    /// grid `g`.
-    fn is_forgotten(&self, index: usize, x_m: f64, y_m: f64, g: &GridGeometry) -> bool {
-        // Most points (every one before the first recovery) are older than no disc: no cell lookup.
-        if !self.forgotten.iter().any(|f| index < f.before) {
-            return false;
-        }
-        let Some(c) = g.cell_of(x_m, y_m) else { return false };
-        let (cx, cy) = g.center_of(c);
-        self.forgotten.iter().any(|f| index < f.before && math::hypot(cx - f.centre_m[0], cy - f.centre_m[1]) <= f.radius_m)
+    /// The points stored before this index that fall in `cell` of `g` are forgotten (0: none).
+    fn forgotten_before(&self, cell: Cell, g: &GridGeometry) -> usize {
+        let (cx, cy) = g.center_of(cell);
+        self.forgotten
+            .iter()
+            .filter(|f| math::hypot(cx - f.centre_m[0], cy - f.centre_m[1]) <= f.radius_m)
+            .map(|f| f.before)
+            .max()
+            .unwrap_or(0)
     }
 
     /// Starts the cloud of a new keyframe (later points belong to it) whose roll/pitch variance
@@ -75,7 +91,6 @@ impl KeyframeClouds {
     pub(crate) fn start_keyframe(&mut self, tilt_var_rad2: f64) {
         self.starts.push(self.points.len());
         self.tilt_var_rad2.push(tilt_var_rad2);
-        self.runs.push(Vec::new());
         self.occupied.clear();
     }
 
@@ -108,61 +123,58 @@ impl KeyframeClouds {
         self.points.is_empty()
     }
 
-    /// Orders keyframe `k`'s points by the block of `g` ([`BLOCK_CELLS`]²) each falls in when
-    /// registered at `pose`, and records the runs, so that a partial re-registration reads only
-    /// the runs of the blocks it rebuilds. Points keep their side of every forgotten disc's
-    /// boundary (each stretch between two boundaries is ordered on its own); the order within a
-    /// block is the stored order. The latest keyframe, still filling, is never indexed.
-    fn index_keyframe(&mut self, k: usize, pose: &Se3, g: &GridGeometry) {
-        if k + 1 >= self.keyframes() {
-            return;
-        }
-        let (a, b) = (self.starts[k], self.starts[k + 1]);
-        let (r, t) = (pose.rotation_matrix(), pose.translation);
-        let blocks_per_row = g.width.div_ceil(BLOCK_CELLS);
-        let block_of = |p: &[f32; 3]| {
-            let w = r * Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) + t;
-            g.cell_of(w.x, w.y).map_or(u32::MAX, |c| {
-                let (col, row) = (c.col as usize / BLOCK_CELLS, c.row as usize / BLOCK_CELLS);
-                (row * blocks_per_row + col) as u32
-            })
-        };
-        let mut bounds: Vec<usize> = self.forgotten.iter().map(|f| f.before).filter(|&x| x > a && x < b).collect();
-        bounds.extend([a, b]);
-        bounds.sort_unstable();
-        bounds.dedup();
-        let mut runs = Vec::new();
-        for w in bounds.windows(2) {
-            let (lo, hi) = (w[0], w[1]);
-            let mut keyed: Vec<(u32, [f32; 3])> = self.points[lo..hi].iter().map(|p| (block_of(p), *p)).collect();
-            keyed.sort_by_key(|e| e.0); // stable: the stored order within a block
-            for (j, (block, p)) in keyed.iter().enumerate() {
-                self.points[lo + j] = *p;
-                match runs.last_mut() {
-                    Some(Run { block: last, end, .. }) if *last == *block && *end == lo + j => *end += 1,
-                    _ => runs.push(Run { block: *block, start: lo + j, end: lo + j + 1 }),
-                }
-            }
-        }
-        self.runs[k] = runs;
-    }
-
-    /// The stored ranges of keyframe `k`'s points that can fall in a block `blocks` flags (all
-    /// of them while `k` is not indexed), in stored order.
-    fn ranges_in(&self, k: usize, blocks: Option<&RegionBlocks>) -> Vec<(usize, usize)> {
-        let whole = || vec![(self.starts[k], self.starts.get(k + 1).copied().unwrap_or(self.points.len()))];
-        match blocks {
-            Some(bl) if !self.runs[k].is_empty() => self.runs[k].iter().filter(|r| bl.has(r.block)).map(|r| (r.start, r.end)).collect(),
-            _ => whole(),
-        }
+    /// Keyframe `k`'s stored points, `a..b` (empty when out of range).
+    fn range_of(&self, k: usize) -> std::ops::Range<usize> {
+        let Some(&a) = self.starts.get(k) else { return 0..0 };
+        a..self.starts.get(k + 1).copied().unwrap_or(self.points.len())
     }
 
     /// Keyframe `k`'s points (empty when out of range).
+    #[cfg(test)]
     pub(crate) fn points_of(&self, k: usize) -> &[[f32; 3]] {
-        let Some(&a) = self.starts.get(k) else { return &[] };
-        let b = self.starts.get(k + 1).copied().unwrap_or(self.points.len());
-        &self.points[a..b]
+        &self.points[self.range_of(k)]
     }
+
+    /// The keyframe stored point `i` belongs to.
+    fn keyframe_of(&self, i: usize) -> usize {
+        self.starts.partition_point(|&s| s <= i).saturating_sub(1)
+    }
+
+    /// Adds to the cell index on `g` (made anew if it was for another grid) every point stored
+    /// since, at its keyframe's pose in `registered` (points of keyframes without one wait).
+    fn index_new_points(&mut self, g: &GridGeometry, registered: &[Se3]) {
+        let mut index = match self.index.take() {
+            Some(index) if index.geometry == *g => index,
+            _ => CellIndex { geometry: *g, members: vec![Vec::new(); g.len()], indexed: 0, scratch: Vec::new() },
+        };
+        let end = self.starts.get(registered.len()).copied().unwrap_or(self.points.len());
+        while index.indexed < end {
+            let k = self.keyframe_of(index.indexed);
+            let (r, t) = (registered[k].rotation_matrix(), registered[k].translation);
+            let to = self.range_of(k).end.min(end);
+            for i in index.indexed..to {
+                if let Some(c) = cell_index(g, &r, &t, &self.points[i]) {
+                    index.members[c].push(point_id(i));
+                }
+            }
+            index.indexed = to;
+        }
+        self.index = Some(index);
+    }
+}
+
+/// The stored point index `i` as the index's u32 (a cloud of 2³² points would be 48 GB).
+fn point_id(i: usize) -> u32 {
+    debug_assert!(u32::try_from(i).is_ok());
+    i as u32
+}
+
+/// The flat index of the cell of `g` holding body point `p` registered with rotation `r` and
+/// translation `t`, if inside.
+#[inline]
+fn cell_index(g: &GridGeometry, r: &Matrix3<f64>, t: &Vector3<f64>, p: &[f32; 3]) -> Option<usize> {
+    let w = r * Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) + t;
+    g.cell_of(w.x, w.y).and_then(|c| g.index(c))
 }
 
 /// Rebuilds `map` from every keyframe cloud registered with `world_from_keyframe`, less the
@@ -174,16 +186,26 @@ impl KeyframeClouds {
 pub(crate) fn reregister(map: &mut TraversabilityMap, clouds: &KeyframeClouds, world_from_keyframe: &[Se3]) -> usize {
     map.clear();
     let g = map.geometry();
-    map.insert_points_with_variance(registered_points(clouds, world_from_keyframe, &g, None)).inserted
+    let points = world_from_keyframe.iter().enumerate().take(clouds.keyframes()).flat_map(|(k, pose)| {
+        let (r, t) = (pose.rotation_matrix(), pose.translation);
+        clouds.range_of(k).filter_map(move |i| {
+            let q = Vector3::new(f64::from(clouds.points[i][0]), f64::from(clouds.points[i][1]), f64::from(clouds.points[i][2]));
+            let w = r * q + t;
+            let forgotten = g.cell_of(w.x, w.y).is_some_and(|c| i < clouds.forgotten_before(c, &g));
+            (!forgotten).then(|| (Point3::from(w), height_variance(clouds.tilt_var_rad2[k], &q)))
+        })
+    });
+    map.insert_points_with_variance(points).inserted
 }
 
 /// Re-registers the keyframes that moved: every keyframe k for which `moved(registered[k],
 /// now[k])` holds takes its pose `now[k]`; the map cells its points fall in, at the old pose
-/// and at the new one, are rebuilt from every keyframe's points at its registered pose
-/// ([`TraversabilityMap::rebuild_cells`]), so that they hold what a rebuild of the whole map
-/// would give them; the other cells keep theirs. Only the runs of the blocks holding a rebuilt
-/// cell are read ([`KeyframeClouds::index_keyframe`]). Returns how many keyframes moved.
-/// O(moved points · log + points in the rebuilt blocks + runs + rebuilt cells × disc²).
+/// and at the new one, are rebuilt from the points each holds at their keyframes' registered
+/// poses ([`TraversabilityMap::rebuild_cells`]), so that they hold what a rebuild of the whole
+/// map would give them; the other cells keep theirs. The clouds' cell index says which points
+/// each rebuilt cell holds, so only those are read. Returns how many keyframes moved.
+/// O(points stored since the last call + moved points · cell occupancy + points in the rebuilt
+/// cells + rebuilt cells × disc²).
 pub(crate) fn reregister_moved(
     map: &mut TraversabilityMap,
     clouds: &mut KeyframeClouds,
@@ -197,83 +219,60 @@ pub(crate) fn reregister_moved(
     if moving.is_empty() {
         return 0;
     }
+    clouds.index_new_points(&g, &registered[..n]);
+    let Some(mut index) = clouds.index.take() else { return 0 };
     let mut cells: Vec<u32> = Vec::new();
     for &k in &moving {
-        for pose in [registered[k], now[k]] {
-            let (r, t) = (pose.rotation_matrix(), pose.translation);
-            cells.extend(clouds.points_of(k).iter().filter_map(|p| {
-                let w = r * Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])) + t;
-                g.cell_of(w.x, w.y).and_then(|c| g.index(c)).map(|i| i as u32)
-            }));
+        let (r0, t0) = (registered[k].rotation_matrix(), registered[k].translation);
+        let (r1, t1) = (now[k].rotation_matrix(), now[k].translation);
+        for i in clouds.range_of(k) {
+            let p = &clouds.points[i];
+            let (from, to) = (cell_index(&g, &r0, &t0, p), cell_index(&g, &r1, &t1, p));
+            cells.extend(from.into_iter().chain(to).map(|c| c as u32));
+            if from == to {
+                continue;
+            }
+            let id = point_id(i);
+            if let Some(list) = from.map(|c| &mut index.members[c])
+                && let Ok(at) = list.binary_search(&id)
+            {
+                list.remove(at);
+            }
+            if let Some(list) = to.map(|c| &mut index.members[c])
+                && let Err(at) = list.binary_search(&id)
+            {
+                list.insert(at, id);
+            }
         }
         registered[k] = now[k];
-        clouds.index_keyframe(k, &now[k], &g);
-    }
-    for (k, pose) in registered.iter().enumerate().take(n) {
-        if clouds.runs[k].is_empty() && !clouds.points_of(k).is_empty() {
-            clouds.index_keyframe(k, pose, &g);
-        }
     }
     cells.sort_unstable();
     cells.dedup();
-    let blocks = RegionBlocks::new(&g, &cells);
-    map.rebuild_cells(&cells, registered_points(clouds, registered, &g, Some(&blocks)));
-    moving.len()
-}
-
-/// Edge of the blocks a keyframe's points are ordered by, cells.
-const BLOCK_CELLS: usize = 16;
-
-/// One stretch of a keyframe's stored points in one block (`u32::MAX`: outside the grid).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Run {
-    block: u32,
-    start: usize,
-    end: usize,
-}
-
-/// The blocks of `BLOCK_CELLS` × `BLOCK_CELLS` cells holding at least one cell of a region.
-struct RegionBlocks {
-    flags: Vec<bool>,
-}
-
-impl RegionBlocks {
-    fn new(g: &GridGeometry, cells: &[u32]) -> Self {
-        let cols = g.width.div_ceil(BLOCK_CELLS);
-        let mut flags = vec![false; cols * g.height.div_ceil(BLOCK_CELLS)];
-        for &c in cells {
-            let (col, row) = (c as usize % g.width, c as usize / g.width);
-            flags[row / BLOCK_CELLS * cols + col / BLOCK_CELLS] = true;
+    let rotations: Vec<Matrix3<f64>> = registered[..n].iter().map(Se3::rotation_matrix).collect();
+    // The rebuilt cells' points, cell by cell, each cell's in stored order, less the forgotten.
+    let mut ids = std::mem::take(&mut index.scratch);
+    ids.clear();
+    for &c in &cells {
+        let c = c as usize;
+        let forgotten = clouds.forgotten_before(Cell::new((c % g.width) as i32, (c / g.width) as i32), &g);
+        let list = &index.members[c];
+        ids.extend_from_slice(&list[list.partition_point(|&i| (i as usize) < forgotten)..]);
+    }
+    let clouds_ref = &*clouds;
+    let points = ids.iter().enumerate().map(|(j, &i)| {
+        // The points are spread over the whole store: ask for one a few reads ahead.
+        if let Some(&ahead) = ids.get(j + GATHER_AHEAD) {
+            prefetch(&clouds_ref.points[ahead as usize]);
         }
-        Self { flags }
-    }
-
-    fn has(&self, block: u32) -> bool {
-        self.flags.get(block as usize).copied().unwrap_or(false)
-    }
-}
-
-/// Every stored point registered with its keyframe's pose in `world_from_keyframe` (keyframes
-/// beyond the shorter of the two skipped), less the forgotten ones, with its height variance;
-/// with `blocks`, only the runs that can fall in a flagged block. In stored order.
-fn registered_points<'a>(
-    clouds: &'a KeyframeClouds,
-    world_from_keyframe: &'a [Se3],
-    g: &'a GridGeometry,
-    blocks: Option<&'a RegionBlocks>,
-) -> impl Iterator<Item = (Point3<f64>, f64)> + 'a {
-    world_from_keyframe.iter().enumerate().take(clouds.keyframes()).flat_map(move |(k, pose)| {
-        let r = pose.rotation_matrix();
-        let t = pose.translation;
-        let tilt_var = clouds.tilt_var_rad2[k];
-        clouds.ranges_in(k, blocks).into_iter().flat_map(move |(lo, hi)| {
-            clouds.points[lo..hi].iter().enumerate().filter_map(move |(j, p)| {
-                let q = Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
-                let w = r * q + t;
-                (!clouds.is_forgotten(lo + j, w.x, w.y, g)).then(|| (Point3::from(w), height_variance(tilt_var, &q)))
-            })
-        })
-    })
+        let (i, k) = (i as usize, clouds_ref.keyframe_of(i as usize));
+        let p = &clouds_ref.points[i];
+        let q = Vector3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+        (Point3::from(rotations[k] * q + registered[k].translation), height_variance(clouds_ref.tilt_var_rad2[k], &q))
+    });
+    map.rebuild_cells(&cells, points);
+    index.scratch = ids;
+    clouds.index = Some(index);
+    moving.len()
 }
 
 /// Variance of a registered point's height from the pose's tilt uncertainty, m²: a small roll /

@@ -109,6 +109,75 @@ fn moved_keyframes_rebuild_their_cells_as_a_whole_rebuild_would() {
     assert_eq!(reregister_moved(&mut map, &mut clouds, &mut registered, &now, |a, b| a.between(b).translation.norm() > 0.01), 0);
 }
 
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+    /// Over rounds of keyframes appended, discs forgotten and keyframes moved (some by less than
+    /// the threshold), every partial re-registration leaves the map's moments and layers equal,
+    /// bit for bit, to a whole rebuild at the registered poses.
+    #[test]
+    fn partial_reregistration_equals_a_whole_rebuild_over_many_rounds(
+        seed in 0u64..u64::MAX,
+        rounds in 1usize..5,
+    ) {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let g = GridGeometry::new(0.0, 0.0, 0.05, 100, 100);
+        let params = crate::params::TraversabilityParams::default();
+        let mut clouds = KeyframeClouds::new(0.02);
+        let mut registered: Vec<Se3> = Vec::new();
+        let random_pose = |rng: &mut rand_chacha::ChaCha8Rng| {
+            let yaw = rng.random_range(-3.0..3.0);
+            Se3::new(UnitQuaternion::from_euler_angles(0.0, 0.0, yaw), Vector3::new(rng.random_range(1.5..3.5), rng.random_range(1.5..3.5), 0.0))
+        };
+        let mut map = TraversabilityMap::new(g).unwrap();
+        let mut layers = None;
+        for _ in 0..rounds {
+            // New keyframes (their points reach the map live: a whole rebuild stands in for that).
+            for _ in 0..rng.random_range(1..4) {
+                clouds.start_keyframe(rng.random_range(0.0..1e-5));
+                for _ in 0..rng.random_range(10..120) {
+                    clouds.push(&Vector3::new(rng.random_range(-0.7..0.7), rng.random_range(-0.7..0.7), rng.random_range(-0.1..0.1)));
+                }
+                registered.push(random_pose(&mut rng));
+            }
+            reregister(&mut map, &clouds, &registered);
+            if rng.random_bool(0.4) {
+                let (x, y, r) = (rng.random_range(1.0..4.0), rng.random_range(1.0..4.0), rng.random_range(0.1..0.6));
+                clouds.forget_disc(x, y, r);
+                map.forget_disc(x, y, r);
+            }
+            let l = layers.get_or_insert_with(|| map.compute(&params));
+            map.update(&params, l);
+            // Some keyframes move by a lot, some by less than the 1 cm threshold, the rest stay.
+            let before = registered.clone();
+            let kinds: Vec<u8> = registered.iter().map(|_| rng.random_range(0..3)).collect();
+            let now: Vec<Se3> = registered
+                .iter()
+                .zip(&kinds)
+                .map(|(p, kind)| match kind {
+                    0 => random_pose(&mut rng),
+                    1 => Se3::new(p.rotation, p.translation + Vector3::new(0.004, -0.003, 0.0)),
+                    _ => *p,
+                })
+                .collect();
+            let moved = reregister_moved(&mut map, &mut clouds, &mut registered, &now, |a, b| a.between(b).translation.norm() > 0.01);
+            let far: Vec<bool> = before.iter().zip(&now).map(|(b, n)| b.between(n).translation.norm() > 0.01).collect();
+            proptest::prop_assert_eq!(moved, far.iter().filter(|&&f| f).count());
+            for k in 0..registered.len() {
+                proptest::prop_assert_eq!(registered[k], if far[k] { now[k] } else { before[k] });
+            }
+            map.update(&params, l);
+            // A clone keeps the map's local z origin (the first point it ever took), which
+            // `reregister`'s clear keeps too.
+            let mut whole = map.clone();
+            reregister(&mut whole, &clouds, &registered);
+            let first = map.moments().iter().zip(whole.moments()).position(|(a, b)| a != b);
+            proptest::prop_assert!(first.is_none(), "cell {:?}: {:?} against {:?}", first, first.map(|i| map.moments()[i]), first.map(|i| whole.moments()[i]));
+            crate::traversability::tests::assert_same(l, &whole.compute(&params));
+        }
+    }
+}
+
 #[test]
 fn forgotten_points_stay_out_of_every_later_reregistration() {
     let g = GridGeometry::new(0.0, 0.0, 0.05, 80, 80);
