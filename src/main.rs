@@ -19,8 +19,10 @@ mod mission_run;
 mod optimize;
 mod params_cmd;
 mod plot;
+mod report;
 mod select_cmd;
 mod stats;
+mod sweep;
 mod traversability_cmd;
 
 use clap::{Parser, Subcommand};
@@ -53,6 +55,14 @@ enum Command {
     /// Run every strategy × seed in a world in parallel and compare them (the paper's experiment):
     /// per-run outputs, mean/band figures over time, summary.csv and summary.md with tests.
     Compare(compare_cmd::CompareArgs),
+    /// Write the plan of a sweep (compare's options): DIR/plan.jsonl, one mission per line, each
+    /// runnable alone with `fitslam run DIR --index I` (a Slurm array task, a Kubernetes Indexed
+    /// Job pod, a Ray task).
+    Plan(sweep::PlanArgs),
+    /// Run entries of a plan into its folder: idempotent, atomic, safe to retry after a kill.
+    Run(sweep::run::RunArgs),
+    /// Write a plan's report (summary.md, summary.csv, figures) once every entry has run.
+    Collect(sweep::collect::CollectArgs),
 }
 
 fn main() -> ExitCode {
@@ -66,6 +76,9 @@ fn main() -> ExitCode {
         Command::Optimize(a) => optimize::run(a),
         Command::Explore(a) => explore_cmd::run(a),
         Command::Compare(a) => compare_cmd::run(a),
+        Command::Plan(a) => sweep::plan_cmd(a),
+        Command::Run(a) => sweep::run::run(a),
+        Command::Collect(a) => sweep::collect::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

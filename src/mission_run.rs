@@ -94,16 +94,9 @@ pub fn read_world_spec(world: &Path) -> Result<WorldSpec> {
     Ok(WorldSpec::from_toml(&text, &name)?)
 }
 
-/// Reads and builds a world with the planner (`params`, default: the paper's) and simulator
-/// (`sim_params`, default: built-in) parameters; `time_limit_s` overrides the world's.
-pub fn load_setup(
-    world: &Path,
-    params: Option<&Path>,
-    sim_params: Option<&Path>,
-    time_limit_s: Option<f64>,
-    world_seed: Option<u64>,
-) -> Result<Setup> {
-    let params = load::params(params)?;
+/// The simulator parameters from `sim_params` (default: built-in), with `time_limit_s`
+/// overriding the world's, checked.
+pub fn load_mission_params(sim_params: Option<&Path>, time_limit_s: Option<f64>) -> Result<Valid<MissionParams>> {
     let mut mission_params = match sim_params {
         None => MissionParams::default(),
         Some(p) => {
@@ -117,7 +110,24 @@ pub fn load_setup(
         }
         mission_params.time_limit_s = Some(t);
     }
-    let mission_params = Valid::new(mission_params)?;
+    Ok(Valid::new(mission_params)?)
+}
+
+/// Reads and builds a world with the planner (`params`, default: the paper's) and simulator
+/// (`sim_params`, default: built-in) parameters; `time_limit_s` overrides the world's.
+pub fn load_setup(
+    world: &Path,
+    params: Option<&Path>,
+    sim_params: Option<&Path>,
+    time_limit_s: Option<f64>,
+    world_seed: Option<u64>,
+) -> Result<Setup> {
+    build_setup(world, load::params(params)?, load_mission_params(sim_params, time_limit_s)?, world_seed)
+}
+
+/// Builds the world of the file `world` (with a world seed: the member of its family drawn for
+/// it, with a start drawn on it) for these parameters.
+pub fn build_setup(world: &Path, params: Valid<Params>, mission_params: Valid<MissionParams>, world_seed: Option<u64>) -> Result<Setup> {
     let world_name = world.display().to_string();
     let spec = read_world_spec(world)?;
     let dir = world.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -145,8 +155,6 @@ pub fn load_setup(
 /// One finished mission.
 pub struct RunOutput {
     pub summary: Summary,
-    /// The metrics rows (as in metrics.csv).
-    pub rows: Vec<MetricsRow>,
     /// Wall time of the mission (not of the writing), seconds.
     pub wall_s: f64,
 }
@@ -228,5 +236,5 @@ pub fn run_and_write(
     let subject = format!("{} — {label}", setup.world.spec.name);
     let curves = |f: fn(&MetricsRow) -> f64| vec![curve(rows.iter().map(f).collect())];
     plot::write_mission_figures(out, &subject, curves(|r| r.unexplored_pct), curves(|r| r.cov_trace))?;
-    Ok(RunOutput { summary, rows, wall_s })
+    Ok(RunOutput { summary, wall_s })
 }

@@ -47,7 +47,7 @@ fn replay(name: &str) {
 #[test]
 fn every_target_is_replayed() {
     let names: Vec<&str> = targets::TARGETS.iter().map(|(n, _)| *n).collect();
-    assert_eq!(names, ["ply", "pcd", "csv", "map_yaml", "pgm", "las", "g2o", "bag"]);
+    assert_eq!(names, ["ply", "pcd", "csv", "map_yaml", "pgm", "las", "g2o", "bag", "metrics_csv"]);
 }
 
 #[test]
@@ -88,4 +88,9 @@ fn g2o() {
 #[test]
 fn bag() {
     replay("bag");
+}
+
+#[test]
+fn metrics_csv() {
+    replay("metrics_csv");
 }

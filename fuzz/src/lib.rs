@@ -16,8 +16,17 @@ pub type Target = fn(&[u8]);
 
 /// Every target by name: the name is the AFL binary's and the corpus directory's
 /// (`fuzz/corpus/<name>/`).
-pub const TARGETS: [(&str, Target); 8] =
-    [("ply", ply), ("pcd", pcd), ("csv", csv), ("map_yaml", map_yaml), ("pgm", pgm), ("las", las), ("g2o", g2o), ("bag", bag)];
+pub const TARGETS: [(&str, Target); 9] = [
+    ("ply", ply),
+    ("pcd", pcd),
+    ("csv", csv),
+    ("map_yaml", map_yaml),
+    ("pgm", pgm),
+    ("las", las),
+    ("g2o", g2o),
+    ("bag", bag),
+    ("metrics_csv", metrics_csv),
+];
 
 /// PLY, ascii and binary of either byte order.
 pub fn ply(data: &[u8]) {
@@ -73,4 +82,9 @@ pub fn bag(data: &[u8]) {
         let _ = bag.snapshot(&topics, 0.0);
         let _ = bag.snapshot(&topics, bag.duration_s());
     }
+}
+
+/// A mission's `metrics.csv`, as `fitslam collect` reads it back.
+pub fn metrics_csv(data: &[u8]) {
+    let _ = fitslam_core::sim::read_metrics_csv(data);
 }

@@ -4,7 +4,7 @@ use crate::frontier::Boundary;
 use crate::pose::Pose2;
 use crate::select::SelectError;
 use crate::utility::LandmarkVoxels;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Everything a decision needs besides the map.
 ///
@@ -122,7 +122,7 @@ pub enum WaitReason {
 }
 
 /// Why a mission ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EndReason {
     /// No non-blacklisted reachable frontier candidate left.

@@ -11,7 +11,7 @@ use crate::explore::EndReason;
 use crate::params::{Strategy, TraversabilityParams};
 use crate::traversability::TraversabilityMap;
 use nalgebra::UnitQuaternion;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One metrics row.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -55,8 +55,9 @@ impl StampedPose {
     }
 }
 
-/// A mission's figures so far (final once it has ended).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// A mission's figures so far (final once it has ended); `summary.json` (read back by
+/// `fitslam collect`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
     /// The world's name.
     pub world: String,
@@ -230,7 +231,7 @@ impl Metrics {
 
 /// Metrics as CSV (without `plan_ms`: byte-identical for a seed).
 pub fn metrics_csv(rows: &[MetricsRow]) -> String {
-    let mut s = String::from("time_s,unexplored_pct,cov_trace,pos_cov_trace,rot_cov_trace,ate_m,distance_m,loop_closures\n");
+    let mut s = format!("{METRICS_HEADER}\n");
     for r in rows {
         s.push_str(&format!(
             "{:.1},{:.4},{:.6e},{:.6e},{:.6e},{:.5},{:.4},{}\n",
@@ -238,6 +239,63 @@ pub fn metrics_csv(rows: &[MetricsRow]) -> String {
         ));
     }
     s
+}
+
+/// What is wrong with a `metrics.csv` ([`read_metrics_csv`]).
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+pub enum MetricsCsvError {
+    /// Not UTF-8 text.
+    #[error("not UTF-8 text")]
+    NotText,
+    /// The first line is not [`METRICS_HEADER`].
+    #[error("the header is not `{METRICS_HEADER}`")]
+    Header,
+    /// A row with the wrong number of fields or a field that is not a number.
+    #[error("line {line}: {problem}")]
+    Row {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        problem: String,
+    },
+}
+
+/// The header line of [`metrics_csv`].
+pub const METRICS_HEADER: &str = "time_s,unexplored_pct,cov_trace,pos_cov_trace,rot_cov_trace,ate_m,distance_m,loop_closures";
+
+/// Reads the rows [`metrics_csv`] wrote (to its precision; `plan_ms` is 0: timing.csv has it).
+pub fn read_metrics_csv(bytes: &[u8]) -> Result<Vec<MetricsRow>, MetricsCsvError> {
+    let text = std::str::from_utf8(bytes).map_err(|_| MetricsCsvError::NotText)?;
+    let mut lines = text.lines();
+    if lines.next() != Some(METRICS_HEADER) {
+        return Err(MetricsCsvError::Header);
+    }
+    let mut rows = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let bad = |problem: String| MetricsCsvError::Row { line: k + 2, problem };
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != 8 {
+            return Err(bad(format!("{} fields, expected 8", fields.len())));
+        }
+        let mut v = [0.0; 7];
+        for (x, f) in v.iter_mut().zip(&fields) {
+            *x = f.parse::<f64>().map_err(|_| bad(format!("{f:?} is not a number")))?;
+        }
+        let loop_closures = fields[7].parse::<u64>().map_err(|_| bad(format!("{:?} is not a count", fields[7])))?;
+        let [time_s, unexplored_pct, cov_trace, pos_cov_trace, rot_cov_trace, ate_m, distance_m] = v;
+        rows.push(MetricsRow {
+            time_s,
+            unexplored_pct,
+            cov_trace,
+            pos_cov_trace,
+            rot_cov_trace,
+            ate_m,
+            distance_m,
+            loop_closures,
+            plan_ms: 0.0,
+        });
+    }
+    Ok(rows)
 }
 
 /// Timing as CSV (`time_s,plan_ms`): wall time, not reproducible.
@@ -258,4 +316,54 @@ pub fn tum(poses: &[StampedPose]) -> String {
         s.push_str(&format!("{:.3} {x:.5} {y:.5} {z:.5} {qx:.6} {qy:.6} {qz:.6} {qw:.6}\n", p.time_s));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn a_written_row_reads_back_to_its_printed_digits() {
+        let text = format!("{METRICS_HEADER}\n12.5,40.1234,1.234560e-2,1.000000e-2,2.345600e-3,0.01234,5.6789,3\n");
+        let rows = read_metrics_csv(text.as_bytes()).unwrap();
+        assert_eq!(rows.len(), 1);
+        let r = rows[0];
+        assert_eq!(
+            (r.time_s, r.unexplored_pct, r.cov_trace, r.ate_m, r.distance_m, r.loop_closures),
+            (12.5, 40.1234, 0.0123456, 0.01234, 5.6789, 3)
+        );
+        assert_eq!((r.pos_cov_trace, r.rot_cov_trace, r.plan_ms), (0.01, 0.0023456, 0.0));
+        assert_eq!(metrics_csv(&rows), text);
+    }
+
+    #[test]
+    fn bad_files_name_their_problem() {
+        assert_eq!(read_metrics_csv(b"\xff\xfe"), Err(MetricsCsvError::NotText));
+        assert_eq!(read_metrics_csv(b"time_s,x\n"), Err(MetricsCsvError::Header));
+        assert_eq!(read_metrics_csv(b""), Err(MetricsCsvError::Header));
+        let short = format!("{METRICS_HEADER}\n1,2,3\n");
+        assert!(matches!(read_metrics_csv(short.as_bytes()), Err(MetricsCsvError::Row { line: 2, .. })));
+        let nan_count = format!("{METRICS_HEADER}\n1,2,3,4,5,6,7,-1\n");
+        assert!(read_metrics_csv(nan_count.as_bytes()).unwrap_err().to_string().contains("line 2"));
+        let word = format!("{METRICS_HEADER}\n1,2,3,4,5,6,7,1\n1,2,x,4,5,6,7,1\n");
+        assert!(read_metrics_csv(word.as_bytes()).unwrap_err().to_string().contains("line 3: \"x\""));
+    }
+
+    proptest! {
+        /// What `metrics_csv` writes reads back to rows that it writes the same way.
+        #[test]
+        fn writing_what_was_read_gives_the_same_text(
+            rows in proptest::collection::vec((0.0f64..1e4, 0.0f64..100.0, 0.0f64..1e3, 0.0f64..10.0, 0.0f64..1e3, 0u64..1000), 0..20)
+        ) {
+            let rows: Vec<MetricsRow> = rows
+                .into_iter()
+                .map(|(t, u, c, a, d, l)| MetricsRow { time_s: t, unexplored_pct: u, cov_trace: c, pos_cov_trace: c / 2.0, rot_cov_trace: c / 3.0, ate_m: a, distance_m: d, loop_closures: l, plan_ms: 1.0 })
+                .collect();
+            let text = metrics_csv(&rows);
+            let back = read_metrics_csv(text.as_bytes()).unwrap();
+            prop_assert_eq!(back.len(), rows.len());
+            prop_assert_eq!(metrics_csv(&back), text);
+        }
+    }
 }

@@ -34,7 +34,7 @@ pub use heightfield::{DemScaling, Heightfield};
 pub use landmarks::{LandmarkDensity, scatter_landmarks};
 pub use localisation::Localisation;
 pub use localisation::PoseCovariance;
-pub use metrics::{MetricsRow, StampedPose, Summary, metrics_csv, timing_csv, tum};
+pub use metrics::{MetricsCsvError, MetricsRow, StampedPose, Summary, metrics_csv, read_metrics_csv, timing_csv, tum};
 pub use mission::MissionError;
 pub use mission::{Mission, StepOutcome};
 pub use noise::hash_unit;
