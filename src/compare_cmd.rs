@@ -3,12 +3,13 @@
 //! `DIR/[world_<w>/]<strategy>/seed_<s>/`), then `fitslam run` over every entry on `--jobs`
 //! threads, then `fitslam collect` ([`crate::report`]: summary.csv, summary.md and the figures
 //! from the runs' files), so its output is byte for byte what those three give wherever the runs
-//! were made. Runs already done in DIR (same plan) are kept.
+//! were made. Runs already done in DIR (same plan) are kept; a plan already in DIR is replaced,
+//! and a run folder of another plan is refused (remove it).
 
 use crate::mission_run::progress_bar;
 use crate::report;
 use crate::sweep::run::{MAX_JOBS, Ran, run_entries};
-use crate::sweep::{PlanArgs, collect::collect, plan, write_plan};
+use crate::sweep::{OtherPlan, PlanArgs, collect::collect, plan, write_plan};
 use anyhow::{Result, bail};
 use clap::Args;
 
@@ -31,7 +32,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     };
     let (sweep, entries) = plan(&args.plan)?;
     let out = &args.plan.out;
-    write_plan(out, &sweep, &entries)?;
+    write_plan(out, &sweep, &entries, OtherPlan::Replace)?;
     let bar = progress_bar(entries.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
     let wall = std::time::Instant::now();
     let all: Vec<_> = entries.iter().collect();

@@ -264,13 +264,7 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
         seeds.last().copied().unwrap_or(0),
         localisation.name(),
     );
-    md.push_str("| strategy | runs | finished |");
-    for m in &METRICS {
-        let _ = write!(md, " {} |", m.header);
-    }
-    md.push_str("\n|---|---|---|");
-    md.push_str(&"---|".repeat(METRICS.len()));
-    md.push('\n');
+    metrics_header(&mut md, &["strategy", "runs", "finished"]);
     for &s in strategies {
         let runs: Vec<&RunFigures> = figures.iter().filter(|f| f.strategy == s).collect();
         let finished = runs.iter().filter(|f| f.summary.end_reason == Some(EndReason::NoFrontier)).count();
@@ -287,6 +281,17 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
         paired_md(&mut md, reference, &baselines, figures);
     }
     md
+}
+
+/// A table's header: the `lead` columns, then one per metric.
+fn metrics_header(md: &mut String, lead: &[&str]) {
+    md.push('|');
+    for c in lead.iter().copied().chain(METRICS.iter().map(|m| m.header)) {
+        let _ = write!(md, " {c} |");
+    }
+    md.push_str("\n|");
+    md.push_str(&"---|".repeat(lead.len() + METRICS.len()));
+    md.push('\n');
 }
 
 /// Time and distance to each coverage milestone, per strategy.
@@ -336,13 +341,7 @@ fn paired_md(md: &mut String, reference: Strategy, baselines: &[Strategy], figur
         by = if worlds { "world seed and seed" } else { "seed" },
         per = if worlds { "pair" } else { "seed" },
     );
-    md.push_str("| baseline |");
-    for m in &METRICS {
-        let _ = write!(md, " {} |", m.header);
-    }
-    md.push_str("\n|---|");
-    md.push_str(&"---|".repeat(METRICS.len()));
-    md.push('\n');
+    metrics_header(md, &["baseline"]);
     for (bi, &b) in baselines.iter().enumerate() {
         let cells: Vec<Option<PairedCell>> = METRICS
             .iter()

@@ -3,6 +3,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
 
+mod common;
+use common::assert_clear_error;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -24,16 +27,6 @@ fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("fitslam-cli-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// Asserts a failed run: non-zero exit, no panic, exactly one line on stderr containing `needle`.
-fn assert_clear_error(out: &Output, needle: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "expected failure, got success; stderr: {stderr}");
-    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {stderr}");
-    assert!(!stderr.contains("panicked"), "panic: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line expected: {stderr:?}");
-    assert!(stderr.contains(needle), "expected {needle:?} in {stderr:?}");
 }
 
 fn select_json(extra: &[&str]) -> serde_json::Value {

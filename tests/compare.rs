@@ -4,6 +4,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
 
+mod common;
+use common::assert_clear_error;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -22,15 +25,6 @@ fn compare(out: &PathBuf, extra: &[&str]) -> Output {
     let mut args = vec!["compare", "--world", &world, "--time-limit-s", "30"];
     args.extend_from_slice(extra);
     Command::new(BIN).args(&args).arg("--out").arg(out).output().expect("run fitslam")
-}
-
-/// Asserts a failed run: exit code 1, no panic, exactly one line on stderr containing `needle`.
-fn assert_clear_error(out: &Output, needle: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "exit code; stderr: {stderr}");
-    assert!(!stderr.contains("panicked"), "panic: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line expected: {stderr:?}");
-    assert!(stderr.contains(needle), "expected {needle:?} in {stderr:?}");
 }
 
 #[test]

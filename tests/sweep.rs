@@ -5,6 +5,9 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
 
+mod common;
+use common::assert_clear_error;
+
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -28,15 +31,6 @@ fn fitslam(args: &[&str]) -> Output {
 
 fn ok(o: &Output) {
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
-}
-
-/// Exit code 1, no panic, one line on stderr containing `needle`.
-fn assert_clear_error(o: &Output, needle: &str) {
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "exit code; stderr: {stderr}");
-    assert!(!stderr.contains("panicked"), "panic: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line expected: {stderr:?}");
-    assert!(stderr.contains(needle), "expected {needle:?} in {stderr:?}");
 }
 
 /// The report's files, which must be byte-identical between two folders.
@@ -166,5 +160,15 @@ fn bad_plans_and_folders_give_one_line_and_leave_nothing_half_written() {
         &fitslam(&["plan", "--world", w, "--time-limit-s", "20", "--strategies", "greedy", "--seeds", "3", "--out", dir]),
         "holds another plan",
     );
+    // `compare` replaces the plan it finds (and runs the new one), but refuses a run folder of
+    // another plan.
+    let compare = |strategy: &str| {
+        fitslam(&["compare", "--world", w, "--time-limit-s", "20", "--strategies", strategy, "--seeds", "1", "--jobs", "1", "--out", dir])
+    };
+    ok(&compare("greedy"));
+    assert!(std::fs::read_to_string(plan.join("plan.jsonl")).unwrap().contains("\"strategy\":\"greedy\""));
+    std::fs::create_dir_all(plan.join("fit/seed_1")).unwrap();
+    std::fs::write(plan.join("fit/seed_1/entry.json"), std::fs::read(plan.join("greedy/seed_1/entry.json")).unwrap()).unwrap();
+    assert_clear_error(&compare("fit"), "made by another plan entry");
     std::fs::remove_dir_all(&root).ok();
 }

@@ -189,16 +189,25 @@ fn command(args: &PlanArgs) -> String {
     s
 }
 
+/// Whether [`write_plan`] may replace a different plan already in the folder.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OtherPlan {
+    /// Refuse it (`fitslam plan`: a plan is run by many workers; changing it under them is wrong).
+    Refuse,
+    /// Replace it (`fitslam compare`, which runs the whole plan itself; runs of the old plan are
+    /// still refused by `run`, folder by folder).
+    Replace,
+}
+
 /// Writes `plan.json` and `plan.jsonl` into `dir` (created), each aside and renamed into place.
-/// A folder that already holds a different plan is refused.
-pub fn write_plan(dir: &Path, sweep: &Sweep, entries: &[Entry]) -> Result<()> {
+pub fn write_plan(dir: &Path, sweep: &Sweep, entries: &[Entry], other: OtherPlan) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the output folder", dir.display()))?;
     let mut jsonl = String::new();
     for e in entries {
         jsonl += &serde_json::to_string(e)?;
         jsonl.push('\n');
     }
-    if dir.join("plan.jsonl").exists() {
+    if other == OtherPlan::Refuse && dir.join("plan.jsonl").exists() {
         let old = load::read(&dir.join("plan.jsonl"))?;
         if old != jsonl.as_bytes() {
             bail!("{}: holds another plan (plan.jsonl differs); plan into a new folder", dir.display());
@@ -291,7 +300,7 @@ pub fn parse_indices(text: &str, len: usize) -> Result<std::ops::RangeInclusive<
 /// `fitslam plan`: writes the plan of a sweep.
 pub fn plan_cmd(args: &PlanArgs) -> Result<()> {
     let (sweep, entries) = plan(args)?;
-    write_plan(&args.out, &sweep, &entries)?;
+    write_plan(&args.out, &sweep, &entries, OtherPlan::Refuse)?;
     outln!(
         "{}: plan of {} runs ({}); run them with `fitslam run {} --indices 0..{}`, then `fitslam collect {}`",
         args.out.display(),

@@ -140,9 +140,10 @@ impl KeyframeClouds {
         self.starts.partition_point(|&s| s <= i).saturating_sub(1)
     }
 
-    /// Adds to the cell index on `g` (made anew if it was for another grid) every point stored
-    /// since, at its keyframe's pose in `registered` (points of keyframes without one wait).
-    fn index_new_points(&mut self, g: &GridGeometry, registered: &[Se3]) {
+    /// Takes the cell index on `g` (made anew if it was for another grid) out of the clouds, with
+    /// every point stored since added at its keyframe's pose in `registered` (points of keyframes
+    /// without one wait); the caller puts it back.
+    fn take_index(&mut self, g: &GridGeometry, registered: &[Se3]) -> CellIndex {
         let mut index = match self.index.take() {
             Some(index) if index.geometry == *g => index,
             _ => CellIndex { geometry: *g, members: vec![Vec::new(); g.len()], indexed: 0, scratch: Vec::new() },
@@ -159,7 +160,7 @@ impl KeyframeClouds {
             }
             index.indexed = to;
         }
-        self.index = Some(index);
+        index
     }
 }
 
@@ -219,8 +220,7 @@ pub(crate) fn reregister_moved(
     if moving.is_empty() {
         return 0;
     }
-    clouds.index_new_points(&g, &registered[..n]);
-    let Some(mut index) = clouds.index.take() else { return 0 };
+    let mut index = clouds.take_index(&g, &registered[..n]);
     let mut cells: Vec<u32> = Vec::new();
     for &k in &moving {
         let (r0, t0) = (registered[k].rotation_matrix(), registered[k].translation);
@@ -228,10 +228,11 @@ pub(crate) fn reregister_moved(
         for i in clouds.range_of(k) {
             let p = &clouds.points[i];
             let (from, to) = (cell_index(&g, &r0, &t0, p), cell_index(&g, &r1, &t1, p));
-            cells.extend(from.into_iter().chain(to).map(|c| c as u32));
             if from == to {
+                cells.extend(from.map(|c| c as u32));
                 continue;
             }
+            cells.extend(from.into_iter().chain(to).map(|c| c as u32));
             let id = point_id(i);
             if let Some(list) = from.map(|c| &mut index.members[c])
                 && let Ok(at) = list.binary_search(&id)
