@@ -1,7 +1,12 @@
-//! `fitslam plan` / `run` / `collect` end to end: a plan run in two halves, one run killed
-//! mid-way and retried, collects to the same bytes as `compare --jobs 2` on the same options;
-//! bad input (another code version, a missing world file, a corrupt output folder, an edited
-//! plan) exits 1 with one line and leaves nothing half-written.
+//! `fitslam plan` / `run` / `collect` end to end: a plan run in two halves (the first with
+//! `--indices`, the second as Ray tasks on a local cluster of a head and two worker nodes through
+//! `scripts/ray-compare`), one run killed mid-way and retried, collects to the same bytes as
+//! `compare --jobs 2` on the same options; bad input (another code version, a missing world file,
+//! a corrupt output folder, an edited plan) exits 1 with one line and leaves nothing half-written.
+//!
+//! The Ray half needs the pinned Python environment of `scripts/sweep-venv` (target/sweep-venv or
+//! `FITSLAM_SWEEP_VENV`) and `unshare` (root) for a private network namespace; without either the
+//! test FAILS and says so.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
 
@@ -89,9 +94,13 @@ fn a_plan_run_in_halves_with_a_killed_run_collects_to_compares_bytes() {
     assert!(started && !status.success(), "the run was killed mid-way");
     assert!(!plan.join("fit").join("seed_3").exists() && !plan.join("random").join("seed_1").exists(), "no half-written output");
     assert!(std::fs::read_dir(plan.join(".partial")).unwrap().count() > 0);
-    // Retried, and the rest; a second pass over everything runs nothing.
-    ok(&fitslam(&["run", dir, "--index", "2"]));
-    ok(&fitslam(&["run", dir, "--indices", "2..3"]));
+    // Retried with the rest, as Ray tasks on two worker nodes; it collects at the end.
+    let pending = fitslam(&["run", dir, "--pending"]);
+    ok(&pending);
+    assert_eq!(String::from_utf8_lossy(&pending.stdout), "2\n3\n");
+    ray_compare_on_a_local_cluster(&plan);
+    same_report(&cmp, &plan);
+    // A second pass over everything runs nothing.
     let again = fitslam(&["run", dir]);
     ok(&again);
     assert!(String::from_utf8_lossy(&again.stdout).contains("0 run"), "{}", String::from_utf8_lossy(&again.stdout));
@@ -102,6 +111,27 @@ fn a_plan_run_in_halves_with_a_killed_run_collects_to_compares_bytes() {
     same_report(&cmp, &plan);
     std::fs::remove_dir_all(&cmp).ok();
     std::fs::remove_dir_all(&plan).ok();
+}
+
+/// `scripts/ray-compare PLAN --address …` on a Ray cluster of a head and two worker nodes on
+/// 127.0.0.1, inside a private network and PID namespace (tests/sweep/ray_cluster.sh).
+fn ray_compare_on_a_local_cluster(plan: &Path) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let venv = std::env::var_os("FITSLAM_SWEEP_VENV").map_or_else(|| root.join("target/sweep-venv"), PathBuf::from);
+    assert!(
+        venv.join("bin/ray").exists(),
+        "no Ray environment at {venv:?}: run scripts/sweep-venv (the README's test command does) or set FITSLAM_SWEEP_VENV"
+    );
+    let out = Command::new("unshare")
+        .args(["-n", "-p", "-f", "--mount-proc", "bash"])
+        .arg(root.join("tests/sweep/ray_cluster.sh"))
+        .args([venv.as_os_str(), plan.as_os_str(), BIN.as_ref()])
+        .output()
+        .expect("unshare (this test needs `unshare -n -p`, i.e. root)");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "ray-compare on a local cluster failed:\n{stderr}");
+    assert!(stderr.contains("ray cluster: 3 nodes") && stderr.contains("2/2 entries (0 failed)"), "{stderr}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("4 runs; summary.md"), "{}", String::from_utf8_lossy(&out.stdout));
 }
 
 /// Rewrites line `k` of `plan.jsonl` with `edit` applied, and its hash made right again (as the

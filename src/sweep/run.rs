@@ -31,6 +31,10 @@ pub struct RunArgs {
     /// Parallel runs (threads); default 1.
     #[arg(long, default_value_t = 1)]
     pub jobs: usize,
+    /// Run nothing: print the indices (of those chosen) whose output is not in place yet, one
+    /// per line (what a driver such as scripts/ray-compare submits).
+    #[arg(long)]
+    pub pending: bool,
 }
 
 /// Most `--jobs` accepted.
@@ -174,6 +178,14 @@ pub fn run(args: &RunArgs) -> Result<()> {
         (None, None) => 0..=entries.len() - 1,
     };
     let chosen: Vec<&Entry> = entries[range.clone()].iter().collect();
+    if args.pending {
+        for e in chosen {
+            if !done(&args.dir.join(&e.out), e)? {
+                outln!("{}", e.index)?;
+            }
+        }
+        return Ok(());
+    }
     let bar = progress_bar(chosen.len() as u64, "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs {msg}");
     let ran = run_entries(&args.dir, &chosen, args.jobs, &bar)?;
     bar.finish_and_clear();
