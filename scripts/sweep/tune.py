@@ -1,0 +1,243 @@
+"""scripts/tune: Optuna over the utility's parameters, two objectives, on development worlds.
+
+Each trial is a parameter file (the paper's defaults with the searched values set) and one
+fitslam plan of `fit` missions on the given worlds (`fitslam plan --params …`), run on this
+machine's threads or as Ray tasks (`--address`), then `fitslam collect`. Its two objectives, both
+minimised, come from the plan's summary.csv:
+- T_90: the mean over worlds of the mean time to 90 % coverage over the world's seeds (s);
+- the primary metric: the geometric mean over worlds of the geometric mean over seeds of the mean
+  tr(cov) at matched coverage 25-90 % (docs/experiments.md).
+Both are taken over the runs that reached 90 % coverage; a trial whose share of runs that never
+did is above --max-unreached is infeasible (an Optuna constraint), so it cannot be on the front.
+
+The study lives in STUDY/journal.log (Optuna's journal-file storage): any number of `scripts/tune`
+processes, on any machines that share STUDY, add trials to one study. The paper's α = 0.35,
+β = 0.4, N = 7 is the study's first trial. `--report` (also run after the trials) writes
+STUDY/pareto.csv, pareto.md, pareto.{png,svg} and STUDY/pareto/trial_<n>.toml, a whole parameter
+file per Pareto point that `fitslam --params`, the studio and the robot node read.
+"""
+
+import argparse
+import csv
+import math
+import os
+import sys
+from pathlib import Path
+
+import fitslam_sweep as sweep
+
+# The searched parameters: (TOML section, key, kind, low, high) and the paper's values.
+SPACE = {
+    "alpha": ("u1", "alpha", float, 0.0, 1.0),
+    "beta": ("u2", "beta", float, 0.0, 1.0),
+    "top_n": ("u2", "top_n", int, 1, 15),
+}
+PAPER = {"alpha": 0.35, "beta": 0.4, "top_n": 7}
+OBJECTIVES = ("t90_s", "matched_cov_trace")
+
+
+def params_toml(values):
+    """A parameter file setting `values` (every other parameter keeps its default)."""
+    sections = {}
+    for name, value in sorted(values.items()):
+        section, key, kind, _, _ = SPACE[name]
+        sections.setdefault(section, []).append(f"{key} = {kind(value)!r}")
+    return "".join(f"[{s}]\n" + "\n".join(lines) + "\n" for s, lines in sorted(sections.items()))
+
+
+def objectives(summary_csv, max_unreached):
+    """(T_90, primary, unreached share) from a plan's summary.csv (module docstring)."""
+    with open(summary_csv, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise ValueError(f"{summary_csv}: no run")
+    worlds = {}
+    for r in rows:
+        t90, cov = float(r["t90_s"]), float(r["matched_cov_trace"])
+        w = worlds.setdefault(r.get("world_seed", ""), {"t90": [], "log_cov": [], "runs": 0})
+        w["runs"] += 1
+        if math.isfinite(t90) and math.isfinite(cov) and cov > 0:
+            w["t90"].append(t90)
+            w["log_cov"].append(math.log(cov))
+    unreached = sum(w["runs"] - len(w["t90"]) for w in worlds.values()) / len(rows)
+    reached = [w for w in worlds.values() if w["t90"]]
+    if not reached:
+        return math.inf, math.inf, unreached
+    t90 = sum(sum(w["t90"]) / len(w["t90"]) for w in reached) / len(reached)
+    primary = math.exp(sum(sum(w["log_cov"]) / len(w["log_cov"]) for w in reached) / len(reached))
+    return t90, primary, unreached
+
+
+def pareto_front(points):
+    """The points (dicts with both OBJECTIVES) no other point dominates (≤ in both, < in one)."""
+
+    def dominates(a, b):
+        return all(a[k] <= b[k] for k in OBJECTIVES) and any(a[k] < b[k] for k in OBJECTIVES)
+
+    return [p for p in points if not any(dominates(q, p) for q in points if q is not p)]
+
+
+def main():
+    ap = argparse.ArgumentParser(prog="scripts/tune", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--study", required=True, type=Path, help="the study's folder (journal, trials, report)")
+    ap.add_argument("--world", help="the development worlds' world file")
+    ap.add_argument("--world-seeds", help="development world seeds A..B (fitslam's --world-seeds)")
+    ap.add_argument("--seeds", type=int, default=1, help="noise seeds per world (default 1)")
+    ap.add_argument("--time-limit-s", type=float, help="overrides the world file's time limit")
+    ap.add_argument("--localisation", help="fitslam's --localisation (default: fitslam's)")
+    ap.add_argument("--sim-params", help="a simulator parameter file")
+    ap.add_argument("--trials", type=int, default=30, help="trials this process adds (default 30)")
+    ap.add_argument("--max-unreached", type=float, default=0.1, help="largest feasible share of runs never at 90 %% coverage")
+    ap.add_argument("--sampler-seed", type=int, default=0,
+                    help="the TPE sampler's seed, plus the study's trial count at start (default 0); give each of several processes started together its own")
+    ap.add_argument("--address", help="run each trial's missions as Ray tasks on this cluster")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="threads per trial without --address")
+    ap.add_argument("--fitslam", help="the fitslam binary (default: $FITSLAM, fitslam on PATH, target/release/fitslam)")
+    ap.add_argument("--report", action="store_true", help="only write the report of the study as it stands")
+    args = ap.parse_args()
+
+    import optuna
+    from optuna.storages import JournalStorage
+    from optuna.storages.journal import JournalFileBackend
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    binary = sweep.find_fitslam(args.fitslam)
+    args.study.mkdir(parents=True, exist_ok=True)
+    storage = JournalStorage(JournalFileBackend(str(args.study / "journal.log")))
+    study = optuna.create_study(study_name="fitslam", storage=storage, directions=["minimize", "minimize"], load_if_exists=True)
+    # Seeded by the trials already there, so that a study resumed in steps does not repeat its
+    # first suggestions; processes started together need their own --sampler-seed.
+    study.sampler = optuna.samplers.TPESampler(seed=args.sampler_seed + len(study.trials), multivariate=True, n_startup_trials=10)
+    if not args.report:
+        if not args.world:
+            sys.exit("scripts/tune: --world is needed to run trials")
+        if not study.trials:
+            study.enqueue_trial(PAPER)
+        ray = sweep.connect(args.address) if args.address else None
+        try:
+            study.optimize(lambda t: trial(t, args, binary, ray), n_trials=args.trials)
+        finally:
+            if ray:
+                ray.shutdown()
+    report(study, args.study, binary)
+
+
+def trial(t, args, binary, ray):
+    values = {}
+    for name, (_, _, kind, low, high) in SPACE.items():
+        values[name] = t.suggest_int(name, low, high) if kind is int else t.suggest_float(name, low, high)
+    folder = args.study / "trials" / f"{t.number:04d}"
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "params.toml").write_text(params_toml(values))
+    plan = [
+        "plan", "--world", args.world, "--strategies", "fit", "--seeds", args.seeds,
+        "--params", folder / "params.toml", "--out", folder / "runs",
+    ]
+    for flag, value in (("--world-seeds", args.world_seeds), ("--time-limit-s", args.time_limit_s),
+                        ("--localisation", args.localisation), ("--sim-params", args.sim_params)):
+        if value is not None:
+            plan += [flag, value]
+    sweep.fitslam(binary, *plan)
+    runs = folder / "runs"
+    if ray:
+        failures = sweep.run_on_ray(ray, binary, runs, sweep.pending(binary, runs), label=f"trial {t.number}")
+        if failures:
+            raise RuntimeError(f"trial {t.number}: {len(failures)} missions failed: {sorted(failures.items())[0]}")
+    else:
+        sweep.run_local(binary, runs, args.jobs)
+    sweep.fitslam(binary, "collect", runs)
+    t90, primary, unreached = objectives(runs / "summary.csv", args.max_unreached)
+    t.set_user_attr("unreached", unreached)
+    t.set_user_attr("unreached_excess", unreached - args.max_unreached)
+    t.set_constraint("unreached_excess", unreached - args.max_unreached)  # feasible when ≤ 0
+    print(f"trial {t.number}: {values} -> T_90 {t90:.1f} s, tr(cov) {primary:.4g}, unreached {unreached:.0%}", file=sys.stderr, flush=True)
+    return t90, primary
+
+
+def report(study, folder, binary):
+    import optuna
+
+    points = []
+    for t in study.get_trials(deepcopy=False, states=[optuna.trial.TrialState.COMPLETE]):
+        p = {"trial": t.number, **t.params, "t90_s": t.values[0], "matched_cov_trace": t.values[1]}
+        p["unreached"] = t.user_attrs["unreached"]
+        p["feasible"] = t.user_attrs["unreached_excess"] <= 0 and all(map(math.isfinite, t.values))
+        p["paper"] = all(math.isclose(t.params[k], v) for k, v in PAPER.items())
+        points.append(p)
+    if not points:
+        sys.exit(f"scripts/tune: {folder}: no complete trial yet")
+    front = sorted(pareto_front([p for p in points if p["feasible"]]), key=lambda p: p["t90_s"])
+    on_front = {p["trial"] for p in front}
+    columns = ["trial", *SPACE, "t90_s", "matched_cov_trace", "unreached", "feasible", "pareto", "paper"]
+    with open(folder / "pareto.csv", "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(columns)
+        for p in sorted(points, key=lambda p: p["trial"]):
+            w.writerow([fmt(p.get(c, p["trial"] in on_front)) for c in columns])
+    lines = [
+        f"# Pareto front: {len(front)} of {len(points)} complete trials ({sum(p['feasible'] for p in points)} feasible)",
+        "",
+        "| trial | α | β | N | T_90 (s) | tr(cov) at 25–90 % (m² + rad²) | runs never at 90 % | |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    paper = [p for p in points if p["paper"]]
+    for p in front + [p for p in paper if p["trial"] not in on_front]:
+        mark = "the paper's" if p["paper"] else ""
+        if p["trial"] not in on_front:
+            mark += ", not on the front"
+        lines.append(
+            f"| {p['trial']} | {p['alpha']:.3f} | {p['beta']:.3f} | {p['top_n']} | {p['t90_s']:.1f} | "
+            f"{p['matched_cov_trace']:.4g} | {p['unreached']:.0%} | {mark} |"
+        )
+    (folder / "pareto.md").write_text("\n".join(lines) + "\n")
+    figure(points, front, folder)
+    out = folder / "pareto"
+    out.mkdir(exist_ok=True)
+    for old in out.glob("trial_*.toml"):
+        old.unlink()
+    for p in front:
+        params = folder / "trials" / f"{p['trial']:04d}" / "params.toml"
+        (out / f"trial_{p['trial']:04d}.toml").write_text(sweep.fitslam(binary, "params", "--params", params))
+    print(f"{folder}: {len(points)} trials, {len(front)} on the Pareto front; pareto.md, pareto.csv, pareto.png, pareto/")
+
+
+def fmt(v):
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def figure(points, front, folder):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=120)
+    for feasible, style in ((True, dict(c="tab:blue", alpha=0.5, label="trial")), (False, dict(c="tab:gray", marker="x", label="infeasible trial"))):
+        ps = [p for p in points if p["feasible"] == feasible and math.isfinite(p["t90_s"])]
+        if ps:
+            ax.scatter([p["t90_s"] for p in ps], [p["matched_cov_trace"] for p in ps], **style)
+    ax.plot([p["t90_s"] for p in front], [p["matched_cov_trace"] for p in front], "o-", c="tab:orange", label="Pareto front")
+    for p in points:
+        if p["paper"]:
+            ax.scatter([p["t90_s"]], [p["matched_cov_trace"]], marker="*", s=220, c="tab:red", zorder=5,
+                       label="paper: α = 0.35, β = 0.4, N = 7")
+    for p in front:
+        ax.annotate(f"α {p['alpha']:.2f} β {p['beta']:.2f} N {p['top_n']}", (p["t90_s"], p["matched_cov_trace"]),
+                    textcoords="offset points", xytext=(4, 4), fontsize=7)
+    ax.set_xlabel("T_90: mean time to 90 % coverage (s)")
+    ax.set_ylabel("tr(cov) at 25–90 % coverage, geometric mean (m² + rad²)")
+    ax.set_title("fit on development worlds: T_90 against the primary metric")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    for ext in ("png", "svg"):
+        fig.savefig(folder / f"pareto.{ext}", metadata={"Date": None} if ext == "svg" else None)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
