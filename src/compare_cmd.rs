@@ -52,7 +52,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         wall_s,
         jobs.min(entries.len()),
         run_wall_s,
-        report::FILES
+        report::files(&figures)
     )?;
     Ok(())
 }

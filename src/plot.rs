@@ -5,6 +5,8 @@
 //! licence) through plotters' `ab_glyph` backend, so the PNGs have text on a machine without any
 //! system font. The SVGs carry `<text>` elements (the viewer's sans-serif font).
 
+pub mod forest;
+
 use crate::load;
 use anyhow::{Result, anyhow};
 use fitslam_core::io;
@@ -77,6 +79,37 @@ fn tick(v: &f64) -> String {
     }
 }
 
+/// A figure drawn by plotters at [`SIZE_PX`], written as SVG and PNG.
+pub trait Plot {
+    /// Draws the figure on `root`.
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static;
+
+    /// The figure as an SVG document.
+    fn svg(&self) -> Result<String> {
+        register_font()?;
+        let mut s = String::new();
+        self.draw(SVGBackend::with_string(&mut s, SIZE_PX).into_drawing_area())?;
+        Ok(s)
+    }
+
+    /// The figure as a PNG (RGB8).
+    fn png(&self) -> Result<Vec<u8>> {
+        register_font()?;
+        let (w, h) = SIZE_PX;
+        let mut rgb = vec![255u8; w as usize * h as usize * 3];
+        self.draw(BitMapBackend::with_buffer(&mut rgb, SIZE_PX).into_drawing_area())?;
+        Ok(io::write_png_rgb8(w as usize, h as usize, &rgb)?)
+    }
+
+    /// Writes `DIR/STEM.svg` and `DIR/STEM.png`.
+    fn write(&self, dir: &Path, stem: &str) -> Result<()> {
+        load::write(&dir.join(format!("{stem}.svg")), self.svg()?.as_bytes())?;
+        load::write(&dir.join(format!("{stem}.png")), &self.png()?)
+    }
+}
+
 impl Figure {
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
         let (_, t_hi) = finite(self.curves.iter().flat_map(|c| c.x.iter().copied()));
@@ -95,7 +128,9 @@ impl Figure {
         });
         (t, y)
     }
+}
 
+impl Plot for Figure {
     fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<()>
     where
         DB::ErrorType: 'static,
@@ -146,29 +181,6 @@ impl Figure {
             .map_err(e)?;
         root.present().map_err(e)?;
         Ok(())
-    }
-
-    /// The figure as an SVG document.
-    pub fn svg(&self) -> Result<String> {
-        register_font()?;
-        let mut s = String::new();
-        self.draw(SVGBackend::with_string(&mut s, SIZE_PX).into_drawing_area())?;
-        Ok(s)
-    }
-
-    /// The figure as a PNG (RGB8).
-    pub fn png(&self) -> Result<Vec<u8>> {
-        register_font()?;
-        let (w, h) = SIZE_PX;
-        let mut rgb = vec![255u8; w as usize * h as usize * 3];
-        self.draw(BitMapBackend::with_buffer(&mut rgb, SIZE_PX).into_drawing_area())?;
-        Ok(io::write_png_rgb8(w as usize, h as usize, &rgb)?)
-    }
-
-    /// Writes `DIR/STEM.svg` and `DIR/STEM.png`.
-    pub fn write(&self, dir: &Path, stem: &str) -> Result<()> {
-        load::write(&dir.join(format!("{stem}.svg")), self.svg()?.as_bytes())?;
-        load::write(&dir.join(format!("{stem}.png")), &self.png()?)
     }
 }
 

@@ -31,10 +31,13 @@ use rand::SeedableRng;
 use std::fmt::Write as _;
 use std::path::Path;
 
+mod worlds;
+
 /// Points of the common time grid of the figures.
 pub const GRID_POINTS: usize = 400;
 
 /// What the report says of the sweep as a whole.
+#[derive(Clone, Copy)]
 pub struct Heading<'a> {
     /// The world's name (its file's `name`).
     pub world: &'a str,
@@ -45,16 +48,40 @@ pub struct Heading<'a> {
     pub localisation: Localisation,
 }
 
-/// Writes `summary.csv`, the figures and `summary.md` of `figures` (in plan order) into `out`.
+/// Writes `summary.csv`, the figures and `summary.md` of `figures` (in plan order) into `out`,
+/// and with world seeds `worlds.csv` and `forest.{png,svg}` ([`worlds`]).
 pub fn write(out: &Path, heading: &Heading, figures: &[RunFigures]) -> Result<()> {
     load::write(&out.join("summary.csv"), summary_csv(figures).as_bytes())?;
     write_figures(out, heading.world, heading.strategies, figures)?;
-    let md = summary_md(heading.world, heading.strategies, figures, heading.command, heading.localisation);
+    let means = worlds::world_means(heading.strategies, figures);
+    let (reference, baselines) = reference_and_baselines(heading.strategies);
+    let comparisons = worlds::compare_worlds(&means, reference, &baselines);
+    if !means.is_empty() {
+        load::write(&out.join("worlds.csv"), worlds::worlds_csv(&means).as_bytes())?;
+        worlds::write_forest(out, heading.world, reference, &comparisons)?;
+    }
+    let mut world_level = String::new();
+    if !comparisons.is_empty() {
+        worlds::world_level_md(&mut world_level, reference, &comparisons);
+    }
+    let md = summary_md(heading, figures, &world_level);
     load::write(&out.join("summary.md"), md.as_bytes())
 }
 
 /// The files the report writes, as its one-line note names them.
-pub const FILES: &str = "summary.md, summary.csv, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png";
+pub fn files(figures: &[RunFigures]) -> &'static str {
+    if figures.iter().any(|f| f.world_seed.is_some()) {
+        "summary.md, summary.csv, worlds.csv, forest.png, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png"
+    } else {
+        "summary.md, summary.csv, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png"
+    }
+}
+
+/// `fit`, else the first strategy, and the others in order.
+fn reference_and_baselines(strategies: &[Strategy]) -> (Strategy, Vec<Strategy>) {
+    let reference = strategies.iter().copied().find(|&s| s == Strategy::Fit).unwrap_or(strategies[0]);
+    (reference, strategies.iter().copied().filter(|&s| s != reference).collect())
+}
 
 /// The figures of one run that the summary uses.
 #[derive(Clone, Debug)]
@@ -240,7 +267,10 @@ fn spread_cell(md: &mut String, values: &[f64]) {
     }
 }
 
-fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], command: &str, localisation: Localisation) -> String {
+/// `summary.md`; `world_level` (the primary inference with world seeds, or empty) comes before
+/// the seed-paired table.
+fn summary_md(heading: &Heading, figures: &[RunFigures], world_level: &str) -> String {
+    let Heading { world, strategies, command, localisation } = *heading;
     let values = |s: Strategy, m: &Metric| -> Vec<f64> { figures.iter().filter(|f| f.strategy == s).map(m.get).collect() };
     let mut md = format!("# fitslam compare — {world}\n\n`{command}`\n\n");
     let first: Vec<&RunFigures> = figures.iter().filter(|f| f.strategy == strategies[0]).collect();
@@ -275,8 +305,8 @@ fn summary_md(world: &str, strategies: &[Strategy], figures: &[RunFigures], comm
         md.push('\n');
     }
     milestones_md(&mut md, strategies, figures);
-    let reference = strategies.iter().copied().find(|&s| s == Strategy::Fit).unwrap_or(strategies[0]);
-    let baselines: Vec<Strategy> = strategies.iter().copied().filter(|&s| s != reference).collect();
+    md.push_str(world_level);
+    let (reference, baselines) = reference_and_baselines(strategies);
     if !baselines.is_empty() {
         paired_md(&mut md, reference, &baselines, figures);
     }
@@ -331,7 +361,7 @@ fn paired_md(md: &mut String, reference: Strategy, baselines: &[Strategy], figur
     let worlds = figures.iter().any(|f| f.world_seed.is_some());
     let _ = writeln!(
         md,
-        "\n## Each baseline against `{r}`, paired by {by}\n\nRuns with the same {by} share the world and the sensor noise, so \
+        "\n## Each baseline against `{r}`, paired by {by}{secondary}\n\nRuns with the same {by} share the world and the sensor noise, so \
          they are compared in pairs: d = `{r}` − baseline per {per} (pairs where both have the figure). Each cell: the mean of d \
          [95 % percentile-bootstrap interval, {BOOTSTRAP_RESAMPLES} resamples], the two-sided Wilcoxon signed-rank p-value \
          (normal approximation, tie and continuity corrections, zero differences dropped), and in bold Holm's adjusted p over \
@@ -340,6 +370,7 @@ fn paired_md(md: &mut String, reference: Strategy, baselines: &[Strategy], figur
         m = METRICS.len(),
         by = if worlds { "world seed and seed" } else { "seed" },
         per = if worlds { "pair" } else { "seed" },
+        secondary = if worlds { " (secondary: runs of one world are not independent)" } else { "" },
     );
     metrics_header(md, &["baseline"]);
     for (bi, &b) in baselines.iter().enumerate() {

@@ -140,6 +140,41 @@ fn compare_across_world_seeds_pairs_by_world_and_seed() {
     }
 }
 
+/// With world seeds the world is the unit: `worlds.csv` (per strategy and world the geometric
+/// mean over seeds), the world-level table in `summary.md` before the seed-paired one, and
+/// `forest.{png,svg}`, on worlds of a family the code has no knowledge of.
+#[test]
+fn compare_across_world_seeds_infers_at_the_world_level() {
+    let out = scratch("world-level");
+    let world = world();
+    let o = Command::new(BIN)
+        .args(["compare", "--world", &world, "--time-limit-s", "60", "--strategies", "fit,random", "--seeds", "1"])
+        .args(["--world-seeds", "3..5", "--jobs", "2", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run fitslam");
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("worlds.csv, forest.png"));
+    let worlds = std::fs::read_to_string(out.join("worlds.csv")).unwrap();
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let lines: Vec<&str> = worlds.lines().collect();
+    assert!(lines[0].starts_with("strategy,world_seed,runs,matched_cov_trace,time_s,t90_s,"), "{}", lines[0]);
+    let keys: Vec<String> = lines[1..].iter().map(|l| l.split(',').take(3).collect::<Vec<_>>().join(",")).collect();
+    assert_eq!(keys, ["fit,3,1", "fit,4,1", "fit,5,1", "random,3,1", "random,4,1", "random,5,1"]);
+    // One seed per world: each world's geometric mean is its run's figure, as summary.csv prints it.
+    for (w, s) in lines[1..].iter().zip(summary.lines().skip(1)) {
+        let (w, s): (Vec<&str>, Vec<&str>) = (w.split(',').collect(), s.split(',').collect());
+        assert_eq!(w[3], s[4], "matched_cov_trace of {} world {}", w[0], w[1]);
+    }
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    let (world_level, paired) = (md.find("## World level").expect("world-level section"), md.find("## Each baseline").unwrap());
+    assert!(world_level < paired, "the primary inference comes first");
+    assert!(md.lines().any(|l| l.starts_with("| random | 3 | ")), "three comparable worlds: {md}");
+    assert!(std::fs::read(out.join("forest.png")).unwrap().starts_with(b"\x89PNG"));
+    assert!(std::fs::read_to_string(out.join("forest.svg")).unwrap().contains("fit / random"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 #[test]
 fn compare_rejects_bad_input_with_one_line() {
     let out = scratch("bad");

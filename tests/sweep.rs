@@ -163,6 +163,7 @@ fn bad_plans_and_folders_give_one_line_and_leave_nothing_half_written() {
     // Another code version.
     edit_entry(&plan, 0, |v| v["code"] = "fitslam 0.0.0 0123456789ab".into());
     assert_clear_error(&fitslam(&["run", dir, "--index", "0"]), "planned by fitslam 0.0.0 0123456789ab");
+    assert_clear_error(&fitslam(&["run", dir, "--pending"]), "planned by fitslam 0.0.0 0123456789ab");
     assert!(!plan.join("fit/seed_1").exists());
     // An edited entry whose hash no longer matches.
     let path = plan.join("plan.jsonl");

@@ -54,6 +54,6 @@ pub fn collect(dir: &Path) -> Result<(Sweep, Vec<RunFigures>)> {
 /// `fitslam collect`.
 pub fn run(args: &CollectArgs) -> Result<()> {
     let (_, figures) = collect(&args.dir)?;
-    outln!("{}: {} runs; {}", args.dir.display(), figures.len(), report::FILES)?;
+    outln!("{}: {} runs; {}", args.dir.display(), figures.len(), report::files(&figures))?;
     Ok(())
 }

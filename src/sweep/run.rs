@@ -101,11 +101,17 @@ fn world_key(e: &Entry) -> Result<String> {
     Ok(serde_json::to_string(&(&e.world, &e.world_sha256, e.world_seed, &e.params, &e.sim_params))?)
 }
 
-/// Runs `entry` of the plan in `dir` (its world in `worlds`) unless its folder holds its output.
-pub fn run_entry(dir: &Path, entry: &Entry, worlds: &BTreeMap<String, Setup>) -> Result<Ran> {
+/// Refuses an entry planned by another build of fitslam.
+fn check_code(entry: &Entry) -> Result<()> {
     if entry.code != CODE {
         bail!("plan entry {}: planned by {}, this is {}; plan again with this fitslam", entry.index, entry.code, CODE);
     }
+    Ok(())
+}
+
+/// Runs `entry` of the plan in `dir` (its world in `worlds`) unless its folder holds its output.
+pub fn run_entry(dir: &Path, entry: &Entry, worlds: &BTreeMap<String, Setup>) -> Result<Ran> {
+    check_code(entry)?;
     let folder = dir.join(&entry.out);
     if done(&folder, entry)? {
         return Ok(Ran::Before);
@@ -180,6 +186,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
     let chosen: Vec<&Entry> = entries[range.clone()].iter().collect();
     if args.pending {
         for e in chosen {
+            check_code(e)?;
             if !done(&args.dir.join(&e.out), e)? {
                 outln!("{}", e.index)?;
             }

@@ -13,10 +13,10 @@ trap '"$venv/bin/ray" stop --force >/dev/null 2>&1 || true; rm -rf "$tmp"' EXIT
 head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' >"$tmp/auth_token"
 export RAY_AUTH_MODE=token RAY_AUTH_TOKEN_PATH=$tmp/auth_token RAY_USAGE_STATS_ENABLED=0
 address=127.0.0.1:6390
-"$venv/bin/ray" start --head --node-ip-address=127.0.0.1 --port=6390 --num-cpus=0 \
+"$venv/bin/ray" start --head --node-ip-address=127.0.0.1 --port=6390 --num-cpus=0 --object-store-memory=100000000 \
   --include-dashboard=false --temp-dir="$tmp" >"$tmp/head.log" 2>&1 || { cat "$tmp/head.log"; exit 1; }
 for worker in 1 2; do
-  "$venv/bin/ray" start --address=$address --node-ip-address=127.0.0.1 --num-cpus=1 >"$tmp/worker$worker.log" 2>&1 ||
+  "$venv/bin/ray" start --address=$address --node-ip-address=127.0.0.1 --num-cpus=1 --object-store-memory=100000000 >"$tmp/worker$worker.log" 2>&1 ||
     { cat "$tmp/worker$worker.log"; exit 1; }
 done
 # Until the head sees both workers.

@@ -1,0 +1,87 @@
+//! `scripts/tune` end to end on a tiny world: its unit tests (objectives, Pareto front and
+//! parameter file with hand-derived values), then a study of two trials resumed by a second
+//! process for one more through the same journal file: the paper's α = 0.35, β = 0.4, N = 7 is
+//! trial 0 and only trial 0, the report names it, and every Pareto parameter file is one that
+//! `fitslam params --params` accepts with the trial's values in it.
+//!
+//! Needs the pinned Python environment of `scripts/sweep-venv` (target/sweep-venv or
+//! `FITSLAM_SWEEP_VENV`); without it the test FAILS and says so.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a test: a failure should stop it
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_fitslam");
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn venv() -> PathBuf {
+    let venv = std::env::var_os("FITSLAM_SWEEP_VENV").map_or_else(|| root().join("target/sweep-venv"), PathBuf::from);
+    assert!(
+        venv.join("bin/python").exists(),
+        "no Optuna environment at {venv:?}: run scripts/sweep-venv (the README's test command does) or set FITSLAM_SWEEP_VENV"
+    );
+    venv
+}
+
+fn ok(o: &Output) -> String {
+    assert!(o.status.success(), "stdout: {}\nstderr: {}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn tune_unit_tests() {
+    let out = Command::new(venv().join("bin/python"))
+        .args(["-m", "unittest", "-v", "test_tune"])
+        .current_dir(root().join("scripts/sweep"))
+        .output()
+        .unwrap();
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Ran 6 tests"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn a_study_resumed_through_its_journal_reports_its_pareto_front() {
+    let study = std::env::temp_dir().join(format!("fitslam-tune-{}", std::process::id()));
+    std::fs::remove_dir_all(&study).ok();
+    let world = root().join("assets/worlds/tiny_test.toml");
+    let tune = |trials: &str| {
+        Command::new(root().join("scripts/tune"))
+            .args(["--study", study.to_str().unwrap(), "--world", world.to_str().unwrap(), "--seeds", "2", "--jobs", "2"])
+            .args(["--trials", trials, "--fitslam", BIN])
+            .env("FITSLAM_SWEEP_VENV", venv())
+            .output()
+            .unwrap()
+    };
+    ok(&tune("2"));
+    ok(&tune("1"));
+    let csv = std::fs::read_to_string(study.join("pareto.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows[0], "trial,alpha,beta,top_n,t90_s,matched_cov_trace,unreached,feasible,pareto,paper");
+    assert_eq!(rows.len(), 4, "{csv}");
+    assert!(rows[1].starts_with("0,0.35,0.4,7,") && rows[1].ends_with(",true"), "{csv}");
+    assert!(rows[2..].iter().all(|r| r.ends_with(",false")), "the paper's values are trial 0 only: {csv}");
+    let md = std::fs::read_to_string(study.join("pareto.md")).unwrap();
+    assert!(md.contains("the paper's"), "{md}");
+    for f in ["pareto.png", "pareto.svg", "journal.log"] {
+        assert!(study.join(f).metadata().unwrap().len() > 0, "{f}");
+    }
+    // Each Pareto point's file: whole, valid, with its trial's values.
+    let on_front: Vec<&str> = rows[1..].iter().filter(|r| r.split(',').nth(8) == Some("true")).copied().collect();
+    assert!(!on_front.is_empty());
+    for row in on_front {
+        let cols: Vec<&str> = row.split(',').collect();
+        let file = study.join("pareto").join(format!("trial_{:04}.toml", cols[0].parse::<u32>().unwrap()));
+        let printed = ok(&Command::new(BIN).args(["params", "--params", file.to_str().unwrap()]).output().unwrap());
+        let alpha: f64 = cols[1].parse().unwrap();
+        let value = |key: &str| -> f64 {
+            printed.lines().find_map(|l| l.strip_prefix(&format!("{key} = "))).unwrap().trim_matches('"').parse().unwrap()
+        };
+        assert!((value("alpha") - alpha).abs() <= 1e-5 * alpha.max(1.0), "{file:?}: alpha");
+        assert_eq!(value("top_n"), cols[3].parse::<f64>().unwrap(), "{file:?}: top_n");
+    }
+    std::fs::remove_dir_all(&study).ok();
+}
