@@ -104,6 +104,11 @@ def main():
                     help="re-run the Pareto points and the paper's trial on noise seeds from this one (module doc)")
     args = ap.parse_args()
 
+    if (not args.report or args.confirm_seed_start is not None) and not args.world:
+        sys.exit("scripts/tune: --world is needed to run missions")
+    if args.report and args.confirm_seed_start is None and not (args.study / "journal.log").exists():
+        sys.exit(f"scripts/tune: {args.study}: no study (journal.log) to report")
+
     import optuna
     from optuna.storages import JournalStorage
     from optuna.storages.journal import JournalFileBackend
@@ -116,8 +121,6 @@ def main():
     # Seeded by the trials already there, so that a study resumed in steps does not repeat its
     # first suggestions; processes started together need their own --sampler-seed.
     study.sampler = optuna.samplers.TPESampler(seed=args.sampler_seed + len(study.trials), multivariate=True, n_startup_trials=10)
-    if (not args.report or args.confirm_seed_start is not None) and not args.world:
-        sys.exit("scripts/tune: --world is needed to run missions")
     ray = sweep.connect(args.address) if args.address and (not args.report or args.confirm_seed_start is not None) else None
     try:
         if not args.report:
