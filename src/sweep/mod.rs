@@ -29,7 +29,8 @@ pub const CODE: &str = env!("FITSLAM_CODE");
 pub struct PlanArgs {
     #[command(flatten)]
     pub mission: MissionArgs,
-    /// Comma-separated strategies: fit, greedy, random, u1, matched (random at fit's path length).
+    /// Comma-separated strategies: fit, greedy, random, u1, matched (random at fit's path length),
+    /// matched_top (the same among u1's N best), u2_length (u2 with the path length for I_p).
     #[arg(long, default_value = "fit,greedy,random")]
     pub strategies: String,
     /// Number of seeds per strategy (seeds seed_start ..= seed_start + N − 1).

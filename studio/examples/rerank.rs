@@ -9,7 +9,7 @@
 
 use fitslam_core::Params;
 use fitslam_core::select::DecisionInput;
-use fitslam_core::select::candidates::{PlanBuffers, frontiers_and_distances, prepare, score_u1, score_u2};
+use fitslam_core::select::candidates::{PathScore, PlanBuffers, frontiers_and_distances, prepare, score_u1, score_u2};
 use fitslam_core::traversability::to_occupancy;
 use fitslam_core::utility::LandmarkVoxels;
 use fitslam_studio::pipeline::{Pipeline, Revisions};
@@ -67,7 +67,7 @@ fn main() {
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, params.selector.strategy).unwrap();
         let t_u1 = t.elapsed();
         let t = Instant::now();
-        score_u2(&mut d, &input, &params);
+        score_u2(&mut d, &input, &params, PathScore::Fisher);
         let t_u2 = t.elapsed();
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
         println!(

@@ -8,10 +8,11 @@ use serde::Serialize;
 
 /// The score a strategy ranks by, for display and digests: u2 (FIT-SLAM), u1 (u1-only),
 /// ρ (greedy, smaller is better), u1 for random (it draws uniformly; u1 is informative), u2 for
-/// the length-matched random (it draws at FIT-SLAM's distance; u2 shows what it left).
+/// the length-matched controls (they draw at FIT-SLAM's distance; u2 shows what they left), u2
+/// with the path length for `u2_length`.
 pub fn final_score(strategy: Strategy, c: &CandidateReport) -> Option<f64> {
     match strategy {
-        Strategy::Fit | Strategy::Matched => c.u2,
+        Strategy::Fit | Strategy::Matched | Strategy::MatchedTop | Strategy::U2Length => c.u2,
         Strategy::U1 | Strategy::Random => c.u1,
         Strategy::Greedy => c.rho_m,
     }

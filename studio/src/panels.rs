@@ -45,7 +45,7 @@ pub fn params_panel(ui: &mut egui::Ui, p: &mut Params, widget_rects: &mut Widget
         }
     });
     rects.push(("strategy", strat.response.rect));
-    if matches!(p.selector.strategy, Strategy::Random | Strategy::Matched) {
+    if matches!(p.selector.strategy, Strategy::Random | Strategy::Matched | Strategy::MatchedTop) {
         ui.horizontal(|ui| {
             let l = ui.label("seed");
             ui.add(egui::DragValue::new(&mut p.selector.seed)).labelled_by(l.id);
@@ -157,6 +157,8 @@ pub fn strategy_name(s: Strategy) -> &'static str {
         Strategy::Random => "random",
         Strategy::U1 => "u1 only",
         Strategy::Matched => "random at FIT-SLAM's distance",
+        Strategy::MatchedTop => "random among u1's N best at FIT-SLAM's distance",
+        Strategy::U2Length => "u2 with path length for information",
     }
 }
 
@@ -301,7 +303,7 @@ pub fn candidate_table(
         d.candidates.len(),
         strategy_name(d.strategy),
         match d.strategy {
-            Strategy::Fit | Strategy::Matched => "u2",
+            Strategy::Fit | Strategy::Matched | Strategy::MatchedTop | Strategy::U2Length => "u2",
             Strategy::Greedy => "ρ",
             Strategy::U1 | Strategy::Random => "u1",
         }

@@ -286,11 +286,20 @@ pub enum Strategy {
     /// Control: uniform (seeded) among the candidates whose path length is within ±20 % of the
     /// goal FIT-SLAM would choose ([`crate::select::matched`]).
     Matched,
+    /// Control: as `matched`, but among u1's N best only, the candidates u2 chooses from: FIT-SLAM's
+    /// candidates and path lengths without its information ([`crate::select::matched`]).
+    #[cfg_attr(feature = "clap", value(name = "matched_top"))]
+    MatchedTop,
+    /// Control: u2 with I_p replaced by the path length, normalised the same way
+    /// ([`crate::select::u2_length`]): what u2 does if I_p only rewarded going far.
+    #[cfg_attr(feature = "clap", value(name = "u2_length"))]
+    U2Length,
 }
 
 impl Strategy {
     /// Every variant, in declaration order.
-    pub const ALL: [Strategy; 5] = [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1, Strategy::Matched];
+    pub const ALL: [Strategy; 7] =
+        [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1, Strategy::Matched, Strategy::MatchedTop, Strategy::U2Length];
 
     /// The name used in files, on the command line and in the studio (`fit`, `greedy`, …).
     pub fn name(self) -> &'static str {
@@ -300,6 +309,8 @@ impl Strategy {
             Strategy::Random => "random",
             Strategy::U1 => "u1",
             Strategy::Matched => "matched",
+            Strategy::MatchedTop => "matched_top",
+            Strategy::U2Length => "u2_length",
         }
     }
 }

@@ -195,9 +195,19 @@ pub fn score_u1(
     })
 }
 
-/// Step 5 (FIT-SLAM): waypoints, path information and u2 on the N best candidates by u1; the
+/// What u2 weighs against u1 (notes §5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathScore {
+    /// I_p: the Fisher information of the landmarks the camera sees along the path (the paper's).
+    Fisher,
+    /// The path length ρ (the control `u2_length`): no waypoints are computed.
+    Length,
+}
+
+/// Step 5 (FIT-SLAM): waypoints, path information (or, with [`PathScore::Length`], the path
+/// length) and u2 on the N best candidates by u1, normalised as `u2.normalisation` says; the
 /// other scored candidates are dropped as [`DropReason::NotInTopN`].
-pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params) {
+pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params, score: PathScore) {
     let top: Vec<usize> = {
         let mut t: Vec<usize> =
             (0..decision.candidates.len()).filter(|&i| decision.candidates[i].u1_rank.is_some_and(|r| r <= params.u2.top_n)).collect();
@@ -225,7 +235,10 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params)
     let mut raw = Vec::with_capacity(top.len());
     for &i in &top {
         let c = &mut decision.candidates[i];
-        let ip = path_information(&c.path_m, c.theta_star_rad.unwrap_or(0.0), &view, &mut c.waypoints);
+        let ip = match score {
+            PathScore::Fisher => path_information(&c.path_m, c.theta_star_rad.unwrap_or(0.0), &view, &mut c.waypoints),
+            PathScore::Length => c.rho_m.unwrap_or(0.0),
+        };
         c.path_info_raw = Some(ip);
         raw.push(ip);
     }

@@ -2,7 +2,7 @@
 //! N best by u1, goal = argmax u2 (ties by candidate index). Cost: the pipeline's (see
 //! [`super::candidates`]).
 
-use super::candidates::{PlanBuffers, plan, rank_and_choose, score_u2};
+use super::candidates::{PathScore, PlanBuffers, plan, rank_and_choose, score_u2};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 
@@ -15,7 +15,7 @@ pub struct FitSlam {
 impl GoalSelector for FitSlam {
     fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
         let mut d = plan(input, params, Strategy::Fit, &mut self.buffers)?;
-        score_u2(&mut d, input, params);
+        score_u2(&mut d, input, params, PathScore::Fisher);
         let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
         rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
         Ok(d)

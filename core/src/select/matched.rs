@@ -1,12 +1,16 @@
-//! Control "random at FIT-SLAM's distance": it separates an informed choice from going far. Each
-//! decision ranks the candidates as FIT-SLAM does (u1, u2 over the N best), takes the path
+//! Controls "random at FIT-SLAM's distance": they separate an informed choice from going far.
+//! Each decision ranks the candidates as FIT-SLAM does (u1, u2 over the N best), takes the path
 //! length ρ* of the goal FIT-SLAM would choose, and draws uniformly (seeded ChaCha8, one draw per
-//! decision, as [`super::random`]) among the reachable, non-blacklisted candidates whose ρ lies
-//! within ±0.2 · ρ* (FIT-SLAM's own goal always does). Over a mission its path
-//! lengths follow FIT-SLAM's; what its paths see does not. The drawn candidate gets rank 1, the
-//! others none; u1, I_p and u2 stay reported.
+//! decision, as [`super::random`]) among the candidates of its pool whose ρ lies within ±0.2 · ρ*
+//! (FIT-SLAM's own goal always does). Over a mission its path lengths follow FIT-SLAM's; what its
+//! paths see does not. The drawn candidate gets rank 1, the others none; u1, I_p and u2 stay
+//! reported. The pool ([`MatchPool`]):
+//! - `matched`: every reachable, non-blacklisted candidate, so `fit − matched` mixes u2's
+//!   information with u1's ranking;
+//! - `matched_top`: u1's N best only, the candidates u2 itself chooses among, so
+//!   `fit − matched_top` is u2's information alone.
 
-use super::candidates::{PlanBuffers, choose, plan, rank_and_choose, score_u2, set_baseline_heading};
+use super::candidates::{PathScore, PlanBuffers, choose, plan, rank_and_choose, score_u2, set_baseline_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 use rand::{RngExt, SeedableRng};
@@ -17,31 +21,45 @@ use rand_chacha::ChaCha8Rng;
 /// stay FIT-SLAM's.
 pub(crate) const LENGTH_TOLERANCE: f64 = 0.2;
 
-/// Uniform among the candidates at FIT-SLAM's path length.
+/// The candidates a length-matched draw is made among (module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum MatchPool {
+    /// Every reachable candidate (`matched`).
+    Reachable,
+    /// u1's N best (`matched_top`).
+    TopN,
+}
+
+/// Uniform among the candidates of a pool at FIT-SLAM's path length.
 #[derive(Clone, Debug)]
 pub(crate) struct LengthMatched {
     rng: ChaCha8Rng,
+    pool: MatchPool,
     buffers: PlanBuffers,
 }
 
 impl LengthMatched {
-    /// A selector whose draws are determined by `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self { rng: ChaCha8Rng::seed_from_u64(seed), buffers: PlanBuffers::default() }
+    /// A selector drawing from `pool`, its draws determined by `seed`.
+    pub fn new(seed: u64, pool: MatchPool) -> Self {
+        Self { rng: ChaCha8Rng::seed_from_u64(seed), pool, buffers: PlanBuffers::default() }
     }
 }
 
 impl GoalSelector for LengthMatched {
     fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
-        let mut d = plan(input, params, Strategy::Matched, &mut self.buffers)?;
+        let mut d = plan(input, params, self.strategy(), &mut self.buffers)?;
         let reachable: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
-        score_u2(&mut d, input, params);
+        score_u2(&mut d, input, params, PathScore::Fisher);
         let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
         rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
         let Some(rho_fit) = d.chosen.and_then(|i| d.candidates[i].rho_m) else {
             return Ok(d);
         };
-        let pool: Vec<usize> = reachable
+        let pool: Vec<usize> = match self.pool {
+            MatchPool::Reachable => reachable,
+            MatchPool::TopN => ranked,
+        };
+        let pool: Vec<usize> = pool
             .into_iter()
             .filter(|&i| d.candidates[i].rho_m.is_some_and(|rho| (rho - rho_fit).abs() <= LENGTH_TOLERANCE * rho_fit))
             .collect();
@@ -60,6 +78,9 @@ impl GoalSelector for LengthMatched {
     }
 
     fn strategy(&self) -> Strategy {
-        Strategy::Matched
+        match self.pool {
+            MatchPool::Reachable => Strategy::Matched,
+            MatchPool::TopN => Strategy::MatchedTop,
+        }
     }
 }

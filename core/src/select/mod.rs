@@ -10,7 +10,8 @@
 //! | [`greedy`] | smallest ρ |
 //! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
 //! | `u1_only` | ablation: u1 alone |
-//! | [`matched`] | control: random among the candidates at FIT-SLAM's path length |
+//! | [`matched`] | controls: random among the candidates (all, or u1's N best) at FIT-SLAM's path length |
+//! | `u2_length` | control: u2 with the path length in place of I_p |
 //!
 //! ```
 //! use fitslam_core::fixtures::corridor_two_frontiers;
@@ -38,13 +39,15 @@ pub mod matched;
 pub mod random;
 pub mod report;
 pub(crate) mod u1_only;
+pub(crate) mod u2_length;
 
 pub use fit::FitSlam;
 pub use greedy::Greedy;
-pub(crate) use matched::LengthMatched;
+pub(crate) use matched::{LengthMatched, MatchPool};
 pub(crate) use random::RandomSelector;
 pub use report::{CandidateReport, Decision, DropReason};
 pub(crate) use u1_only::U1Only;
+pub(crate) use u2_length::U2Length;
 
 use crate::frontier::{Blacklist, Boundary, FrontierError};
 use crate::grid::{Cell, OccupancyGrid};
@@ -249,7 +252,9 @@ pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
         Strategy::Greedy => Box::new(Greedy::default()),
         Strategy::Random => Box::new(RandomSelector::new(params.seed)),
         Strategy::U1 => Box::new(U1Only::default()),
-        Strategy::Matched => Box::new(LengthMatched::new(params.seed)),
+        Strategy::Matched => Box::new(LengthMatched::new(params.seed, MatchPool::Reachable)),
+        Strategy::MatchedTop => Box::new(LengthMatched::new(params.seed, MatchPool::TopN)),
+        Strategy::U2Length => Box::new(U2Length::default()),
     }
 }
 

@@ -211,9 +211,9 @@ fn length_matched_random_draws_among_candidates_at_fit_slams_distance() {
     let lv = voxels(&w, &p);
     let bl = Blacklist::new(p.frontier.blacklist_radius_m);
     let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
-    let mut s = LengthMatched::new(3);
+    let mut s = LengthMatched::new(3, MatchPool::Reachable);
     let draws: Vec<usize> = (0..40).map(|_| s.select(&input, &valid(&p)).unwrap().chosen.unwrap()).collect();
-    let d = LengthMatched::new(3).select(&input, &valid(&p)).unwrap();
+    let d = LengthMatched::new(3, MatchPool::Reachable).select(&input, &valid(&p)).unwrap();
     let (west, east) = ends(&d);
     assert!(draws.contains(&west) && draws.contains(&east), "{draws:?}");
     assert_eq!(d.chosen, Some(draws[0]), "same seed, same draw");
@@ -427,4 +427,62 @@ fn a_robot_goes_back_through_a_doorway_it_drove_through() {
     let bad = [800];
     let input = DecisionInput { traversed: &bad, ..DecisionInput::new(&grid, &lv, robot, &bl) };
     assert_eq!(Greedy::default().select(&input, &valid(&p)).unwrap_err(), SelectError::TraversedOutsideGrid { index: 800, cells: 800 });
+}
+
+/// `matched_top` draws only among u1's N best, at FIT-SLAM's distance: every draw has a u1 rank
+/// ≤ N and a path length within ±20 % of FIT-SLAM's, and with N = 1 it is FIT-SLAM's goal.
+#[test]
+fn length_matched_among_the_top_n_draws_from_u2s_own_candidates() {
+    let w = synthetic_world(&SyntheticWorldSpec::small(11));
+    let mut p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(p.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let fit = FitSlam::default().select(&input, &valid(&p)).unwrap();
+    let rho_fit = fit.chosen_candidate().unwrap().rho_m.unwrap();
+    let mut s = make_selector(&SelectorParams { strategy: Strategy::MatchedTop, seed: 9, ..SelectorParams::default() });
+    assert_eq!(s.strategy(), Strategy::MatchedTop);
+    for _ in 0..30 {
+        let d = s.select(&input, &valid(&p)).unwrap();
+        assert_eq!(d.strategy, Strategy::MatchedTop);
+        let c = d.chosen_candidate().unwrap();
+        assert!(c.u1_rank.unwrap() <= p.u2.top_n, "u1 rank {:?}", c.u1_rank);
+        assert!((c.rho_m.unwrap() - rho_fit).abs() <= 0.2 * rho_fit + 1e-12);
+    }
+    p.u2.top_n = 1;
+    let fit = FitSlam::default().select(&input, &valid(&p)).unwrap();
+    let d = LengthMatched::new(4, MatchPool::TopN).select(&input, &valid(&p)).unwrap();
+    assert_eq!(d.chosen, fit.chosen, "one candidate in the pool: FIT-SLAM's");
+}
+
+/// `u2_length`: u2 = β u1 + (1 − β) ρ / max ρ over the N best (the default `max` normalisation),
+/// computed here from the reported u1 and ρ; the goal is its argmax, no waypoint is computed.
+#[test]
+fn u2_with_path_length_ranks_by_beta_u1_plus_normalised_length() {
+    let w = synthetic_world(&SyntheticWorldSpec::small(2));
+    let p = params();
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(p.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let d =
+        make_selector(&SelectorParams { strategy: Strategy::U2Length, ..SelectorParams::default() }).select(&input, &valid(&p)).unwrap();
+    assert_eq!(d.strategy, Strategy::U2Length);
+    let top: Vec<&CandidateReport> = d.candidates.iter().filter(|c| c.u2.is_some()).collect();
+    assert_eq!(top.len(), p.u2.top_n.min(d.candidates.iter().filter(|c| c.is_scored()).count()));
+    let max_rho = top.iter().map(|c| c.rho_m.unwrap()).fold(0.0, f64::max);
+    let beta = p.u2.beta;
+    let mut best = (f64::NEG_INFINITY, usize::MAX);
+    for (i, c) in d.candidates.iter().enumerate().filter(|(_, c)| c.u2.is_some()) {
+        let expected = beta * c.u1.unwrap() + (1.0 - beta) * c.rho_m.unwrap() / max_rho;
+        assert!((c.u2.unwrap() - expected).abs() < 1e-12, "u2 {} vs {expected}", c.u2.unwrap());
+        assert_eq!(c.path_info_raw, c.rho_m);
+        assert!(c.waypoints.is_empty());
+        if expected > best.0 {
+            best = (expected, i);
+        }
+    }
+    assert_eq!(d.chosen, Some(best.1));
+    // The same candidates and u1 as FIT-SLAM; only u2's second term differs.
+    let fit = FitSlam::default().select(&input, &valid(&p)).unwrap();
+    assert_eq!(fit.candidates.iter().map(|c| c.u1).collect::<Vec<_>>(), d.candidates.iter().map(|c| c.u1).collect::<Vec<_>>());
 }

@@ -17,8 +17,15 @@ pub(super) fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_
     rects.push(("mission_world", world.response.rect));
     ui.label("strategies:");
     ui.horizontal_wrapped(|ui| {
-        const NAMES: [&str; Strategy::ALL.len()] =
-            ["strategy_fit", "strategy_greedy", "strategy_random", "strategy_u1", "strategy_matched"];
+        const NAMES: [&str; Strategy::ALL.len()] = [
+            "strategy_fit",
+            "strategy_greedy",
+            "strategy_random",
+            "strategy_u1",
+            "strategy_matched",
+            "strategy_matched_top",
+            "strategy_u2_length",
+        ];
         for (k, s) in Strategy::ALL.into_iter().enumerate() {
             let mut on = m.config.strategies.contains(&s);
             let r = ui.checkbox(&mut on, s.name());
