@@ -1,8 +1,9 @@
 //! `scripts/tune` end to end on a tiny world: its unit tests (objectives, Pareto front and
 //! parameter file with hand-derived values), then a study of two trials resumed by a second
 //! process for one more through the same journal file: the paper's α = 0.35, β = 0.4, N = 7 is
-//! trial 0 and only trial 0, the report names it, and every Pareto parameter file is one that
-//! `fitslam params --params` accepts with the trial's values in it.
+//! trial 0 and only trial 0, a parameter added with `--search` is searched too, the report names
+//! the paper's trial, and every Pareto parameter file is one that `fitslam params --params`
+//! accepts with the trial's values in it.
 //!
 //! Needs the pinned Python environment of `scripts/sweep-venv` (target/sweep-venv or
 //! `FITSLAM_SWEEP_VENV`); without it the test FAILS and says so.
@@ -40,7 +41,7 @@ fn tune_unit_tests() {
         .output()
         .unwrap();
     ok(&out);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("Ran 6 tests"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Ran 9 tests"), "{}", String::from_utf8_lossy(&out.stderr));
 }
 
 #[test]
@@ -51,7 +52,7 @@ fn a_study_resumed_through_its_journal_reports_its_pareto_front() {
     let tune = |trials: &str| {
         Command::new(root().join("scripts/tune"))
             .args(["--study", study.to_str().unwrap(), "--world", world.to_str().unwrap(), "--seeds", "2", "--jobs", "2"])
-            .args(["--trials", trials, "--fitslam", BIN])
+            .args(["--trials", trials, "--fitslam", BIN, "--search", "u2.sigma_bearing_rad=0.005..0.05"])
             .env("FITSLAM_SWEEP_VENV", venv())
             .output()
             .unwrap()
@@ -60,9 +61,18 @@ fn a_study_resumed_through_its_journal_reports_its_pareto_front() {
     ok(&tune("1"));
     let csv = std::fs::read_to_string(study.join("pareto.csv")).unwrap();
     let rows: Vec<&str> = csv.lines().collect();
-    assert_eq!(rows[0], "trial,alpha,beta,top_n,t90_s,matched_cov_trace,unreached,feasible,pareto,paper");
+    assert_eq!(rows[0], "trial,alpha,beta,top_n,u2.sigma_bearing_rad,t90_s,matched_cov_trace,unreached,feasible,pareto,paper");
     assert_eq!(rows.len(), 4, "{csv}");
     assert!(rows[1].starts_with("0,0.35,0.4,7,") && rows[1].ends_with(",true"), "{csv}");
+    // A bad --search is refused before anything is made.
+    let bad = Command::new(root().join("scripts/tune"))
+        .args(["--study", study.join("bad").to_str().unwrap(), "--world", world.to_str().unwrap(), "--fitslam", BIN])
+        .args(["--search", "u2.no_such_key=0..1"])
+        .env("FITSLAM_SWEEP_VENV", venv())
+        .output()
+        .unwrap();
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("u2.no_such_key is not a numeric planner parameter"));
+    assert!(!study.join("bad").exists());
     assert!(rows[2..].iter().all(|r| r.ends_with(",false")), "the paper's values are trial 0 only: {csv}");
     let md = std::fs::read_to_string(study.join("pareto.md")).unwrap();
     assert!(md.contains("the paper's"), "{md}");
@@ -70,7 +80,7 @@ fn a_study_resumed_through_its_journal_reports_its_pareto_front() {
         assert!(study.join(f).metadata().unwrap().len() > 0, "{f}");
     }
     // Each Pareto point's file: whole, valid, with its trial's values.
-    let on_front: Vec<&str> = rows[1..].iter().filter(|r| r.split(',').nth(8) == Some("true")).copied().collect();
+    let on_front: Vec<&str> = rows[1..].iter().filter(|r| r.split(',').nth(9) == Some("true")).copied().collect();
     assert!(!on_front.is_empty());
     for row in on_front {
         let cols: Vec<&str> = row.split(',').collect();
@@ -82,6 +92,8 @@ fn a_study_resumed_through_its_journal_reports_its_pareto_front() {
         };
         assert!((value("alpha") - alpha).abs() <= 1e-5 * alpha.max(1.0), "{file:?}: alpha");
         assert_eq!(value("top_n"), cols[3].parse::<f64>().unwrap(), "{file:?}: top_n");
+        let sigma: f64 = cols[4].parse().unwrap();
+        assert!((0.005..=0.05).contains(&sigma) && (value("sigma_bearing_rad") - sigma).abs() <= 1e-5 * sigma, "{file:?}: sigma");
     }
     std::fs::remove_dir_all(&study).ok();
 }

@@ -68,8 +68,37 @@ class Front(unittest.TestCase):
 
 class ParamsFile(unittest.TestCase):
     def test_sections_and_kinds(self):
-        text = tune.params_toml({"alpha": 0.5, "beta": 0.25, "top_n": 3})
+        text = tune.params_toml({"alpha": 0.5, "beta": 0.25, "top_n": 3.0}, tune.SPACE)
         self.assertEqual(text, "[u1]\nalpha = 0.5\n[u2]\nbeta = 0.25\ntop_n = 3\n")
+
+    def test_a_searched_key_goes_into_its_table(self):
+        space = dict(tune.SPACE)
+        name, spec = tune.parse_search("u2.sigma_bearing_rad=0.005..0.05", DEFAULTS)
+        space[name] = spec
+        text = tune.params_toml({"beta": 0.5, name: 0.01}, space)
+        self.assertEqual(text, "[u2]\nbeta = 0.5\nsigma_bearing_rad = 0.01\n")
+
+
+# As `fitslam params` prints them, in part.
+DEFAULTS = {"u1": {"alpha": 0.35, "gamma": 0.99}, "u2": {"beta": 0.4, "top_n": 7, "sigma_bearing_rad": 0.01,
+                                                        "follow_terrain": True, "normalisation": "max"}}
+
+
+class Search(unittest.TestCase):
+    def test_ranges_and_kinds_follow_the_defaults(self):
+        self.assertEqual(tune.parse_search("u2.sigma_bearing_rad=0.005..0.05", DEFAULTS),
+                         ("u2.sigma_bearing_rad", ("u2.sigma_bearing_rad", float, 0.005, 0.05)))
+        # A paper weight keeps its name; an integer parameter gets an integer range.
+        self.assertEqual(tune.parse_search("u2.top_n=1..30", DEFAULTS), ("top_n", ("u2.top_n", int, 1, 30)))
+        # A float parameter stays a float range whatever the bounds look like.
+        self.assertEqual(tune.parse_search("u1.alpha=0..1", DEFAULTS), ("alpha", ("u1.alpha", float, 0.0, 1.0)))
+
+    def test_bad_forms_are_refused(self):
+        bad = ["u2.beta", "u2.beta=0..", "u2.beta=1..0", "u2.beta=a..b", "u2.beta=0-1", "u2.top_n=1.5..3",
+               "u2.nope=0..1", "beta=0..1", "u2.follow_terrain=0..1", "u2.normalisation=0..1", "u2=0..1"]
+        for text in bad:
+            with self.assertRaises(ValueError, msg=text):
+                tune.parse_search(text, DEFAULTS)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,10 @@ draws. `--confirm-seed-start K` runs every Pareto point and the paper's trial ag
 worlds with noise seeds K, K+1, … (as many as --seeds), which the search never saw, and reports
 both measurements side by side (STUDY/confirm.csv, pareto.md, hollow markers in the figure).
 
+`--search KEY=LOW..HIGH` (repeatable) adds any other planner parameter to the search, e.g.
+`u2.sigma_bearing_rad=0.005..0.05` (integers when both bounds are), or changes a weight's range
+(`u2.top_n=1..30`); pareto.csv and pareto.md get a column per parameter any trial searched.
+
 The study lives in STUDY/journal.log (Optuna's journal-file storage): any number of `scripts/tune`
 processes, on any machines that share STUDY, add trials to one study. The paper's α = 0.35,
 β = 0.4, N = 7 is the study's first trial. `--report` (also run after the trials) writes
@@ -28,27 +32,56 @@ import json
 import math
 import os
 import sys
+import tomllib
 from pathlib import Path
 
 import fitslam_sweep as sweep
 
-# The searched parameters: (TOML section, key, kind, low, high) and the paper's values.
+# The paper's three weights, always searched: name -> (parameter key, kind, low, high), and the
+# paper's values (trial 0). `--search KEY=LOW..HIGH` adds any other parameter (named by its key).
 SPACE = {
-    "alpha": ("u1", "alpha", float, 0.0, 1.0),
-    "beta": ("u2", "beta", float, 0.0, 1.0),
-    "top_n": ("u2", "top_n", int, 1, 15),
+    "alpha": ("u1.alpha", float, 0.0, 1.0),
+    "beta": ("u2.beta", float, 0.0, 1.0),
+    "top_n": ("u2.top_n", int, 1, 15),
 }
 PAPER = {"alpha": 0.35, "beta": 0.4, "top_n": 7}
+LABELS = {"alpha": "α", "beta": "β", "top_n": "N"}
 OBJECTIVES = ("t90_s", "matched_cov_trace")
 
 
-def params_toml(values):
-    """A parameter file setting `values` (every other parameter keeps its default)."""
-    sections = {}
-    for name, value in sorted(values.items()):
-        section, key, kind, _, _ = SPACE[name]
-        sections.setdefault(section, []).append(f"{key} = {kind(value)!r}")
-    return "".join(f"[{s}]\n" + "\n".join(lines) + "\n" for s, lines in sorted(sections.items()))
+def parse_search(text, defaults):
+    """`KEY=LOW..HIGH` -> (name, (key, kind, low, high)), the kind (int or float) that of the
+    parameter's default in `defaults` (`fitslam params` as a dict); a paper weight's key
+    (u1.alpha, u2.beta, u2.top_n) keeps its name."""
+    key, sep, bounds = text.partition("=")
+    low, sep2, high = bounds.partition("..")
+    key = key.strip()
+    if not (sep and sep2 and key):
+        raise ValueError(f"--search {text!r}: expected SECTION.KEY=LOW..HIGH, e.g. u2.sigma_bearing_rad=0.005..0.05")
+    default = defaults
+    for part in key.split("."):
+        default = default.get(part) if isinstance(default, dict) else None
+    if isinstance(default, bool) or not isinstance(default, (int, float)):
+        raise ValueError(f"--search {text!r}: {key} is not a numeric planner parameter (see `fitslam params`)")
+    kind = type(default)
+    try:
+        lo, hi = kind(float(low)) if kind is float else int(low), kind(float(high)) if kind is float else int(high)
+    except ValueError:
+        raise ValueError(f"--search {text!r}: the bounds are not {kind.__name__}s") from None
+    if not lo < hi:
+        raise ValueError(f"--search {text!r}: LOW must be below HIGH")
+    name = next((n for n, spec in SPACE.items() if spec[0] == key), key)
+    return name, (key, kind, lo, hi)
+
+
+def params_toml(values, space):
+    """A parameter file setting `values` (name -> value; every other parameter keeps its default)."""
+    tables = {}
+    for name, value in values.items():
+        key, kind, _, _ = space[name]
+        table, _, leaf = key.rpartition(".")
+        tables.setdefault(table, []).append(f"{leaf} = {kind(value)!r}")
+    return "".join(f"[{t}]\n" + "\n".join(sorted(lines)) + "\n" for t, lines in sorted(tables.items()))
 
 
 def objectives(summary_csv, max_unreached):
@@ -93,6 +126,9 @@ def main():
     ap.add_argument("--localisation", help="fitslam's --localisation (default: fitslam's)")
     ap.add_argument("--sim-params", help="a simulator parameter file")
     ap.add_argument("--trials", type=int, default=30, help="trials this process adds (default 30)")
+    ap.add_argument("--search", action="append", default=[], metavar="KEY=LOW..HIGH",
+                    help="also search this parameter (repeatable), e.g. u2.sigma_bearing_rad=0.005..0.05; "
+                         "a paper weight's key (u1.alpha, u2.beta, u2.top_n) changes its range")
     ap.add_argument("--max-unreached", type=float, default=0.1, help="largest feasible share of runs never at 90 %% coverage")
     ap.add_argument("--sampler-seed", type=int, default=0,
                     help="the TPE sampler's seed, plus the study's trial count at start (default 0); give each of several processes started together its own")
@@ -103,6 +139,15 @@ def main():
     ap.add_argument("--confirm-seed-start", type=int,
                     help="re-run the Pareto points and the paper's trial on noise seeds from this one (module doc)")
     args = ap.parse_args()
+    binary = sweep.find_fitslam(args.fitslam)
+    args.space = dict(SPACE)
+    defaults = tomllib.loads(sweep.fitslam(binary, "params")) if args.search else {}
+    for text in args.search:
+        try:
+            name, spec = parse_search(text, defaults)
+        except ValueError as e:
+            sys.exit(f"scripts/tune: {e}")
+        args.space[name] = spec
 
     if (not args.report or args.confirm_seed_start is not None) and not args.world:
         sys.exit("scripts/tune: --world is needed to run missions")
@@ -114,7 +159,6 @@ def main():
     from optuna.storages.journal import JournalFileBackend
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    binary = sweep.find_fitslam(args.fitslam)
     args.study.mkdir(parents=True, exist_ok=True)
     storage = JournalStorage(JournalFileBackend(str(args.study / "journal.log")))
     study = optuna.create_study(study_name="fitslam", storage=storage, directions=["minimize", "minimize"], load_if_exists=True)
@@ -135,11 +179,11 @@ def main():
 
 def trial(t, args, binary, ray):
     values = {}
-    for name, (_, _, kind, low, high) in SPACE.items():
+    for name, (_, kind, low, high) in args.space.items():
         values[name] = t.suggest_int(name, low, high) if kind is int else t.suggest_float(name, low, high)
     folder = args.study / "trials" / f"{t.number:04d}"
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "params.toml").write_text(params_toml(values))
+    (folder / "params.toml").write_text(params_toml(values, args.space))
     t90, primary, unreached = missions(args, binary, ray, folder / "params.toml", folder / "runs", 1, f"trial {t.number}")
     t.set_user_attr("unreached", unreached)
     t.set_user_attr("unreached_excess", unreached - args.max_unreached)
@@ -199,12 +243,16 @@ def report(study, args, binary, ray):
             w.writerow(["trial", "seed_start", "seeds", "t90_s", "matched_cov_trace", "unreached"])
             for p in shown:
                 w.writerow([p["trial"], k, args.seeds, *map(fmt, p["confirm"])])
-    columns = ["trial", *SPACE, "t90_s", "matched_cov_trace", "unreached", "feasible", "pareto", "paper"]
+    # The study's parameters: the paper's weights, then any other any trial searched.
+    names = [*SPACE, *sorted({n for p in points for n in p} - set(SPACE) - {"trial", "t90_s", "matched_cov_trace", "unreached",
+                                                                          "feasible", "paper", "pareto", "confirm"})]
+    columns = ["trial", *names, "t90_s", "matched_cov_trace", "unreached", "feasible", "pareto", "paper"]
     with open(folder / "pareto.csv", "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(columns)
         for p in sorted(points, key=lambda p: p["trial"]):
-            w.writerow([fmt(p.get(c, p["trial"] in on_front)) for c in columns])
+            p["pareto"] = p["trial"] in on_front
+            w.writerow([fmt(p.get(c, "")) for c in columns])
     codes = sorted({json.loads((folder / "trials" / f"{p['trial']:04d}" / "runs" / "plan.json").read_text())["code"]
                     for p in points if (folder / "trials" / f"{p['trial']:04d}" / "runs" / "plan.json").exists()})
     lines = [
@@ -212,17 +260,17 @@ def report(study, args, binary, ray):
         "",
         f"Missions run by {', '.join(codes) or 'an unknown fitslam'}; the objectives and the study's command: docs/experiments.md, Tuning.",
         "",
-        "| trial | α | β | N | T_90 (s) | tr(cov) at 25–90 % (m² + rad²) | runs never at 90 % |"
+        "| trial | " + " | ".join(LABELS.get(n, n) for n in names) + " | T_90 (s) | tr(cov) at 25–90 % (m² + rad²) | runs never at 90 % |"
         + (f" re-measured on seeds from {k}: T_90 (s) | tr(cov) | dominates the paper's re-measured |" if k is not None else "")
         + " |",
-        "|---|---|---|---|---|---|---|" + ("---|---|---|" if k is not None else "") + "---|",
+        "|---|" + "---|" * len(names) + "---|---|---|" + ("---|---|---|" if k is not None else "") + "---|",
     ]
     paper_confirm = paper[0].get("confirm") if paper else None
     for p in shown:
         mark = "the paper's" if p["paper"] else ""
         if p["trial"] not in on_front:
             mark += ", not on the front"
-        row = (f"| {p['trial']} | {p['alpha']:.3f} | {p['beta']:.3f} | {p['top_n']} | {p['t90_s']:.1f} | "
+        row = (f"| {p['trial']} | " + " | ".join(cell(p.get(n)) for n in names) + f" | {p['t90_s']:.1f} | "
                f"{p['matched_cov_trace']:.4g} | {p['unreached']:.0%} |")
         if k is not None:
             t90, cov, _ = p["confirm"]
@@ -242,6 +290,16 @@ def report(study, args, binary, ray):
     print(f"{folder}: {len(points)} trials, {len(front)} on the Pareto front; pareto.md, pareto.csv, pareto.png, pareto/")
 
 
+def cell(v):
+    """A parameter in pareto.md: integers as they are, others with 3 decimals (4 significant
+    digits below 0.1); – when the trial did not search it."""
+    if v is None:
+        return "–"
+    if isinstance(v, int):
+        return str(v)
+    return f"{v:.3f}" if abs(v) >= 0.1 else f"{v:.4g}"
+
+
 def fmt(v):
     if isinstance(v, bool):
         return str(v).lower()
@@ -254,6 +312,7 @@ def figure(points, front, folder):
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["svg.hashsalt"] = "fitslam"  # the SVG's ids the same from run to run
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7.5, 4.8), dpi=120)

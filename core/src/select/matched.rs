@@ -4,7 +4,7 @@
 //! decision, as [`super::random`]) among the candidates of its pool whose ρ lies within ±0.2 · ρ*
 //! (FIT-SLAM's own goal always does). Over a mission its path lengths follow FIT-SLAM's; what its
 //! paths see does not. The drawn candidate gets rank 1, the others none; u1, I_p and u2 stay
-//! reported. The pool ([`MatchPool`]):
+//! reported. The pool (`MatchPool`):
 //! - `matched`: every reachable, non-blacklisted candidate, so `fit − matched` mixes u2's
 //!   information with u1's ranking;
 //! - `matched_top`: u1's N best only, the candidates u2 itself chooses among, so
