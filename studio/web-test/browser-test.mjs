@@ -387,6 +387,9 @@ try {
   if (s) {
     check("mission mode starts on the paper world with three lanes", s.stats.mission.world === "paper_unstructured_20m" && s.stats.mission.time_s === 0,
       `${s.stats.mission.world}: ${s.stats.mission.lanes.map((l) => l.strategy).join(", ")}`);
+    // The button where the latest frame drew it (the first frame of a mode may lay out differently).
+    await page.waitForTimeout(300);
+    s = await state();
     await page.mouse.click(...center(rect(s, "mission_play")));
     s = await waitFor("mission plays: time advances and unexplored % decreases",
       (s) => s.stats.mission.time_s > 20 && s.stats.mission.lanes.every((l) => l.unexplored_pct < l.first_unexplored_pct), 60000);

@@ -3,6 +3,9 @@
 
 use super::*;
 
+/// Strategy checkboxes per row.
+const STRATEGY_COLUMNS: usize = 4;
+
 pub(super) fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_core::Params, widget_rects: &mut WidgetRects) {
     let mut rects: Vec<(&'static str, Rect)> = Vec::new();
     ui.heading("Simulated mission");
@@ -16,7 +19,8 @@ pub(super) fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_
     });
     rects.push(("mission_world", world.response.rect));
     ui.label("strategies:");
-    ui.horizontal_wrapped(|ui| {
+    // A fixed grid, not a wrapped row: the controls below keep their place whatever the panel's width.
+    egui::Grid::new("mission_strategies").num_columns(STRATEGY_COLUMNS).show(ui, |ui| {
         const NAMES: [&str; Strategy::ALL.len()] = [
             "strategy_fit",
             "strategy_greedy",
@@ -37,6 +41,9 @@ pub(super) fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_
                 } else {
                     m.config.strategies.retain(|x| *x != s);
                 }
+            }
+            if k % STRATEGY_COLUMNS == STRATEGY_COLUMNS - 1 {
+                ui.end_row();
             }
         }
     });
