@@ -16,7 +16,7 @@ use fitslam_core::frontier::cluster_frontier_cells;
 use fitslam_core::grid::{FREE, LETHAL, UNKNOWN};
 use fitslam_core::params::{Params, Strategy, Valid};
 use fitslam_core::path::dijkstra_with_frontiers;
-use fitslam_core::select::candidates::{PathScore, PlanBuffers, frontiers_and_distances, prepare, rank_and_choose, score_u1, score_u2};
+use fitslam_core::select::candidates::{PathScore, PlanBuffers, frontiers_and_distances, prepare, rank_by_u2, score_u1, score_u2};
 use fitslam_core::select::{DecisionInput, FitSlam, GoalSelector};
 use fitslam_core::utility::LandmarkVoxels;
 use std::time::Instant;
@@ -75,8 +75,7 @@ fn main() {
         let mut d = score_u1(&input, &prepared, clusters, &field, &params, Strategy::Fit).expect("u1");
         let t4 = Instant::now();
         score_u2(&mut d, &input, &params, PathScore::Fisher);
-        let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
-        rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
+        rank_by_u2(&mut d);
         let t5 = Instant::now();
         let full = selector.select(&input, &params).expect("select");
         let t6 = Instant::now();

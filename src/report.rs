@@ -69,12 +69,9 @@ pub fn write(out: &Path, heading: &Heading, figures: &[RunFigures]) -> Result<()
 }
 
 /// The files the report writes, as its one-line note names them.
-pub fn files(figures: &[RunFigures]) -> &'static str {
-    if figures.iter().any(|f| f.world_seed.is_some()) {
-        "summary.md, summary.csv, worlds.csv, forest.png, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png"
-    } else {
-        "summary.md, summary.csv, unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png"
-    }
+pub fn files(figures: &[RunFigures]) -> String {
+    let worlds = if figures.iter().any(|f| f.world_seed.is_some()) { "worlds.csv, forest.png, " } else { "" };
+    format!("summary.md, summary.csv, {worlds}unexplored.png, cov_trace.png, coverage_distance.png, cov_coverage.png")
 }
 
 /// `fit`, else the first strategy, and the others in order.

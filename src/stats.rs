@@ -15,6 +15,9 @@
 //! adjusted p₍ᵢ₎ is maxⱼ≤ᵢ min(1, (m − j + 1)·p₍ⱼ₎); rejecting where it is below α keeps the
 //! family-wise error rate at α.
 //!
+//! World-level summaries (`report::worlds`): the geometric mean, the sample standard deviation
+//! and the smallest ratio a signed-rank test detects with 80 % power ([`detectable_ratio`]).
+//!
 //! Percentile bootstrap (Efron & Tibshirani 1993, §13.3): B resamples of the n differences drawn
 //! with replacement; the interval is the (1−level)/2 and (1+level)/2 percentiles of their means.
 
@@ -141,6 +144,43 @@ pub fn erfc(x: f64) -> f64 {
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
+/// z quantiles of the power line: two-sided 5 % and 80 % power.
+const Z_975: f64 = 1.959_963_984_540_054;
+const Z_80: f64 = 0.841_621_233_572_914_3;
+/// Pitman's asymptotic relative efficiency of the signed-rank test to the t-test under normal
+/// data (3/π): the signed-rank test needs n / 0.955 pairs for the t-test's power.
+const SIGNED_RANK_ARE: f64 = 3.0 / std::f64::consts::PI;
+
+/// The geometric mean of the finite values (0 if one of them is 0; NaN if none is finite or one
+/// is negative).
+pub fn geometric_mean(values: &[f64]) -> f64 {
+    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() || finite.iter().any(|&v| v < 0.0) {
+        return f64::NAN;
+    }
+    if finite.contains(&0.0) {
+        return 0.0;
+    }
+    (finite.iter().map(|v| v.ln()).sum::<f64>() / finite.len() as f64).exp()
+}
+
+/// The smallest ratio R > 1 such that a true world-level ratio of R or 1/R is detected with 80 %
+/// power by a two-sided 5 % test over `worlds` worlds whose log ratios spread with standard
+/// deviation `sd`: ln R = (z₀.₉₇₅ + z₀.₈) sd / √(0.955 n) (the t-test's normal approximation,
+/// with the signed-rank test's efficiency). NaN below 2 worlds.
+pub fn detectable_ratio(sd: f64, worlds: usize) -> f64 {
+    if worlds < 2 {
+        return f64::NAN;
+    }
+    ((Z_975 + Z_80) * sd / (SIGNED_RANK_ARE * worlds as f64).sqrt()).exp()
+}
+
+/// Sample standard deviation (n − 1); NaN below two values.
+pub fn sample_sd(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,5 +267,34 @@ mod tests {
         let (a, b) = bootstrap_mean_ci(&[2.0; 5], 0.95, 100, &mut rand_chacha::ChaCha8Rng::seed_from_u64(3)).unwrap();
         assert_eq!((a, b), (2.0, 2.0));
         assert!(bootstrap_mean_ci(&[], 0.95, 100, &mut rand_chacha::ChaCha8Rng::seed_from_u64(3)).is_none());
+    }
+
+    #[test]
+    fn geometric_means_by_hand() {
+        // √(1e-3 · 4e-3) = 2e-3; NaN (a run never at 90 %) is left out; a 0 makes it 0.
+        assert!((geometric_mean(&[1e-3, 4e-3]) - 2e-3).abs() < 1e-15);
+        assert!((geometric_mean(&[1e-3, f64::NAN, 4e-3]) - 2e-3).abs() < 1e-15);
+        assert_eq!(geometric_mean(&[0.0, 5.0]), 0.0);
+        assert!(geometric_mean(&[f64::NAN]).is_nan());
+        assert!(geometric_mean(&[-1.0, 1.0]).is_nan());
+        // 2, 4, 8 → ∛64 = 4.
+        assert!((geometric_mean(&[2.0, 4.0, 8.0]) - 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sample_sd_by_hand() {
+        // 2, 4, 4, 4, 5, 5, 7, 9: mean 5, squared deviations 32, / 7 → √4.571429 = 2.138090.
+        close(sample_sd(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]), 2.138_090, 1e-6);
+        assert!(sample_sd(&[1.0]).is_nan());
+    }
+
+    #[test]
+    fn detectable_ratio_by_hand() {
+        // sd 0.5 over 10 worlds: (1.959964 + 0.841621) · 0.5 / √(10 · 3/π) = 1.400793 / 3.090194
+        // = 0.453303 → e^0.453303 = 1.573500.
+        assert!((detectable_ratio(0.5, 10) - 1.573_500).abs() < 1e-5, "{}", detectable_ratio(0.5, 10));
+        assert!(detectable_ratio(0.5, 1).is_nan());
+        // More worlds, smaller detectable effects.
+        assert!(detectable_ratio(0.5, 40) < detectable_ratio(0.5, 10));
     }
 }

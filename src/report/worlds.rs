@@ -14,33 +14,13 @@
 use super::{BOOTSTRAP_RESAMPLES, METRICS, RunFigures, num};
 use crate::plot::Plot;
 use crate::plot::forest::{Forest, ForestRow};
-use crate::stats::{bootstrap_mean_ci, holm, wilcoxon_signed_rank};
+use crate::stats::{bootstrap_mean_ci, detectable_ratio, geometric_mean, holm, sample_sd, wilcoxon_signed_rank};
 use anyhow::Result;
 use fitslam_core::params::Strategy;
 use rand::SeedableRng;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// z quantiles of the power line: two-sided 5 % and 80 % power.
-const Z_975: f64 = 1.959_963_984_540_054;
-const Z_80: f64 = 0.841_621_233_572_914_3;
-/// Pitman's asymptotic relative efficiency of the signed-rank test to the t-test under normal
-/// data (3/π): the signed-rank test needs n / 0.955 pairs for the t-test's power.
-const SIGNED_RANK_ARE: f64 = 3.0 / std::f64::consts::PI;
-
-/// The geometric mean of the finite values (0 if one of them is 0; NaN if none is finite or one
-/// is negative).
-pub fn geometric_mean(values: &[f64]) -> f64 {
-    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-    if finite.is_empty() || finite.iter().any(|&v| v < 0.0) {
-        return f64::NAN;
-    }
-    if finite.contains(&0.0) {
-        return 0.0;
-    }
-    (finite.iter().map(|v| v.ln()).sum::<f64>() / finite.len() as f64).exp()
-}
 
 /// One strategy in one world: the geometric mean over its seeds of each of [`METRICS`].
 #[derive(Clone, Debug, PartialEq)]
@@ -105,23 +85,6 @@ pub struct WorldComparison {
     pub detectable: f64,
 }
 
-/// The smallest ratio R > 1 such that a true world-level ratio of R or 1/R is detected with 80 %
-/// power by a two-sided 5 % test over `worlds` worlds whose log ratios spread with standard
-/// deviation `sd`: ln R = (z₀.₉₇₅ + z₀.₈) sd / √(0.955 n) (the t-test's normal approximation,
-/// with the signed-rank test's efficiency). NaN below 2 worlds.
-pub fn detectable_ratio(sd: f64, worlds: usize) -> f64 {
-    if worlds < 2 {
-        return f64::NAN;
-    }
-    ((Z_975 + Z_80) * sd / (SIGNED_RANK_ARE * worlds as f64).sqrt()).exp()
-}
-
-/// Sample standard deviation (n − 1).
-fn sd(v: &[f64]) -> f64 {
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() as f64 - 1.0)).sqrt()
-}
-
 /// Each baseline against `reference` on the primary metric ([`METRICS`]\[0\]); a baseline with
 /// fewer than two comparable worlds is left out.
 pub fn compare_worlds(means: &[WorldMeans], reference: Strategy, baselines: &[Strategy]) -> Vec<WorldComparison> {
@@ -153,7 +116,7 @@ pub fn compare_worlds(means: &[WorldMeans], reference: Strategy, baselines: &[St
             ci: (lo.exp(), hi.exp()),
             p: test.p,
             p_holm: f64::NAN,
-            detectable: detectable_ratio(sd(&d), d.len()),
+            detectable: detectable_ratio(sample_sd(&d), d.len()),
             log_ratios,
         });
     }
@@ -217,28 +180,6 @@ pub fn write_forest(out: &Path, world: &str, reference: Strategy, comparisons: &
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn geometric_means_by_hand() {
-        // √(1e-3 · 4e-3) = 2e-3; NaN (a run never at 90 %) is left out; a 0 makes it 0.
-        assert!((geometric_mean(&[1e-3, 4e-3]) - 2e-3).abs() < 1e-15);
-        assert!((geometric_mean(&[1e-3, f64::NAN, 4e-3]) - 2e-3).abs() < 1e-15);
-        assert_eq!(geometric_mean(&[0.0, 5.0]), 0.0);
-        assert!(geometric_mean(&[f64::NAN]).is_nan());
-        assert!(geometric_mean(&[-1.0, 1.0]).is_nan());
-        // 2, 4, 8 → ∛64 = 4.
-        assert!((geometric_mean(&[2.0, 4.0, 8.0]) - 4.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn detectable_ratio_by_hand() {
-        // sd 0.5 over 10 worlds: (1.959964 + 0.841621) · 0.5 / √(10 · 3/π) = 1.400793 / 3.090194
-        // = 0.453303 → e^0.453303 = 1.573500.
-        assert!((detectable_ratio(0.5, 10) - 1.573_500).abs() < 1e-5, "{}", detectable_ratio(0.5, 10));
-        assert!(detectable_ratio(0.5, 1).is_nan());
-        // More worlds, smaller detectable effects.
-        assert!(detectable_ratio(0.5, 40) < detectable_ratio(0.5, 10));
-    }
 
     fn means(strategy: Strategy, primary: &[(u64, f64)]) -> Vec<WorldMeans> {
         primary

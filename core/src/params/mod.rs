@@ -291,7 +291,7 @@ pub enum Strategy {
     #[cfg_attr(feature = "clap", value(name = "matched_top"))]
     MatchedTop,
     /// Control: u2 with I_p replaced by the path length, normalised the same way
-    /// (`select::u2_length`): what u2 does if I_p only rewarded going far.
+    /// ([`crate::select::fit`]): what u2 does if I_p only rewarded going far.
     #[cfg_attr(feature = "clap", value(name = "u2_length"))]
     U2Length,
 }

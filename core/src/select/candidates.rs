@@ -251,6 +251,14 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params,
     }
 }
 
+/// Ranks the candidates u2 scored by decreasing u2 and chooses the first ([`rank_and_choose`]);
+/// returns them.
+pub fn rank_by_u2(decision: &mut Decision) -> Vec<usize> {
+    let ranked: Vec<usize> = (0..decision.candidates.len()).filter(|&i| decision.candidates[i].u2.is_some()).collect();
+    rank_and_choose(decision, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
+    ranked
+}
+
 /// Steps 1–4: everything but u2, with the grid-sized storage in `buffers`.
 pub fn plan(input: &DecisionInput, params: &Valid<Params>, strategy: Strategy, buffers: &mut PlanBuffers) -> Result<Decision, SelectError> {
     let prepared = prepare(input, params, buffers)?;

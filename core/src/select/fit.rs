@@ -1,27 +1,49 @@
 //! FIT-SLAM's selector (notes §5–6, paper §II-D): u1 over every reachable candidate, u2 over the
 //! N best by u1, goal = argmax u2 (ties by candidate index). Cost: the pipeline's (see
 //! [`super::candidates`]).
+//!
+//! The same selector with [`PathScore::Length`] is the control `u2_length`: u2 = β · u1 +
+//! (1 − β) · ρ̂, ρ̂ the path length normalised over the N as I_p is (`u2.normalisation`), instead
+//! of the Fisher information I_p. I_p sums the information at waypoints every few metres along the
+//! path, so a longer path collects more of it; if `fit` and `u2_length` choose alike, I_p acts
+//! mostly as a reward for going far.
 
-use super::candidates::{PathScore, PlanBuffers, plan, rank_and_choose, score_u2};
+use super::candidates::{PathScore, PlanBuffers, plan, rank_by_u2, score_u2};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 
-/// FIT-SLAM: u1 then u2.
-#[derive(Clone, Debug, Default)]
+/// FIT-SLAM: u1 then u2 (by default with I_p, the paper's).
+#[derive(Clone, Debug)]
 pub struct FitSlam {
+    score: PathScore,
     buffers: PlanBuffers,
+}
+
+impl Default for FitSlam {
+    fn default() -> Self {
+        Self::with_path_score(PathScore::Fisher)
+    }
+}
+
+impl FitSlam {
+    /// u2 weighing u1 against `score` (the paper's: [`PathScore::Fisher`]).
+    pub fn with_path_score(score: PathScore) -> Self {
+        Self { score, buffers: PlanBuffers::default() }
+    }
 }
 
 impl GoalSelector for FitSlam {
     fn select(&mut self, input: &DecisionInput, params: &Valid<Params>) -> Result<Decision, SelectError> {
-        let mut d = plan(input, params, Strategy::Fit, &mut self.buffers)?;
-        score_u2(&mut d, input, params, PathScore::Fisher);
-        let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
-        rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
+        let mut d = plan(input, params, self.strategy(), &mut self.buffers)?;
+        score_u2(&mut d, input, params, self.score);
+        rank_by_u2(&mut d);
         Ok(d)
     }
 
     fn strategy(&self) -> Strategy {
-        Strategy::Fit
+        match self.score {
+            PathScore::Fisher => Strategy::Fit,
+            PathScore::Length => Strategy::U2Length,
+        }
     }
 }

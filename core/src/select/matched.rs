@@ -10,7 +10,7 @@
 //! - `matched_top`: u1's N best only, the candidates u2 itself chooses among, so
 //!   `fit − matched_top` is u2's information alone.
 
-use super::candidates::{PathScore, PlanBuffers, choose, plan, rank_and_choose, score_u2, set_baseline_heading};
+use super::candidates::{PathScore, PlanBuffers, choose, plan, rank_by_u2, score_u2, set_baseline_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 use rand::{RngExt, SeedableRng};
@@ -50,8 +50,7 @@ impl GoalSelector for LengthMatched {
         let mut d = plan(input, params, self.strategy(), &mut self.buffers)?;
         let reachable: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         score_u2(&mut d, input, params, PathScore::Fisher);
-        let ranked: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].u2.is_some()).collect();
-        rank_and_choose(&mut d, &ranked, |c| -c.u2.unwrap_or(f64::NEG_INFINITY));
+        let ranked = rank_by_u2(&mut d);
         let Some(rho_fit) = d.chosen.and_then(|i| d.candidates[i].rho_m) else {
             return Ok(d);
         };

@@ -6,12 +6,11 @@
 //! |---|---|
 //! | [`candidates`] | inflate, robot cell (snap), frontiers, one Dijkstra, blacklist, rays, u1, u2 |
 //! | [`report`] | [`Decision`], [`CandidateReport`], [`DropReason`] (serde) |
-//! | [`fit`] | FIT-SLAM: u2 over the N best by u1 |
+//! | [`fit`] | FIT-SLAM: u2 over the N best by u1 (and the control `u2_length`: u2 with the path length in place of I_p) |
 //! | [`greedy`] | smallest ρ |
 //! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
 //! | `u1_only` | ablation: u1 alone |
 //! | [`matched`] | controls: random among the candidates (all, or u1's N best) at FIT-SLAM's path length |
-//! | `u2_length` | control: u2 with the path length in place of I_p |
 //!
 //! ```
 //! use fitslam_core::fixtures::corridor_two_frontiers;
@@ -39,7 +38,6 @@ pub mod matched;
 pub mod random;
 pub mod report;
 pub(crate) mod u1_only;
-pub(crate) mod u2_length;
 
 pub use fit::FitSlam;
 pub use greedy::Greedy;
@@ -47,7 +45,6 @@ pub(crate) use matched::{LengthMatched, MatchPool};
 pub(crate) use random::RandomSelector;
 pub use report::{CandidateReport, Decision, DropReason};
 pub(crate) use u1_only::U1Only;
-pub(crate) use u2_length::U2Length;
 
 use crate::frontier::{Blacklist, Boundary, FrontierError};
 use crate::grid::{Cell, OccupancyGrid};
@@ -55,6 +52,7 @@ use crate::params::{Params, SelectorParams, Strategy, Valid};
 use crate::path::PathError;
 use crate::pose::Pose2;
 use crate::utility::{LandmarkVoxels, UtilityError};
+use candidates::PathScore;
 use thiserror::Error;
 
 /// Everything one decision needs.
@@ -254,7 +252,7 @@ pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
         Strategy::U1 => Box::new(U1Only::default()),
         Strategy::Matched => Box::new(LengthMatched::new(params.seed, MatchPool::Reachable)),
         Strategy::MatchedTop => Box::new(LengthMatched::new(params.seed, MatchPool::TopN)),
-        Strategy::U2Length => Box::new(U2Length::default()),
+        Strategy::U2Length => Box::new(FitSlam::with_path_score(PathScore::Length)),
     }
 }
 
