@@ -98,6 +98,7 @@ pub fn run(args: &BuildAssetArgs) -> Result<()> {
         world_size_m: args.size_m,
         cell_m: params.grid.resolution_m,
         crop_fraction: args.crop_fraction,
+        ..DemScaling::CENTRAL
     };
     let mut field = Heightfield::from_dem_png(&bytes, &args.dem.display().to_string(), scaling)?;
     if !(args.relief_scale.is_finite() && args.relief_scale >= 0.0) {

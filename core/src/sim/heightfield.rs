@@ -51,6 +51,26 @@ pub struct DemScaling {
     pub cell_m: f64,
     /// Fraction of the DEM's shorter side the crop spans (0, 1].
     pub crop_fraction: f64,
+    /// Where the crop lies, [across, down], each in [0, 1] over the centres that keep the
+    /// rotated crop inside the DEM (0.5, 0.5: the central crop).
+    pub crop_centre: [f64; 2],
+    /// Rotation of the crop about its centre, radians counter-clockwise (world +x along this
+    /// bearing on the DEM, 0 = east).
+    pub rotation_rad: f64,
+}
+
+impl DemScaling {
+    /// The whole DEM as one crop in its middle, unrotated, at its own pixel size and scale: the
+    /// base of a struct update (`DemScaling { world_size_m, .., ..DemScaling::CENTRAL }`).
+    pub const CENTRAL: Self = Self {
+        pixel_x_m: 1.0,
+        pixel_y_m: 1.0,
+        world_size_m: 1.0,
+        cell_m: 1.0,
+        crop_fraction: 1.0,
+        crop_centre: [0.5, 0.5],
+        rotation_rad: 0.0,
+    };
 }
 
 impl Heightfield {
@@ -90,10 +110,11 @@ impl Heightfield {
 
     /// Builds a rover-scale heightfield from a grey DEM image, PNG (1–16 bits, palette expanded,
     /// alpha ignored; a grey image saved as RGB(A), every pixel with R = G = B, reads as grey) or
-    /// PGM (pixel value = metres; image row 0 is north, i.e. the top). The central square crop (`crop_fraction` of the shorter side, in
-    /// ground metres) is mapped onto a `world_size_m` square with its origin at (0, 0), and heights
-    /// are scaled by the same factor as distances, so slopes are the real terrain's; the lowest
-    /// point of the crop is at z = 0.
+    /// PGM (pixel value = metres; image row 0 is north, i.e. the top). A square crop
+    /// (`crop_fraction` of the shorter side, in ground metres), rotated by `rotation_rad` about its
+    /// centre and placed by `crop_centre`, is mapped onto a `world_size_m` square with its origin
+    /// at (0, 0), and heights are scaled by the same factor as distances, so slopes are the real
+    /// terrain's; the lowest point of the crop is at z = 0.
     pub fn from_dem_png(bytes: &[u8], name: &str, scaling: DemScaling) -> Result<Self, HeightfieldError> {
         let invalid = |message: String| HeightfieldError::Invalid { name: name.into(), message };
         let s = scaling;
@@ -104,6 +125,13 @@ impl Heightfield {
         }
         if !(s.crop_fraction > 0.0 && s.crop_fraction <= 1.0) {
             return Err(invalid(format!("DEM scaling: crop_fraction must be in (0, 1] (got {})", crate::params::Num(s.crop_fraction))));
+        }
+        if !(s.crop_centre.iter().all(|v| (0.0..=1.0).contains(v)) && s.rotation_rad.is_finite()) {
+            return Err(invalid(format!(
+                "DEM scaling: crop_centre must be in [0, 1]² and rotation finite (got {:?}, {})",
+                s.crop_centre,
+                crate::params::Num(s.rotation_rad)
+            )));
         }
         // The map images' decoder: PNG (any colour type and depth, expanded) or PGM, with its
         // allocation caps.
@@ -131,11 +159,15 @@ impl Heightfield {
                 }
             }
         }
-        // Central crop in ground metres.
-        let crop_m = s.crop_fraction * ((w as f64 - 1.0) * s.pixel_x_m).min((h as f64 - 1.0) * s.pixel_y_m);
+        // The crop in ground metres: its side, and its centre where the rotated square (half
+        // extent `half_m` along each image axis) stays inside the DEM (the middle if it cannot).
+        let (ground_w_m, ground_h_m) = ((w as f64 - 1.0) * s.pixel_x_m, (h as f64 - 1.0) * s.pixel_y_m);
+        let crop_m = s.crop_fraction * ground_w_m.min(ground_h_m);
         let scale = s.world_size_m / crop_m; // world metres per ground metre
-        let cx0 = ((w as f64 - 1.0) * s.pixel_x_m - crop_m) / 2.0;
-        let cy0 = ((h as f64 - 1.0) * s.pixel_y_m - crop_m) / 2.0;
+        let (sin, cos) = (math::sin(s.rotation_rad), math::cos(s.rotation_rad));
+        let half_m = 0.5 * crop_m * (cos.abs() + sin.abs());
+        let place = |extent_m: f64, t: f64| if extent_m >= 2.0 * half_m { half_m + t * (extent_m - 2.0 * half_m) } else { extent_m / 2.0 };
+        let (centre_x_m, centre_y_from_top_m) = (place(ground_w_m, s.crop_centre[0]), place(ground_h_m, s.crop_centre[1]));
         let n = (s.world_size_m / s.cell_m).round().max(2.0) as usize;
         let geometry = GridGeometry::new(0.0, 0.0, s.world_size_m / n as f64, n, n);
         let sample = |gx: f64, gy_from_top: f64| -> f64 {
@@ -149,10 +181,11 @@ impl Heightfield {
             a + (b - a) * ty
         };
         let mut field = Self::from_fn(geometry, |x, y| {
-            // world y grows north; image rows grow south.
-            let gx = cx0 + x / scale;
-            let gy_from_top = cy0 + (s.world_size_m - y) / scale;
-            sample(gx, gy_from_top) * scale
+            // World offset from the crop's centre in ground metres, rotated onto the DEM's east
+            // and north; world y grows north, image rows grow south.
+            let (u, v) = ((x - 0.5 * s.world_size_m) / scale, (y - 0.5 * s.world_size_m) / scale);
+            let (east_m, north_m) = (u * cos - v * sin, u * sin + v * cos);
+            sample(centre_x_m + east_m, centre_y_from_top_m - north_m) * scale
         });
         let min = field.heights_m.iter().cloned().fold(f64::INFINITY, f64::min);
         field.heights_m.iter_mut().for_each(|z| *z -= min);
@@ -187,7 +220,8 @@ mod tests {
     #[test]
     fn real_dem_scales_isotropically() {
         let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../assets/data/terrain/jacksboro_fault_dem.png")).unwrap();
-        let s = DemScaling { pixel_x_m: 74.0, pixel_y_m: 93.0, world_size_m: 20.0, cell_m: 0.05, crop_fraction: 0.5 };
+        let s =
+            DemScaling { pixel_x_m: 74.0, pixel_y_m: 93.0, world_size_m: 20.0, cell_m: 0.05, crop_fraction: 0.5, ..DemScaling::CENTRAL };
         let hf = Heightfield::from_dem_png(&bytes, "dem.png", s).unwrap();
         assert_eq!(hf.geometry.width, 400);
         let max = hf.heights_m.iter().cloned().fold(0.0, f64::max);
@@ -206,6 +240,50 @@ mod tests {
         }
     }
 
+    /// A 101 × 101 grey DEM of 1 m pixels whose value is |column − 30|: a valley running
+    /// north–south along column 30.
+    fn valley_dem() -> Vec<u8> {
+        let data: Vec<u8> = (0..101 * 101).map(|i| ((i % 101) as i64 - 30).unsigned_abs() as u8).collect();
+        png_of(png::ColorType::Grayscale, png::BitDepth::Eight, (101, 101), &data)
+    }
+
+    /// Column of the lowest cell along world row `row` (the field's x of the valley floor).
+    fn lowest_col(hf: &Heightfield, row: usize) -> usize {
+        let w = hf.geometry.width;
+        (0..w).min_by(|&a, &b| hf.heights_m[row * w + a].total_cmp(&hf.heights_m[row * w + b])).unwrap()
+    }
+
+    #[test]
+    fn the_crop_is_placed_and_rotated_as_asked() {
+        let bytes = valley_dem();
+        // Crop 0.5 × 100 m = 50 m onto a 50 m world of 1 m cells: scale 1, cell centres at k + 0.5.
+        let s = DemScaling { world_size_m: 50.0, crop_fraction: 0.5, ..DemScaling::CENTRAL };
+        let field =
+            |crop_centre, rotation_rad| Heightfield::from_dem_png(&bytes, "v.png", DemScaling { crop_centre, rotation_rad, ..s }).unwrap();
+        // Against the left edge the crop spans columns 0–50: the valley (column 30) at world x ≈ 30.
+        assert_eq!(
+            lowest_col(&field([0.0, 0.5], 0.0), 10),
+            29,
+            "cell 29 spans x 29–30; its centre 29.5 is 0.5 from column 30, as cell 30's"
+        );
+        // Centred: columns 25–75, the valley at x ≈ 5. Against the right edge: columns 50–100,
+        // no valley inside; the lowest ground is the left border (x = 0.5 ↔ column 50.5).
+        assert_eq!(lowest_col(&field([0.5, 0.5], 0.0), 10), 4);
+        assert_eq!(lowest_col(&field([1.0, 0.5], 0.0), 10), 0);
+        // Heights follow the DEM at scale 1: in the centred crop, x = 20.5 is column 45.5, 15.5 m
+        // above the valley floor; the floor's lowest cell centre (x 4.5 or 5.5) is 0.5 above it.
+        let centred = field([0.5, 0.5], 0.0);
+        assert!((centred.heights_m[10 * 50 + 20] - 15.0).abs() < 1e-9, "{}", centred.heights_m[10 * 50 + 20]);
+        // A quarter turn about the centre column 50: world +x runs north and world +y west, so
+        // the valley (20 m west of the centre) runs along world x at y = 25 + 20 = 45.
+        let turned = field([0.5, 0.5], std::f64::consts::FRAC_PI_2);
+        let w = 50;
+        for col in [3, 25, 46] {
+            let lowest_row = (0..w).min_by(|&a, &b| turned.heights_m[a * w + col].total_cmp(&turned.heights_m[b * w + col])).unwrap();
+            assert!(lowest_row == 44 || lowest_row == 45, "column {col}: valley at row {lowest_row}");
+        }
+    }
+
     fn png_of(color: png::ColorType, depth: png::BitDepth, (w, h): (u32, u32), data: &[u8]) -> Vec<u8> {
         let mut out = Vec::new();
         let mut enc = png::Encoder::new(&mut out, w, h);
@@ -219,7 +297,7 @@ mod tests {
     fn a_grey_dem_saved_as_rgb_or_pgm_reads_as_grey_and_a_colour_one_is_refused() {
         use png::{BitDepth, ColorType};
         let grey: Vec<u8> = (0..12).map(|i| (i * 20) as u8).collect(); // 4 × 3 pixels
-        let s = DemScaling { pixel_x_m: 1.0, pixel_y_m: 1.0, world_size_m: 1.0, cell_m: 0.25, crop_fraction: 1.0 };
+        let s = DemScaling { pixel_x_m: 1.0, pixel_y_m: 1.0, world_size_m: 1.0, cell_m: 0.25, crop_fraction: 1.0, ..DemScaling::CENTRAL };
         let reference = Heightfield::from_dem_png(&png_of(ColorType::Grayscale, BitDepth::Eight, (4, 3), &grey), "g.png", s).unwrap();
         assert!(reference.heights_m.iter().any(|&z| z > 0.0));
         let rgb: Vec<u8> = grey.iter().flat_map(|&v| [v, v, v]).collect();

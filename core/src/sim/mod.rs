@@ -10,6 +10,7 @@
 pub mod camera;
 mod corridor;
 pub mod coverage;
+pub mod floor_plan;
 mod heightfield;
 mod landmarks;
 pub mod lidar;

@@ -1,7 +1,7 @@
 //! Whole-simulator tests: world files, ground truth, and tiny missions (fast in debug).
 
 use super::mission::{Mission, StepOutcome};
-use super::world::{World, WorldSpec};
+use super::world::{TerrainSpec, World, WorldSpec};
 use super::{EndReason, Localisation, MissionParams};
 use crate::explore::ExploreParams;
 use crate::params::{Params, Strategy, Valid, Validate};
@@ -23,6 +23,38 @@ fn files(name: &str) -> Result<Vec<u8>, String> {
 }
 
 #[test]
+fn a_family_member_draws_its_dem_crop_rotation_and_relief_and_its_floor_plan() {
+    let read = |name: &str| WorldSpec::from_toml(&String::from_utf8(files(name).unwrap()).unwrap(), name).unwrap();
+    let dem = |spec: &WorldSpec| match spec.terrain {
+        TerrainSpec::Dem { relief_scale, crop_centre, rotation_deg, .. } => (relief_scale, crop_centre, rotation_deg),
+        _ => panic!("a DEM world"),
+    };
+    let family = read("dem_jacksboro_family_16m.toml");
+    let members: Vec<_> = (1..=20).map(|w| dem(&family.with_world_seed(w))).collect();
+    for &(relief, centre, rotation) in &members {
+        assert!((0.3..=0.7).contains(&relief) && (0.0..=360.0).contains(&rotation), "{relief} {rotation}");
+        assert!(centre.iter().all(|c| (0.0..=1.0).contains(c)));
+    }
+    // Each key is drawn per member: no two of 20 members share a value.
+    for key in 0..3 {
+        let mut values: Vec<f64> = members.iter().map(|m| [m.0, m.1[0], m.2][key]).collect();
+        values.sort_by(f64::total_cmp);
+        assert!(values.windows(2).all(|w| w[0] < w[1]), "key {key}: {values:?}");
+    }
+    assert_eq!(family.with_world_seed(4), family.with_world_seed(4));
+    // Without [family], a member keeps the file's crop, rotation and relief.
+    let central = read("dem_jacksboro_16m.toml");
+    assert_eq!(dem(&central.with_world_seed(4)), (0.6, [0.5, 0.5], 0.0));
+    // A floor plan is drawn per member, as a procedural terrain.
+    let plans = read("indoor_floor_plans.toml");
+    let plan_seed = |w| match plans.with_world_seed(w).terrain {
+        TerrainSpec::FloorPlan { seed, .. } => seed,
+        _ => panic!("a floor plan"),
+    };
+    assert_ne!(plan_seed(1), plan_seed(2));
+}
+
+#[test]
 fn every_shipped_world_parses_and_the_small_ones_build() {
     let params = Params::default();
     let shipped = [
@@ -32,6 +64,8 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
         "dem_jacksboro_16m.toml",
         "indoor_rooms.toml",
         "tiny_test.toml",
+        "dem_jacksboro_family_16m.toml",
+        "indoor_floor_plans.toml",
     ];
     for name in shipped {
         let text = String::from_utf8(files(name).unwrap()).unwrap();

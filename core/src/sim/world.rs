@@ -16,6 +16,7 @@
 
 #![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
 
+use super::floor_plan::{FloorPlan, FloorPlanParams};
 use super::heightfield::{DemScaling, Heightfield};
 use super::landmarks::scatter_landmarks;
 use super::noise::fractal_noise;
@@ -159,7 +160,7 @@ impl World {
                     hills + ridges + tx * x + ty * y
                 })
             }
-            TerrainSpec::Dem { file, pixel_x_m, pixel_y_m, size_m, crop_fraction, relief_scale } => {
+            TerrainSpec::Dem { file, pixel_x_m, pixel_y_m, size_m, crop_fraction, relief_scale, crop_centre, rotation_deg } => {
                 let bytes = fetch(file)?;
                 let scaling = DemScaling {
                     pixel_x_m: *pixel_x_m,
@@ -167,6 +168,8 @@ impl World {
                     world_size_m: *size_m,
                     cell_m: spec.cell_m,
                     crop_fraction: *crop_fraction,
+                    crop_centre: *crop_centre,
+                    rotation_rad: rotation_deg.to_radians(),
                 };
                 let mut f = Heightfield::from_dem_png(&bytes, file, scaling)?;
                 f.heights_m.iter_mut().for_each(|z| *z *= relief_scale);
@@ -188,6 +191,26 @@ impl World {
                     return Err(WorldError::Invalid(InvalidParam::new("start", reason)));
                 }
                 Heightfield { geometry: g, heights_m: grid.data.iter().map(|&v| if v == FREE { 0.0 } else { *wall_height_m }).collect() }
+            }
+            TerrainSpec::FloorPlan {
+                seed,
+                size_m,
+                min_room_m,
+                max_room_m,
+                door_width_m,
+                wall_thickness_m,
+                wall_height_m,
+                extra_door_probability,
+            } => {
+                let p = FloorPlanParams {
+                    size_m: *size_m,
+                    min_room_m: *min_room_m,
+                    max_room_m: *max_room_m,
+                    door_width_m: *door_width_m,
+                    wall_thickness_m: *wall_thickness_m,
+                    extra_door_probability: *extra_door_probability,
+                };
+                FloorPlan::generate(&p, *seed).heightfield(*size_m, spec.cell_m, *wall_height_m)
             }
         };
         let start_xy = (spec.start[0], spec.start[1]);

@@ -121,6 +121,9 @@ pub struct WorldSpec {
     /// none, the file's world as written.
     #[serde(default)]
     pub world_seeds: Option<[u64; 2]>,
+    /// What else a family's members draw per world seed (DEM crop, rotation and relief).
+    #[serde(default)]
+    pub family: FamilySpec,
 }
 
 /// Most members of a family one comparison runs (each holds a built world in memory).
@@ -182,6 +185,15 @@ pub enum TerrainSpec {
         /// Vertical scale relative to the horizontal one. Default 1.
         #[serde(default = "one_f")]
         relief_scale: f64,
+        /// Where the crop lies in the DEM, [across, down], each in [0, 1] over the positions
+        /// where the (rotated) crop stays inside the DEM: 0 against the left edge (top row), 1
+        /// against the right edge (bottom row). Default [0.5, 0.5], the central crop.
+        #[serde(default = "default_crop_centre")]
+        crop_centre: [f64; 2],
+        /// Rotation of the crop about its centre, degrees counter-clockwise: the world's +x runs
+        /// along this bearing on the DEM (0: east). Default 0.
+        #[serde(default)]
+        rotation_deg: f64,
     },
     /// A map_server map (YAML naming a PGM/PNG): occupied and unknown pixels become walls.
     MapServer {
@@ -192,6 +204,67 @@ pub enum TerrainSpec {
         #[serde(default = "default_wall_height")]
         wall_height_m: f64,
     },
+    /// A seeded floor plan of rooms and doors (binary space partition, `super::floor_plan`).
+    FloorPlan {
+        /// Seed of the plan.
+        seed: u64,
+        /// Outer size [x, y] of the plan, outer walls included, metres, each in (0, 500].
+        size_m: [f64; 2],
+        /// Shortest side a split may leave a room, metres, > 0. Default 2.5.
+        #[serde(default = "default_min_room")]
+        min_room_m: f64,
+        /// A room with a longer side is split again when a split fits, metres, ≥ 2 ×
+        /// `min_room_m`. Default 5.
+        #[serde(default = "default_max_room")]
+        max_room_m: f64,
+        /// Clear width of a door, metres, > 0. Default 1.2.
+        #[serde(default = "default_door_width")]
+        door_width_m: f64,
+        /// Thickness of every wall, metres, > 0. Default 0.15.
+        #[serde(default = "default_wall_thickness")]
+        wall_thickness_m: f64,
+        /// Height of the walls, metres, > 0. Default 1.
+        #[serde(default = "default_wall_height")]
+        wall_height_m: f64,
+        /// Probability that a wall long enough for two doors gets a second one (a loop), [0, 1].
+        /// Default 0.3.
+        #[serde(default = "default_extra_door")]
+        extra_door_probability: f64,
+    },
+}
+
+fn default_crop_centre() -> [f64; 2] {
+    [0.5, 0.5]
+}
+fn default_min_room() -> f64 {
+    2.5
+}
+fn default_max_room() -> f64 {
+    5.0
+}
+fn default_door_width() -> f64 {
+    1.2
+}
+fn default_wall_thickness() -> f64 {
+    0.15
+}
+fn default_extra_door() -> f64 {
+    0.3
+}
+
+/// What each member of a family draws from its world seed besides the seeds of the terrain,
+/// rocks and landmarks ([`WorldSpec::with_world_seed`]); every key is optional (none: the
+/// file's value in every member).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FamilySpec {
+    /// DEM: the crop's position (`crop_centre`) drawn uniformly where the (rotated) crop lies
+    /// inside the DEM.
+    pub dem_crop_anywhere: bool,
+    /// DEM: the crop's rotation drawn uniformly in [low, high] degrees.
+    pub dem_rotation_deg: Option<[f64; 2]>,
+    /// DEM: the relief scale drawn uniformly in [low, high], each ≥ 0.
+    pub dem_relief_scale: Option<[f64; 2]>,
 }
 
 fn default_hill_wavelength() -> f64 {
@@ -300,14 +373,31 @@ fn mix_seed(a: u64, b: u64) -> u64 {
 impl WorldSpec {
     /// Member `world_seed` of the family this file describes: the same terrain kind and
     /// parameters, the seeds of the procedural terrain, the rocks, the landmarks and their
-    /// texture drawn from the file's seeds and `world_seed`. (A DEM or a map_server plan keeps
-    /// its ground; its rocks, landmarks and texture change.) The start stays the file's:
+    /// texture drawn from the file's seeds and `world_seed`, and so is a floor plan. A DEM keeps
+    /// its image; its crop, rotation and relief are drawn as `[family]` says
+    /// ([`FamilySpec`]). A map_server plan keeps its ground. The start stays the file's:
     /// [`super::World::draw_start`] draws one per world seed on the built world.
     pub fn with_world_seed(&self, world_seed: u64) -> Self {
         let mut spec = self.clone();
         spec.seed = mix_seed(self.seed, world_seed);
-        if let TerrainSpec::Procedural { seed, .. } = &mut spec.terrain {
-            *seed = mix_seed(*seed, world_seed);
+        let (f, member_seed) = (&self.family, spec.seed);
+        match &mut spec.terrain {
+            TerrainSpec::Procedural { seed, .. } | TerrainSpec::FloorPlan { seed, .. } => *seed = mix_seed(*seed, world_seed),
+            TerrainSpec::Dem { relief_scale, crop_centre, rotation_deg, .. } => {
+                // One stream per drawn key, so adding a key to [family] leaves the others' draws.
+                let draw = |k: i64| super::noise::hash_unit(k, 0, mix_seed(member_seed, 0xFA17));
+                let lerp = |[lo, hi]: [f64; 2], u: f64| lo + (hi - lo) * u;
+                if let Some(range) = f.dem_relief_scale {
+                    *relief_scale = lerp(range, draw(0));
+                }
+                if let Some(range) = f.dem_rotation_deg {
+                    *rotation_deg = lerp(range, draw(1));
+                }
+                if f.dem_crop_anywhere {
+                    *crop_centre = [draw(2), draw(3)];
+                }
+            }
+            TerrainSpec::MapServer { .. } => {}
         }
         spec
     }
@@ -374,6 +464,17 @@ impl WorldSpec {
                 );
             }
         }
+        let f = &self.family;
+        if let Some([lo, hi]) = f.dem_relief_scale {
+            if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi) {
+                return bad("family.dem_relief_scale", format!("must be [low, high] with 0 ≤ low ≤ high (got [{}, {}])", Num(lo), Num(hi)));
+            }
+        }
+        if let Some([lo, hi]) = f.dem_rotation_deg {
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return bad("family.dem_rotation_deg", format!("must be [low, high], finite, low ≤ high (got [{}, {}])", Num(lo), Num(hi)));
+            }
+        }
         if !self.start.iter().all(|v| v.is_finite()) {
             return bad("start", format!("must be finite (got {:?})", self.start));
         }
@@ -423,14 +524,61 @@ impl WorldSpec {
                 }
                 cells(*size_m)?;
             }
-            TerrainSpec::Dem { size_m, relief_scale, .. } => {
+            TerrainSpec::Dem { size_m, relief_scale, crop_centre, rotation_deg, .. } => {
                 if !pos(*size_m) || *size_m > 500.0 {
                     return bad("terrain.size_m", format!("must be in (0, 500] (got {})", Num(*size_m)));
                 }
                 if !(relief_scale.is_finite() && *relief_scale >= 0.0) {
                     return bad("terrain.relief_scale", format!("must be a finite number ≥ 0 (got {})", Num(*relief_scale)));
                 }
+                if !crop_centre.iter().all(|v| (0.0..=1.0).contains(v)) {
+                    return bad("terrain.crop_centre", format!("must be [across, down], each in [0, 1] (got {crop_centre:?})"));
+                }
+                if !rotation_deg.is_finite() {
+                    return bad("terrain.rotation_deg", format!("must be finite (got {})", Num(*rotation_deg)));
+                }
                 cells(*size_m)?;
+            }
+            TerrainSpec::FloorPlan {
+                size_m,
+                min_room_m,
+                max_room_m,
+                door_width_m,
+                wall_thickness_m,
+                wall_height_m,
+                extra_door_probability,
+                ..
+            } => {
+                if !size_m.iter().all(|&v| pos(v) && v <= 500.0) {
+                    return bad("terrain.size_m", format!("must be [x, y], each in (0, 500] (got {size_m:?})"));
+                }
+                for (key, v) in [
+                    ("min_room_m", *min_room_m),
+                    ("door_width_m", *door_width_m),
+                    ("wall_thickness_m", *wall_thickness_m),
+                    ("wall_height_m", *wall_height_m),
+                ] {
+                    if !pos(v) {
+                        return bad(&format!("terrain.{key}"), format!("must be a finite number > 0 (got {})", Num(v)));
+                    }
+                }
+                if !(max_room_m.is_finite() && *max_room_m >= 2.0 * min_room_m) {
+                    return bad(
+                        "terrain.max_room_m",
+                        format!("must be ≥ 2 × min_room_m = {} (got {})", Num(2.0 * min_room_m), Num(*max_room_m)),
+                    );
+                }
+                if !(0.0..=1.0).contains(extra_door_probability) {
+                    return bad("terrain.extra_door_probability", format!("must be in [0, 1] (got {})", Num(*extra_door_probability)));
+                }
+                let inner = size_m[0].min(size_m[1]) - 2.0 * wall_thickness_m;
+                if inner < *min_room_m {
+                    return bad(
+                        "terrain.size_m",
+                        format!("leaves {} m inside the outer walls, less than min_room_m {}", Num(inner), Num(*min_room_m)),
+                    );
+                }
+                cells(size_m[0].max(size_m[1]))?;
             }
             TerrainSpec::MapServer { wall_height_m, .. } => {
                 if !pos(*wall_height_m) {
