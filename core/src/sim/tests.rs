@@ -72,6 +72,17 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
         let spec = WorldSpec::from_toml(&text, name).unwrap();
         assert!(spec.time_limit_s > 0.0, "{name}");
     }
+    // The dose–response worlds of docs/protocol.md differ from the patchy family in the
+    // texture's wavelength (and name and members) only.
+    let patchy = WorldSpec::from_toml(&String::from_utf8(files("patchy_unstructured_20m.toml").unwrap()).unwrap(), "patchy").unwrap();
+    for wavelength in [6, 12, 24, 48] {
+        let name = format!("dose/patchy_texture_{wavelength:02}m.toml");
+        let mut dose = WorldSpec::from_toml(&String::from_utf8(files(&name).unwrap()).unwrap(), &name).unwrap();
+        assert_eq!(dose.landmarks.texture_wavelength_m, wavelength as f64, "{name}");
+        dose.landmarks.texture_wavelength_m = patchy.landmarks.texture_wavelength_m;
+        (dose.name, dose.world_seeds) = (patchy.name.clone(), patchy.world_seeds);
+        assert_eq!(dose, patchy, "{name}");
+    }
     // The benchmark world of docs/benchmarks.md (Mission) parses too.
     let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
     WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
