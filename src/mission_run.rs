@@ -142,9 +142,11 @@ pub fn build_setup(world: &Path, params: Valid<Params>, mission_params: Valid<Mi
         Some(w) => {
             let name = format!("{world_name} (world seed {w})");
             let mut member = spec.with_world_seed(w);
-            member.start = build(&member, &name)?
-                .draw_start(w, params.robot.radius_m)
-                .with_context(|| format!("{name}: no cell where the robot fits to start from"))?;
+            if !spec.family.keep_start {
+                member.start = build(&member, &name)?
+                    .draw_start(w, params.robot.radius_m)
+                    .with_context(|| format!("{name}: no cell where the robot fits to start from"))?;
+            }
             (build(&member, &name)?, name)
         }
     };

@@ -102,3 +102,33 @@ fn the_slam_graph_replays_as_one_update_per_keyframe() {
     assert!(!gt.status.success() && stderr.contains("--slam-g2o needs --localisation slam"), "stderr: {stderr}");
     assert!(!out.join("gt").join("metrics.csv").exists(), "the mission should not run");
 }
+
+/// `[family] keep_start`: every member starts at the file's start (a world built around it);
+/// without it a member starts where `World::draw_start` puts it.
+#[test]
+fn a_family_that_keeps_its_start_starts_every_member_there() {
+    let dir = std::env::temp_dir().join(format!("fitslam-explore-{}-keep-start", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let tiny = std::fs::read_to_string(world()).unwrap();
+    let first_pose = |text: &str, name: &str| {
+        let file = dir.join(format!("{name}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.join(name);
+        let o = Command::new(BIN)
+            .args(["explore", "--world"])
+            .arg(&file)
+            .args(["--world-seed", "3", "--time-limit-s", "2", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+        let tum = std::fs::read_to_string(out.join("trajectory_gt.tum")).unwrap();
+        let xy: Vec<f64> = tum.lines().next().unwrap().split_whitespace().skip(1).take(2).map(|v| v.parse().unwrap()).collect();
+        xy
+    };
+    let kept = first_pose(&tiny.replace("[terrain]", "[family]\nkeep_start = true\n\n[terrain]"), "kept");
+    assert!((kept[0] - 1.0).abs() < 1e-3 && (kept[1] - 1.0).abs() < 1e-3, "{kept:?}");
+    let drawn = first_pose(&tiny, "drawn");
+    assert!((drawn[0] - 1.0).abs() + (drawn[1] - 1.0).abs() > 1e-3, "{drawn:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

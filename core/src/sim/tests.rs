@@ -86,6 +86,12 @@ fn every_shipped_world_parses_and_the_small_ones_build() {
     // The benchmark world of docs/benchmarks.md (Mission) parses too.
     let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/long_40m.toml");
     WorldSpec::from_toml(&std::fs::read_to_string(bench).unwrap(), "long_40m.toml").unwrap();
+    let two_routes = concat!(env!("CARGO_MANIFEST_DIR"), "/../benches/worlds/two_routes.toml");
+    WorldSpec::from_toml(&std::fs::read_to_string(two_routes).unwrap(), "two_routes.toml").unwrap();
+    for name in ["uniform_textured.toml", "uniform_rocks.toml", "uniform_bare.toml"] {
+        let path = format!("{}/../benches/worlds/front_end/{name}", env!("CARGO_MANIFEST_DIR"));
+        WorldSpec::from_toml(&std::fs::read_to_string(path).unwrap(), name).unwrap();
+    }
     // And the worlds of the known limits (docs/experiments.md, Known limits).
     for name in ["doorway_07m.toml", "pit_ledge_16m.toml", "steep_dem.toml", "corridor_doors_16m.toml"] {
         let path = format!("{}/../benches/worlds/limits/{name}", env!("CARGO_MANIFEST_DIR"));
@@ -1009,6 +1015,23 @@ fn a_map_server_image_is_found_next_to_its_yaml() {
 
 /// A world file is a family: world seeds give other terrains, rocks and landmarks (the same one
 /// for the same seed), and a drawn start where the robot fits, in the largest free region.
+/// `landmarks.bare_m`: no landmark inside a bare rectangle, the others as without it.
+#[test]
+fn a_bare_region_holds_no_landmark() {
+    let params = Params::default();
+    let spec = WorldSpec::from_toml(TINY, "tiny.toml").unwrap();
+    let build = |s: &WorldSpec| World::build(s, &params.traversability, params.traversability.tau, files).unwrap();
+    let all = build(&spec).landmarks;
+    let mut bare = spec.clone();
+    bare.landmarks.bare_m = vec![[0.0, 0.0, 2.5, 5.0]];
+    let kept = build(&bare).landmarks;
+    let outside: Vec<_> = all.iter().filter(|p| p.x > 2.5).cloned().collect();
+    assert!(!outside.is_empty() && outside.len() < all.len());
+    assert_eq!(kept, outside);
+    bare.landmarks.bare_m = vec![[1.0, 1.0, 1.0, 2.0]];
+    assert!(matches!(bare.validate(), Err(super::world::WorldError::Invalid(e)) if e.key == "landmarks.bare_m[0]"));
+}
+
 #[test]
 fn world_seeds_draw_family_members_and_starts_the_robot_fits() {
     let params = Params::default();

@@ -244,7 +244,9 @@ impl World {
         // Map frame: z = 0 on the ground under the start.
         let z0 = field.height_at(start_xy.0, start_xy.1).unwrap_or(0.0);
         field.heights_m.iter_mut().for_each(|z| *z -= z0);
-        let landmarks = scatter_landmarks(&field, &rocks, &spec.landmarks.density(), spec.seed);
+        let mut landmarks = scatter_landmarks(&field, &rocks, &spec.landmarks.density(), spec.seed);
+        let bare = |p: &Point3<f64>| spec.landmarks.bare_m.iter().any(|b| b[0] <= p.x && p.x <= b[2] && b[1] <= p.y && p.y <= b[3]);
+        landmarks.retain(|p| !bare(p));
 
         let (min_x, min_y, max_x, max_y) = field.geometry.bounds_m();
         let boundary_box_m = spec.boundary.unwrap_or([min_x + 0.5, min_y + 0.5, max_x - 0.5, max_y - 0.5]);

@@ -265,6 +265,9 @@ pub struct FamilySpec {
     pub dem_rotation_deg: Option<[f64; 2]>,
     /// DEM: the relief scale drawn uniformly in [low, high], each ≥ 0.
     pub dem_relief_scale: Option<[f64; 2]>,
+    /// Every member starts at the file's `start` instead of one drawn on its ground (a world
+    /// built around its start, such as the positive control's two routes). Default false.
+    pub keep_start: bool,
 }
 
 fn default_hill_wavelength() -> f64 {
@@ -331,6 +334,9 @@ pub struct LandmarkSpec {
     pub rock_density_per_m2: f64,
     /// Landmarks stand up to this high above the ground, metres, ≥ 0. Default 0.4.
     pub max_height_m: f64,
+    /// Bare regions [min_x, min_y, max_x, max_y], metres: no landmark at all inside (ground,
+    /// rocks and walls alike). Default none.
+    pub bare_m: Vec<[f64; 4]>,
 }
 
 impl Default for LandmarkSpec {
@@ -343,6 +349,7 @@ impl Default for LandmarkSpec {
             texture_wavelength_m: d.texture_wavelength_m,
             rock_density_per_m2: d.rock_density_per_m2,
             max_height_m: d.max_height_m,
+            bare_m: Vec::new(),
         }
     }
 }
@@ -631,6 +638,11 @@ impl WorldSpec {
                     Num(l.contrast)
                 ),
             );
+        }
+        for (i, b) in self.landmarks.bare_m.iter().enumerate() {
+            if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
+                return bad(&format!("landmarks.bare_m[{i}]"), format!("must be [min_x, min_y, max_x, max_y] with min < max (got {b:?})"));
+            }
         }
         if let Some(b) = self.boundary {
             if !(b.iter().all(|v| v.is_finite()) && b[0] < b[2] && b[1] < b[3]) {
