@@ -45,6 +45,46 @@ fn tune_unit_tests() {
 }
 
 #[test]
+fn sensitivity_unit_tests() {
+    let out = Command::new(venv().join("bin/python"))
+        .args(["-m", "unittest", "-v", "test_sensitivity"])
+        .current_dir(root().join("scripts/sweep"))
+        .output()
+        .unwrap();
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Ran 4 tests"), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// `scripts/sensitivity` on the tiny world: one point per value, the default's flagged, the figure
+/// written; a rerun keeps the missions already run.
+#[test]
+fn sensitivity_writes_a_point_per_value_and_its_figure() {
+    let out = std::env::temp_dir().join(format!("fitslam-sensitivity-{}", std::process::id()));
+    std::fs::remove_dir_all(&out).ok();
+    let world = root().join("assets/worlds/tiny_test.toml");
+    let run = || {
+        Command::new(root().join("scripts/sensitivity"))
+            .args(["--out", out.to_str().unwrap(), "--world", world.to_str().unwrap(), "--seeds", "2", "--jobs", "2"])
+            .args(["--vary", "u2.beta=1,0.4", "--fitslam", BIN])
+            .env("FITSLAM_SWEEP_VENV", venv())
+            .output()
+            .unwrap()
+    };
+    ok(&run());
+    let csv = std::fs::read_to_string(out.join("sensitivity.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2, "{csv}");
+    assert_eq!((rows[0][0], rows[0][1], rows[0][2]), ("u2.beta", "0.4", "true"), "{csv}");
+    assert_eq!((rows[1][1], rows[1][2]), ("1", "false"), "{csv}");
+    assert!(rows.iter().all(|r| r[4].parse::<f64>().unwrap() > 0.0 && r[6].parse::<f64>().unwrap() > 0.0), "{csv}");
+    assert!(out.join("sensitivity.png").exists() && out.join("sensitivity.svg").exists());
+    assert!(out.join("runs/default/missions/summary.csv").exists() && out.join("runs/u2.beta=1.0/missions/summary.csv").exists());
+    ok(&run());
+    assert_eq!(std::fs::read_to_string(out.join("sensitivity.csv")).unwrap(), csv, "a rerun gives the same points");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
 fn a_study_resumed_through_its_journal_reports_its_pareto_front() {
     let study = std::env::temp_dir().join(format!("fitslam-tune-{}", std::process::id()));
     std::fs::remove_dir_all(&study).ok();

@@ -32,7 +32,7 @@ use thiserror::Error;
 
 pub use super::world_spec::{MAX_WORLD_SEEDS, RockSpec, WorldSpec};
 
-pub use super::world_spec::{BoxSpec, LandmarkSpec, RampSpec, TerrainSpec, WorldError};
+pub use super::world_spec::{BoxSpec, FamilySpec, LandmarkSpec, RampSpec, TerrainSpec, WorldError};
 
 pub(crate) use super::world_spec::MAX_SCATTER_SITES;
 
