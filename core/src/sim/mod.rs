@@ -24,6 +24,7 @@ pub mod params;
 pub mod recorder;
 pub mod robot;
 mod scan;
+mod terrain_spec;
 pub mod vision;
 pub mod world;
 pub(crate) mod world_sim;
