@@ -3,7 +3,6 @@
 
 #![allow(clippy::collapsible_if, clippy::nonminimal_bool)] // explicit range checks read better
 
-use super::world_spec::WorldError;
 use crate::params::{InvalidParam, Num};
 use crate::traversability::MAX_CELLS;
 use serde::{Deserialize, Serialize};
@@ -139,8 +138,8 @@ fn default_wall_height() -> f64 {
 
 impl TerrainSpec {
     /// Checks the ranges of the terrain's keys for heightfield cells of `cell_m`.
-    pub(super) fn validate(&self, cell_m: f64) -> Result<(), WorldError> {
-        let bad = |key: &str, reason: String| Err(WorldError::Invalid(InvalidParam::new(key, reason)));
+    pub(super) fn validate(&self, cell_m: f64) -> Result<(), InvalidParam> {
+        let bad = |key: &str, reason: String| Err(InvalidParam::new(key, reason));
         let pos = |v: f64| v.is_finite() && v > 0.0;
         // The heightfield's cells, checked before they are allocated (the ground-truth map has as
         // many, and its limit is the traversability map's).

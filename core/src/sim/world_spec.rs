@@ -357,7 +357,7 @@ impl WorldSpec {
         if !self.start.iter().all(|v| v.is_finite()) {
             return bad("start", format!("must be finite (got {:?})", self.start));
         }
-        self.terrain.validate(self.cell_m)?;
+        self.terrain.validate(self.cell_m).map_err(WorldError::Invalid)?;
         if let Some(r) = &self.rocks {
             if !pos(r.spacing_m)
                 || !(0.0..=1.0).contains(&r.density)
