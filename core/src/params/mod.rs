@@ -349,15 +349,15 @@ impl UnknownName {
     }
 }
 
-/// The heading a baseline (`greedy`, `random`, `matched`) sets its goal with.
+/// The heading a strategy sets its goal with.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum BaselineHeading {
+pub enum GoalHeading {
     /// The path's heading where it ends: the robot stops as it arrives (the paper's baselines
     /// have no Θ*, which is u1's).
     #[default]
     Arrival,
-    /// u1's best view Θ*, as `fit` and `u1`.
+    /// u1's best view Θ*, the paper's for `fit` and `u1`.
     ThetaStar,
 }
 
@@ -369,13 +369,18 @@ pub struct SelectorParams {
     pub strategy: Strategy,
     /// Seed for the random selector.
     pub seed: u64,
-    /// The baselines' goal heading. Default `arrival`.
-    pub baseline_heading: BaselineHeading,
+    /// The baselines' goal heading (`greedy`, `random`, `matched`, `matched_top`). Default
+    /// `arrival`.
+    pub baseline_heading: GoalHeading,
+    /// The goal heading of the strategies that have Θ* (`fit`, `u1`, `u2_length`). Default
+    /// `theta_star` (the paper's); `arrival` is the ablation of Θ*'s turn on arrival (u1 still
+    /// scores each candidate's entropy gain at Θ*).
+    pub fit_heading: GoalHeading,
 }
 
 impl Default for SelectorParams {
     fn default() -> Self {
-        Self { strategy: Strategy::Fit, seed: 0, baseline_heading: BaselineHeading::Arrival }
+        Self { strategy: Strategy::Fit, seed: 0, baseline_heading: GoalHeading::Arrival, fit_heading: GoalHeading::ThetaStar }
     }
 }
 

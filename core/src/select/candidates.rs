@@ -25,7 +25,7 @@ use super::report::{CandidateReport, Decision, DropReason};
 use super::{DecisionInput, SelectError};
 use crate::frontier::{FrontierCluster, cluster_frontier_cells, detect_frontiers_with};
 use crate::grid::{Cell, CellClass, OccupancyGrid, free_traversed, inflate_lethal_into};
-use crate::params::{BaselineHeading, Params, Strategy, Valid, check_radius_cells, check_waypoint_spacing};
+use crate::params::{GoalHeading, Params, Strategy, Valid, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::u2::{CameraGround, arrival_heading_rad};
 use crate::utility::{FovWindows, PathView, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
@@ -287,10 +287,10 @@ pub fn choose(decision: &mut Decision, chosen: Option<usize>) {
     });
 }
 
-/// A baseline's goal heading ([`BaselineHeading`]): with `arrival`, the chosen path's heading at
-/// its end instead of Θ* (unchanged for a path of no length).
-pub(crate) fn set_baseline_heading(decision: &mut Decision, params: &Params) {
-    if params.selector.baseline_heading != BaselineHeading::Arrival {
+/// The goal's heading ([`GoalHeading`]): with `arrival`, the chosen path's heading at its end
+/// instead of Θ* (unchanged for a path of no length).
+pub(crate) fn set_goal_heading(decision: &mut Decision, heading: GoalHeading) {
+    if heading != GoalHeading::Arrival {
         return;
     }
     let Some(yaw) = decision.chosen_candidate().and_then(|c| arrival_heading_rad(&c.path_m)) else { return };

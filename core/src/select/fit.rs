@@ -8,7 +8,7 @@
 //! path, so a longer path collects more of it; if `fit` and `u2_length` choose alike, I_p acts
 //! mostly as a reward for going far.
 
-use super::candidates::{PathScore, PlanBuffers, plan, rank_by_u2, score_u2};
+use super::candidates::{PathScore, PlanBuffers, plan, rank_by_u2, score_u2, set_goal_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 
@@ -37,6 +37,7 @@ impl GoalSelector for FitSlam {
         let mut d = plan(input, params, self.strategy(), &mut self.buffers)?;
         score_u2(&mut d, input, params, self.score);
         rank_by_u2(&mut d);
+        set_goal_heading(&mut d, params.selector.fit_heading);
         Ok(d)
     }
 

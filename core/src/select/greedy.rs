@@ -2,7 +2,7 @@
 //! length ρ (ties by candidate index). Every scored candidate is ranked by ρ. u1 is still
 //! reported (it is cheap and shows what FIT-SLAM would have weighed).
 
-use super::candidates::{PlanBuffers, plan, rank_and_choose, set_baseline_heading};
+use super::candidates::{PlanBuffers, plan, rank_and_choose, set_goal_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 
@@ -17,7 +17,7 @@ impl GoalSelector for Greedy {
         let mut d = plan(input, params, Strategy::Greedy, &mut self.buffers)?;
         let scored: Vec<usize> = (0..d.candidates.len()).filter(|&i| d.candidates[i].is_scored()).collect();
         rank_and_choose(&mut d, &scored, |c| c.rho_m.unwrap_or(f64::INFINITY));
-        set_baseline_heading(&mut d, params);
+        set_goal_heading(&mut d, params.selector.baseline_heading);
         Ok(d)
     }
 

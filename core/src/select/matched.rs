@@ -10,7 +10,7 @@
 //! - `matched_top`: u1's N best only, the candidates u2 itself chooses among, so
 //!   `fit − matched_top` is u2's information alone.
 
-use super::candidates::{PathScore, PlanBuffers, choose, plan, rank_by_u2, score_u2, set_baseline_heading};
+use super::candidates::{PathScore, PlanBuffers, choose, plan, rank_by_u2, score_u2, set_goal_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 use rand::{RngExt, SeedableRng};
@@ -72,7 +72,7 @@ impl GoalSelector for LengthMatched {
             c.dropped = None;
         }
         choose(&mut d, chosen);
-        set_baseline_heading(&mut d, params);
+        set_goal_heading(&mut d, params.selector.baseline_heading);
         Ok(d)
     }
 

@@ -3,7 +3,7 @@
 //! decisions). One draw per decision with at least one candidate; the drawn candidate gets
 //! rank 1 and the others no rank.
 
-use super::candidates::{PlanBuffers, choose, plan, set_baseline_heading};
+use super::candidates::{PlanBuffers, choose, plan, set_goal_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
 use crate::params::{Params, Strategy, Valid};
 use rand::{RngExt, SeedableRng};
@@ -32,7 +32,7 @@ impl GoalSelector for RandomSelector {
             d.candidates[i].rank = Some(1);
         }
         choose(&mut d, chosen);
-        set_baseline_heading(&mut d, params);
+        set_goal_heading(&mut d, params.selector.baseline_heading);
         Ok(d)
     }
 

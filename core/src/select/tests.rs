@@ -93,11 +93,41 @@ fn baselines_arrive_as_they_drive_unless_told_to_turn_to_theta_star() {
     let heading = if c.x_m < w.robot.x_m { PI } else { 0.0 };
     assert!(wrap_pi(r.goal.unwrap().yaw_rad - heading).abs() < 1e-9, "{:?}", r.goal);
     // With `theta_star` they take u1's best view, as FIT-SLAM does.
-    p.selector.baseline_heading = crate::params::BaselineHeading::ThetaStar;
+    p.selector.baseline_heading = crate::params::GoalHeading::ThetaStar;
     let g = Greedy::default().select(&input, &valid(&p)).unwrap();
     assert_eq!(g.goal.unwrap().yaw_rad, g.chosen_candidate().unwrap().theta_star_rad.unwrap());
     let f = FitSlam::default().select(&input, &valid(&params())).unwrap();
     assert_eq!(f.goal.unwrap().yaw_rad, f.chosen_candidate().unwrap().theta_star_rad.unwrap());
+}
+
+/// The ablation of Θ*'s turn: with `fit_heading = arrival`, `fit` and `u1` choose the same
+/// candidates and set their goals with the heading their paths arrive with (the chord over the
+/// last half metre, `arrival_heading_is_the_last_half_metre`), as the baselines do.
+#[test]
+fn fit_heading_arrival_keeps_the_choice_and_drops_the_turn() {
+    let mut ablated = params();
+    ablated.selector.fit_heading = crate::params::GoalHeading::Arrival;
+    let mut turns = 0;
+    for seed in 1..=4 {
+        let w = synthetic_world(&SyntheticWorldSpec::small(seed));
+        let lv = voxels(&w, &params());
+        let bl = Blacklist::new(0.5);
+        let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+        for (with, without) in [
+            (FitSlam::default().select(&input, &valid(&params())).unwrap(), FitSlam::default().select(&input, &valid(&ablated)).unwrap()),
+            (U1Only::default().select(&input, &valid(&params())).unwrap(), U1Only::default().select(&input, &valid(&ablated)).unwrap()),
+        ] {
+            assert_eq!(with.chosen, without.chosen, "world {seed}");
+            let Some(c) = with.chosen_candidate() else { continue };
+            assert_eq!(with.goal.unwrap().yaw_rad, c.theta_star_rad.unwrap(), "world {seed}");
+            let yaw = without.goal.unwrap().yaw_rad;
+            assert_eq!(Some(yaw), crate::utility::u2::arrival_heading_rad(&c.path_m), "world {seed}");
+            if wrap_pi(yaw - c.theta_star_rad.unwrap()).abs() > 0.1 {
+                turns += 1;
+            }
+        }
+    }
+    assert!(turns > 0, "in some world Θ* differs from the arrival heading, so the ablation changes the goal");
 }
 
 #[test]

@@ -751,7 +751,7 @@ fn two_rooms(params: &Params, door_m: f64) -> World {
 #[test]
 fn a_doorway_the_full_inflation_shuts_is_passed_with_a_tight_one() {
     let mut params = Params::default();
-    params.selector.baseline_heading = crate::params::BaselineHeading::ThetaStar;
+    params.selector.baseline_heading = crate::params::GoalHeading::ThetaStar;
     let run = |door_m: f64, tight_inflations_m: Vec<f64>| {
         let mp = MissionParams { explore: ExploreParams { tight_inflations_m, ..ExploreParams::default() }, ..MissionParams::default() };
         let world = two_rooms(&params, door_m);
