@@ -59,11 +59,6 @@ fn rows(csv: &str) -> (String, BTreeMap<(String, String, String), String>) {
     (header, keyed)
 }
 
-fn json_string(json: &str, key: &str) -> String {
-    let start = json.find(&format!("\"{key}\": \"")).unwrap_or_else(|| panic!("plan.json without {key}")) + key.len() + 5;
-    json[start..].split('"').next().unwrap().to_string()
-}
-
 #[test]
 fn a_slice_of_every_committed_experiment_reruns_to_its_committed_rows() {
     let root = repo();
@@ -73,8 +68,8 @@ fn a_slice_of_every_committed_experiment_reruns_to_its_committed_rows() {
     }
     assert!(found.iter().any(|p| p.starts_with(root.join("docs/test-worlds"))), "no committed test-world experiment: {found:?}");
     for plan in found {
-        let json = std::fs::read_to_string(&plan).unwrap();
-        let mut args = options(&json_string(&json, "command"));
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+        let mut args = options(json["command"].as_str().expect("plan.json names its command"));
         let strategies: Vec<String> = args.iter().find(|(k, _)| k == "--strategies").unwrap().1.split(',').map(String::from).collect();
         let last = strategies.last().unwrap();
         let slice = if last == "fit" { "fit".to_string() } else { format!("fit,{last}") };

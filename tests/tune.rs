@@ -33,26 +33,26 @@ fn ok(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
-#[test]
-fn tune_unit_tests() {
+/// Runs the Python unit tests of `module` (in scripts/sweep/) and checks that all `count` ran.
+fn python_unit_tests(module: &str, count: usize) {
     let out = Command::new(venv().join("bin/python"))
-        .args(["-m", "unittest", "-v", "test_tune"])
+        .args(["-m", "unittest", "-v", module])
         .current_dir(root().join("scripts/sweep"))
         .output()
         .unwrap();
     ok(&out);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("Ran 9 tests"), "{}", String::from_utf8_lossy(&out.stderr));
+    let ran = format!("Ran {count} tests");
+    assert!(String::from_utf8_lossy(&out.stderr).contains(&ran), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn tune_unit_tests() {
+    python_unit_tests("test_tune", 9);
 }
 
 #[test]
 fn sensitivity_unit_tests() {
-    let out = Command::new(venv().join("bin/python"))
-        .args(["-m", "unittest", "-v", "test_sensitivity"])
-        .current_dir(root().join("scripts/sweep"))
-        .output()
-        .unwrap();
-    ok(&out);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("Ran 4 tests"), "{}", String::from_utf8_lossy(&out.stderr));
+    python_unit_tests("test_sensitivity", 4);
 }
 
 /// `scripts/sensitivity` on the tiny world: one point per value, the default's flagged, the figure

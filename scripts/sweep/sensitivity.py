@@ -32,11 +32,7 @@ def parse_vary(text, defaults):
     key = key.strip()
     if not (sep and key and values):
         raise ValueError(f"--vary {text!r}: expected SECTION.KEY=V1,V2,…, e.g. u2.beta=0,0.2,0.4")
-    default = defaults
-    for part in key.split("."):
-        default = default.get(part) if isinstance(default, dict) else None
-    if isinstance(default, bool) or not (default is None or isinstance(default, (int, float))):
-        raise ValueError(f"--vary {text!r}: {key} is not a numeric planner parameter (see `fitslam params`)")
+    default = tune.numeric_default(key, defaults, "--vary", text)
     kind = type(default) if default is not None else float
     try:
         parsed = sorted({kind(float(v)) if kind is float else int(v) for v in values.split(",")})

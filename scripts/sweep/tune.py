@@ -49,6 +49,17 @@ LABELS = {"alpha": "α", "beta": "β", "top_n": "N"}
 OBJECTIVES = ("t90_s", "matched_cov_trace")
 
 
+def numeric_default(key, defaults, flag, text):
+    """The default of the planner parameter `key` in `defaults` (`fitslam params` as a dict), None
+    when it is unset; a ValueError naming `flag text` when it is not a number."""
+    default = defaults
+    for part in key.split("."):
+        default = default.get(part) if isinstance(default, dict) else None
+    if isinstance(default, bool) or not (default is None or isinstance(default, (int, float))):
+        raise ValueError(f"{flag} {text!r}: {key} is not a numeric planner parameter (see `fitslam params`)")
+    return default
+
+
 def parse_search(text, defaults):
     """`KEY=LOW..HIGH` -> (name, (key, kind, low, high)), the kind (int or float) that of the
     parameter's default in `defaults` (`fitslam params` as a dict); a paper weight's key
@@ -58,10 +69,8 @@ def parse_search(text, defaults):
     key = key.strip()
     if not (sep and sep2 and key):
         raise ValueError(f"--search {text!r}: expected SECTION.KEY=LOW..HIGH, e.g. u2.sigma_bearing_rad=0.005..0.05")
-    default = defaults
-    for part in key.split("."):
-        default = default.get(part) if isinstance(default, dict) else None
-    if isinstance(default, bool) or not isinstance(default, (int, float)):
+    default = numeric_default(key, defaults, "--search", text)
+    if default is None:
         raise ValueError(f"--search {text!r}: {key} is not a numeric planner parameter (see `fitslam params`)")
     kind = type(default)
     try:
