@@ -276,7 +276,12 @@ impl Validate for ConfigFile {
     /// Checks both sections; the error names the first bad field.
     fn validate(&self) -> Result<(), InvalidParam> {
         self.node.validate()?;
-        self.fitslam.validate().map_err(|e| e.under("fitslam."))
+        self.fitslam.validate().map_err(|e| e.under("fitslam."))?;
+        if self.fitslam.selector.strategy.reads_true_landmarks() {
+            let reason = format!("`{}` reads the simulated world's true landmarks: a robot has none", self.fitslam.selector.strategy);
+            return Err(InvalidParam::new("fitslam.selector.strategy", reason));
+        }
+        Ok(())
     }
 }
 
@@ -361,6 +366,14 @@ mod tests {
         assert!(e.to_string().contains("fitslam.u1.alpha"), "{e}");
         let e = ConfigFile::from_yaml("node:\n  domain_id: 300\n", "x.yaml").unwrap_err();
         assert!(e.to_string().contains("domain_id"), "{e}");
+    }
+
+    #[test]
+    fn the_simulator_only_control_is_refused() {
+        let e = ConfigFile::from_yaml("fitslam:\n  selector:\n    strategy: u2_truth\n", "leo.yaml").unwrap_err();
+        let text = e.to_string();
+        assert!(text.starts_with("leo.yaml: fitslam.selector.strategy") && text.contains("true landmarks"), "{text}");
+        assert!(ConfigFile::from_yaml("fitslam:\n  selector:\n    strategy: u2_length\n", "leo.yaml").is_ok());
     }
 
     #[test]

@@ -12,7 +12,7 @@ use serde::Serialize;
 /// with the path length for `u2_length`.
 pub fn final_score(strategy: Strategy, c: &CandidateReport) -> Option<f64> {
     match strategy {
-        Strategy::Fit | Strategy::Matched | Strategy::MatchedTop | Strategy::U2Length => c.u2,
+        Strategy::Fit | Strategy::Matched | Strategy::MatchedTop | Strategy::U2Length | Strategy::U2Truth => c.u2,
         Strategy::U1 | Strategy::Random => c.u1,
         Strategy::Greedy => c.rho_m,
     }

@@ -159,6 +159,7 @@ pub fn strategy_name(s: Strategy) -> &'static str {
         Strategy::Matched => "random at FIT-SLAM's distance",
         Strategy::MatchedTop => "random among u1's N best at FIT-SLAM's distance",
         Strategy::U2Length => "u2 with path length for information",
+        Strategy::U2Truth => "u2 with the share of views tracked on the true landmarks",
     }
 }
 
@@ -303,7 +304,7 @@ pub fn candidate_table(
         d.candidates.len(),
         strategy_name(d.strategy),
         match d.strategy {
-            Strategy::Fit | Strategy::Matched | Strategy::MatchedTop | Strategy::U2Length => "u2",
+            Strategy::Fit | Strategy::Matched | Strategy::MatchedTop | Strategy::U2Length | Strategy::U2Truth => "u2",
             Strategy::Greedy => "ρ",
             Strategy::U1 | Strategy::Random => "u1",
         }

@@ -252,6 +252,12 @@ pub struct U2Params {
     pub follow_terrain: bool,
     /// Known ground hides the voxels behind it (not in the paper). Default false.
     pub occlusion: bool,
+    /// The control `u2_truth`: its views are taken every this far along the path, metres, > 0.
+    /// Default 0.5 (the simulated SLAM's keyframe spacing, where the front end tracks or not).
+    pub tracked_spacing_m: f64,
+    /// The control `u2_truth`: a view holding at least this many landmark voxels counts as
+    /// tracked, ≥ 1. Default 10 (the front end's `relocalise_min`: 10 matched landmarks).
+    pub tracked_min_voxels: usize,
 }
 
 impl Default for U2Params {
@@ -266,6 +272,8 @@ impl Default for U2Params {
             normalisation: InfoNormalisation::Max,
             follow_terrain: true,
             occlusion: false,
+            tracked_spacing_m: 0.5,
+            tracked_min_voxels: 10,
         }
     }
 }
@@ -294,12 +302,25 @@ pub enum Strategy {
     /// ([`crate::select::fit`]): what u2 does if I_p only rewarded going far.
     #[cfg_attr(feature = "clap", value(name = "u2_length"))]
     U2Length,
+    /// Positive control, simulator only: u2 with I_p replaced by the share of the path whose
+    /// camera views hold enough of the world's *true* landmarks ([`crate::select::fit`]): a
+    /// choice that knows where the visual front end will starve, mapped or not.
+    #[cfg_attr(feature = "clap", value(name = "u2_truth"))]
+    U2Truth,
 }
 
 impl Strategy {
     /// Every variant, in declaration order.
-    pub const ALL: [Strategy; 7] =
-        [Strategy::Fit, Strategy::Greedy, Strategy::Random, Strategy::U1, Strategy::Matched, Strategy::MatchedTop, Strategy::U2Length];
+    pub const ALL: [Strategy; 8] = [
+        Strategy::Fit,
+        Strategy::Greedy,
+        Strategy::Random,
+        Strategy::U1,
+        Strategy::Matched,
+        Strategy::MatchedTop,
+        Strategy::U2Length,
+        Strategy::U2Truth,
+    ];
 
     /// The name used in files, on the command line and in the studio (`fit`, `greedy`, …).
     pub fn name(self) -> &'static str {
@@ -311,7 +332,14 @@ impl Strategy {
             Strategy::Matched => "matched",
             Strategy::MatchedTop => "matched_top",
             Strategy::U2Length => "u2_length",
+            Strategy::U2Truth => "u2_truth",
         }
+    }
+
+    /// Whether the policy reads the world's true landmarks instead of the SLAM's map (the
+    /// simulator's positive control `u2_truth`; an adapter with no world refuses it).
+    pub fn reads_true_landmarks(self) -> bool {
+        self == Strategy::U2Truth
     }
 }
 

@@ -28,7 +28,7 @@ use crate::grid::{Cell, CellClass, OccupancyGrid, free_traversed, inflate_lethal
 use crate::params::{GoalHeading, Params, Strategy, Valid, check_radius_cells, check_waypoint_spacing};
 use crate::path::{DistanceField, SearchBuffers, dijkstra_to_reusing, dijkstra_with_frontiers};
 use crate::utility::u2::{CameraGround, arrival_heading_rad};
-use crate::utility::{FovWindows, PathView, RayFan, normalise_path_information, path_information, u1_scores, u2_score};
+use crate::utility::{FovWindows, PathView, RayFan, normalise_path_information, path_information, path_tracked_share, u1_scores, u2_score};
 
 /// The grid-sized scratch storage of a decision, kept by a selector between decisions so that
 /// one decision neither allocates nor page-faults them afresh (measured in docs/benchmarks.md,
@@ -76,7 +76,7 @@ pub fn prepare(input: &DecisionInput, params: &Valid<Params>, buffers: &mut Plan
     }
     // The map's own resolution may differ from the parameters' grid: the kernels are sized on it.
     check_radius_cells("robot.radius_m", params.robot.radius_m, g.resolution_m)?;
-    check_waypoint_spacing(params.waypoint_spacing_m(), g.resolution_m)?;
+    check_waypoint_spacing("u2.waypoint_spacing_m", params.waypoint_spacing_m(), g.resolution_m)?;
     let requested =
         g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
     let mut inflated = OccupancyGrid { geometry: g, data: std::mem::take(&mut buffers.inflated) };
@@ -202,6 +202,9 @@ pub enum PathScore {
     Fisher,
     /// The path length ρ (the control `u2_length`): no waypoints are computed.
     Length,
+    /// The share of views along the path that hold enough landmark voxels
+    /// ([`path_tracked_share`]; the positive control `u2_truth`, given the world's landmarks).
+    TrackedShare,
 }
 
 /// Step 5 (FIT-SLAM): waypoints, path information (or, with [`PathScore::Length`], the path
@@ -238,6 +241,11 @@ pub fn score_u2(decision: &mut Decision, input: &DecisionInput, params: &Params,
         let ip = match score {
             PathScore::Fisher => path_information(&c.path_m, c.theta_star_rad.unwrap_or(0.0), &view, &mut c.waypoints),
             PathScore::Length => c.rho_m.unwrap_or(0.0),
+            PathScore::TrackedShare => {
+                // At least a cell of the decision's map, which may be coarser than the parameters' grid.
+                let dense = PathView { spacing_m: params.u2.tracked_spacing_m.max(input.grid.geometry.resolution_m), ..view };
+                path_tracked_share(&c.path_m, c.theta_star_rad.unwrap_or(0.0), &dense, params.u2.tracked_min_voxels, &mut c.waypoints)
+            }
         };
         c.path_info_raw = Some(ip);
         raw.push(ip);

@@ -7,6 +7,12 @@
 //! of the Fisher information I_p. I_p sums the information at waypoints every few metres along the
 //! path, so a longer path collects more of it; if `fit` and `u2_length` choose alike, I_p acts
 //! mostly as a reward for going far.
+//!
+//! With [`PathScore::TrackedShare`] it is the positive control `u2_truth`: I_p replaced by the
+//! share of views along the path (every `u2.tracked_spacing_m`, and the goal at Θ*) that hold at
+//! least `u2.tracked_min_voxels` landmark voxels, normalised the same way. The simulator gives it
+//! the world's true landmarks, mapped or not ([`Strategy::reads_true_landmarks`]): a choice that
+//! knows where the visual front end will starve, which an information model can only approach.
 
 use super::candidates::{PathScore, PlanBuffers, plan, rank_by_u2, score_u2, set_goal_heading};
 use super::{Decision, DecisionInput, GoalSelector, SelectError};
@@ -45,6 +51,7 @@ impl GoalSelector for FitSlam {
         match self.score {
             PathScore::Fisher => Strategy::Fit,
             PathScore::Length => Strategy::U2Length,
+            PathScore::TrackedShare => Strategy::U2Truth,
         }
     }
 }

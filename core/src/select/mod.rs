@@ -6,7 +6,7 @@
 //! |---|---|
 //! | [`candidates`] | inflate, robot cell (snap), frontiers, one Dijkstra, blacklist, rays, u1, u2 |
 //! | [`report`] | [`Decision`], [`CandidateReport`], [`DropReason`] (serde) |
-//! | [`fit`] | FIT-SLAM: u2 over the N best by u1 (and the control `u2_length`: u2 with the path length in place of I_p) |
+//! | [`fit`] | FIT-SLAM: u2 over the N best by u1 (and the controls `u2_length`: u2 with the path length in place of I_p; `u2_truth`: with the share of tracked views) |
 //! | [`greedy`] | smallest ρ |
 //! | [`random`] | uniform among reachable candidates, seeded ChaCha8 |
 //! | `u1_only` | ablation: u1 alone |
@@ -253,6 +253,7 @@ pub fn make_selector(params: &SelectorParams) -> Box<dyn GoalSelector> {
         Strategy::Matched => Box::new(LengthMatched::new(params.seed, MatchPool::Reachable)),
         Strategy::MatchedTop => Box::new(LengthMatched::new(params.seed, MatchPool::TopN)),
         Strategy::U2Length => Box::new(FitSlam::with_path_score(PathScore::Length)),
+        Strategy::U2Truth => Box::new(FitSlam::with_path_score(PathScore::TrackedShare)),
     }
 }
 

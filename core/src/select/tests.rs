@@ -516,3 +516,38 @@ fn u2_with_path_length_ranks_by_beta_u1_plus_normalised_length() {
     let fit = FitSlam::default().select(&input, &valid(&p)).unwrap();
     assert_eq!(fit.candidates.iter().map(|c| c.u1).collect::<Vec<_>>(), d.candidates.iter().map(|c| c.u1).collect::<Vec<_>>());
 }
+
+/// `u2_truth`: u2 = β u1 + (1 − β) s / max s over the N best, s the share of views (every
+/// `tracked_spacing_m` and the goal) that hold at least `tracked_min_voxels` voxels; in the
+/// corridor with landmarks only to the east it goes east, where greedy goes west.
+#[test]
+fn u2_truth_ranks_by_the_share_of_tracked_views() {
+    let w = corridor_two_frontiers(true);
+    let mut p = params();
+    p.u2.tracked_min_voxels = 3;
+    let lv = voxels(&w, &p);
+    let bl = Blacklist::new(p.frontier.blacklist_radius_m);
+    let input = DecisionInput::new(&w.grid, &lv, w.robot, &bl);
+    let d = make_selector(&SelectorParams { strategy: Strategy::U2Truth, ..SelectorParams::default() }).select(&input, &valid(&p)).unwrap();
+    assert_eq!(d.strategy, Strategy::U2Truth);
+    let top: Vec<&CandidateReport> = d.candidates.iter().filter(|c| c.u2.is_some()).collect();
+    assert_eq!(top.len(), 2);
+    let share = |c: &CandidateReport| c.waypoints.iter().filter(|w| w.voxels_seen >= 3).count() as f64 / c.waypoints.len() as f64;
+    let max_share = top.iter().map(|c| share(c)).fold(0.0, f64::max);
+    for c in &top {
+        // Views 0.5 m apart along the path, then the goal.
+        for pair in c.waypoints.windows(2).filter(|w| !w[1].is_goal) {
+            assert!((pair[1].arc_length_m - pair[0].arc_length_m - 0.5).abs() < 1e-9);
+        }
+        assert_eq!(c.path_info_raw, Some(share(c)));
+        let expected = p.u2.beta * c.u1.unwrap() + (1.0 - p.u2.beta) * share(c) / max_share;
+        assert!((c.u2.unwrap() - expected).abs() < 1e-12);
+    }
+    let west = top.iter().find(|c| c.x_m < w.robot.x_m).unwrap();
+    let east = top.iter().find(|c| c.x_m > w.robot.x_m).unwrap();
+    assert_eq!(share(west), 0.0, "no landmark to the west");
+    assert!(share(east) > 0.5, "most views east see the walls' landmarks: {}", share(east));
+    assert!(d.goal.unwrap().x_m > w.robot.x_m);
+    let greedy = Greedy::default().select(&input, &valid(&p)).unwrap();
+    assert!(greedy.goal.unwrap().x_m < w.robot.x_m);
+}

@@ -23,8 +23,8 @@
 //! cell at a decision, and the metrics count known cells from flags kept without estimating.
 //!
 //! Cost per tick: O(path) control; per scan O(rays × march) + O(points × disc cells) + O(path
-//! corridor); per decision the selector's cost (one Dijkstra, rays, u2) plus the stale cells'
-//! estimates and O(cells) thresholding; per metrics row O(cells whose disc changed).
+//! corridor); per decision the selector's (one Dijkstra, rays, u2), the stale cells' estimates,
+//! O(cells) thresholding; per metrics row O(cells whose disc changed).
 
 use super::corridor::CorridorCheck;
 use super::localisation::{Localisation, Localiser, PoseCovariance, new_localiser};
@@ -335,8 +335,7 @@ impl Mission {
     fn decide(&mut self, replanning: bool) -> Option<EndReason> {
         let mut grid = self.occupancy();
         self.localiser.prepare_decision(&mut self.tmap);
-        let u2 = &self.explorer.planner().u2;
-        let cloud = self.localiser.landmark_map(u2.sigma_landmark_m);
+        let (u2, cloud) = (&self.explorer.planner().u2, self.policy_landmarks());
         let voxels = LandmarkVoxels::new(&cloud, u2.voxel_m, u2.sigma_landmark_m).unwrap_or_else(|_| LandmarkVoxels::empty(u2.voxel_m));
         let est = self.localiser.pose();
         let cov = self.localiser.covariance().xy_yaw;
@@ -396,16 +395,13 @@ impl Mission {
         self.metrics.record(&sample, &mut self.tmap, params, self.sim.world(), self.mission.metrics_period_s);
     }
 
-    // ---------------------------------------------------------------- what the faces read
-
     /// The robot's map: thresholded traversability (0 free, 100 lethal, −1 unknown).
     pub fn occupancy(&mut self) -> OccupancyGrid {
         let tau = self.explorer.planner().traversability.tau;
         self.layers().to_occupancy(tau)
     }
 
-    /// The robot's traversability layers, brought up to date (O(cells changed since the last
-    /// decision)).
+    /// The robot's traversability layers, brought up to date (O(cells changed since the last decision)).
     pub fn layers(&mut self) -> &TraversabilityLayers {
         self.tmap.update(&self.explorer.planner().traversability, &mut self.layers);
         &self.layers
@@ -417,9 +413,15 @@ impl Mission {
         self.localiser.landmark_map(self.explorer.planner().u2.sigma_landmark_m)
     }
 
+    /// The landmarks the policy reads: the map's, or the world's true ones for a strategy that
+    /// [`Strategy::reads_true_landmarks`] (the map frame starts as the world's).
+    pub fn policy_landmarks(&self) -> PointCloud {
+        let truth = self.strategy.reads_true_landmarks().then(|| PointCloud::from_points(self.sim.world().landmarks.clone()));
+        truth.unwrap_or_else(|| self.landmark_map())
+    }
+
     #[cfg(test)]
-    /// The grid the last decision planned on: the robot's map, thresholded, with its footprint
-    /// cleared if the robot was blocked in it; `None` before the first decision.
+    /// The grid the last decision planned on (thresholded, its footprint cleared if blocked).
     pub(crate) fn planning_grid(&self) -> Option<&OccupancyGrid> {
         self.planning_grid.as_ref()
     }
@@ -580,8 +582,6 @@ impl Mission {
             total_plan_ms: e.total_plan_ms,
         }
     }
-
-    // ---------------------------------------------------------------- test hooks
 
     /// Registers `points_m` (true world frame) as if sensed now, as a sensing glitch would.
     #[cfg(test)]

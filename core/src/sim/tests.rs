@@ -1069,3 +1069,18 @@ fn world_seeds_draw_family_members_and_starts_the_robot_fits() {
     starts.dedup();
     assert!(starts.len() >= 3, "{starts:?}");
 }
+
+#[test]
+fn u2_truth_plans_on_the_worlds_landmarks_and_the_others_on_the_map() {
+    for strategy in [Strategy::U2Truth, Strategy::Fit] {
+        let mut m = tiny_mission(strategy, 1, true, 30.0);
+        while m.time_s() < 20.0 && m.step() == StepOutcome::Running {}
+        let (policy, map, world) = (m.policy_landmarks(), m.landmark_map(), m.world().landmarks.clone());
+        assert!(!map.is_empty() && map.len() < world.len(), "{} of {} mapped", map.len(), world.len());
+        if strategy == Strategy::U2Truth {
+            assert_eq!(policy.points, world);
+        } else {
+            assert_eq!(policy, map);
+        }
+    }
+}

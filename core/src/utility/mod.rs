@@ -23,7 +23,7 @@ pub(crate) use theta_star::FovWindows;
 pub use theta_star::{ThetaStar, theta_star};
 pub(crate) use u1::u1_scores;
 pub use u2::WaypointReport;
-pub(crate) use u2::{PathView, normalise_path_information, path_information, u2_score};
+pub(crate) use u2::{PathView, normalise_path_information, path_information, path_tracked_share, u2_score};
 pub use voxels::LandmarkVoxels;
 
 use thiserror::Error;

@@ -337,6 +337,24 @@ pub(crate) fn path_information(path_m: &[[f64; 2]], goal_yaw_rad: f64, view: &Pa
     total
 }
 
+/// The share of `path_m`'s views (every `view.spacing_m` and the goal with yaw `goal_yaw_rad`, as
+/// [`path_information`] takes them) that hold at least `min_voxels` landmark voxels: how much of
+/// the path a visual front end needing that many landmarks in view would track. In [0, 1]; 0 for
+/// an empty path. Writes one report per view into `out` (cleared).
+pub(crate) fn path_tracked_share(
+    path_m: &[[f64; 2]],
+    goal_yaw_rad: f64,
+    view: &PathView,
+    min_voxels: usize,
+    out: &mut Vec<WaypointReport>,
+) -> f64 {
+    path_information(path_m, goal_yaw_rad, view, out);
+    if out.is_empty() {
+        return 0.0;
+    }
+    out.iter().filter(|w| w.voxels_seen >= min_voxels).count() as f64 / out.len() as f64
+}
+
 /// Normalises path informations over the candidates (paper eq. 12: divide by the max; or by the
 /// mean). All zeros (or an empty slice) stay zeros.
 pub(crate) fn normalise_path_information(raw: &[f64], mode: InfoNormalisation, out: &mut Vec<f64>) {
@@ -529,6 +547,32 @@ mod tests {
         assert!(a > 0.0 && (a - b).abs() < 1e-6 * b);
     }
 
+    /// A level camera 0.2 m above flat ground at z = 0, views every `spacing_m`.
+    fn level_view<'a>(v: &'a LandmarkVoxels, cam: &'a CameraParams, spacing_m: f64) -> PathView<'a> {
+        PathView { voxels: v, camera: cam, camera_height_m: 0.2, ground: CameraGround::flat(0.0), spacing_m, sigma_bearing_rad: 0.01 }
+    }
+
+    #[test]
+    fn tracked_share_by_hand() {
+        // Three landmark voxels side by side at x = 3.6 m, 0.1 m below a level camera 0.2 m up.
+        let points = [-0.3, 0.0, 0.3].map(|y| Point3::new(3.6, y, 0.1));
+        let v = LandmarkVoxels::new(&PointCloud::from_points(points.to_vec()), 0.25, 0.05).unwrap();
+        assert_eq!(v.len(), 3);
+        let path: Vec<[f64; 2]> = (0..=60).map(|k| [k as f64 * 0.1, 0.0]).collect();
+        let cam = CameraParams::default();
+        let view = level_view(&v, &cam, 1.0);
+        let mut rep = Vec::new();
+        // Views at x = 1, 2, 3, 4, 5 and the goal at 6, all facing +x. From x = 1, 2, 3 the three
+        // lie 2.6, 1.6 and 0.6 m deep (in [0.3, 3]), 0.3 m aside (≤ depth · tan 43.5°) and 0.1 m
+        // down (≤ depth · tan 29°); from x ≥ 4 they are behind.
+        assert_eq!(path_tracked_share(&path, 0.0, &view, 3, &mut rep), 0.5);
+        assert_eq!(rep.iter().map(|r| r.voxels_seen).collect::<Vec<_>>(), vec![3, 3, 3, 0, 0, 0]);
+        assert_eq!(path_tracked_share(&path, 0.0, &view, 4, &mut rep), 0.0);
+        // Facing back (−x) at the goal sees them 2.4 m deep: 4 of 6 views.
+        assert!((path_tracked_share(&path, std::f64::consts::PI, &view, 3, &mut rep) - 4.0 / 6.0).abs() < 1e-15);
+        assert_eq!(path_tracked_share(&[], 0.0, &view, 1, &mut rep), 0.0);
+    }
+
     #[test]
     fn path_information_sums_waypoints() {
         let cloud = PointCloud::from_points(vec![Point3::new(4.0, 0.0, 0.2), Point3::new(7.5, 0.0, 0.2)]);
@@ -536,14 +580,7 @@ mod tests {
         let path: Vec<[f64; 2]> = (0..=60).map(|k| [k as f64 * 0.1, 0.0]).collect();
         let mut rep = Vec::new();
         let cam = CameraParams::default();
-        let view = PathView {
-            voxels: &v,
-            camera: &cam,
-            camera_height_m: 0.2,
-            ground: CameraGround::flat(0.0),
-            spacing_m: 3.0,
-            sigma_bearing_rad: 0.01,
-        };
+        let view = level_view(&v, &cam, 3.0);
         let ip = path_information(&path, 0.0, &view, &mut rep);
         assert_eq!(rep.len(), 2); // s = 3 and the goal at 6
         let sum: f64 = rep.iter().map(|r| r.info).sum();

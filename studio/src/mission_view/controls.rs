@@ -29,6 +29,7 @@ pub(super) fn controls(ui: &mut egui::Ui, m: &mut MissionView, params: &fitslam_
             "strategy_matched",
             "strategy_matched_top",
             "strategy_u2_length",
+            "strategy_u2_truth",
         ];
         for (k, s) in Strategy::ALL.into_iter().enumerate() {
             let mut on = m.config.strategies.contains(&s);

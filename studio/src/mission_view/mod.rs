@@ -53,6 +53,7 @@ pub fn strategy_color(s: Strategy) -> Color32 {
         Strategy::Matched => Color32::from_rgb(190, 150, 255),
         Strategy::MatchedTop => Color32::from_rgb(255, 160, 90),
         Strategy::U2Length => Color32::from_rgb(200, 200, 200),
+        Strategy::U2Truth => Color32::from_rgb(120, 230, 230),
     }
 }
 
@@ -355,10 +356,26 @@ fn lanes(ui: &mut egui::Ui, m: &mut MissionView, widget_rects: &mut WidgetRects,
 /// One lane: header and map. Returns whether "open in planner" was clicked.
 fn lane(ui: &mut egui::Ui, m: &mut MissionView, i: usize, rects: &mut Vec<(&'static str, Rect)>) -> bool {
     // One name per lane: a lane per strategy at most.
-    const NAMES: [&str; Strategy::ALL.len()] =
-        ["mission_lane0", "mission_lane1", "mission_lane2", "mission_lane3", "mission_lane4", "mission_lane5", "mission_lane6"];
-    const OPEN: [&str; Strategy::ALL.len()] =
-        ["mission_open0", "mission_open1", "mission_open2", "mission_open3", "mission_open4", "mission_open5", "mission_open6"];
+    const NAMES: [&str; Strategy::ALL.len()] = [
+        "mission_lane0",
+        "mission_lane1",
+        "mission_lane2",
+        "mission_lane3",
+        "mission_lane4",
+        "mission_lane5",
+        "mission_lane6",
+        "mission_lane7",
+    ];
+    const OPEN: [&str; Strategy::ALL.len()] = [
+        "mission_open0",
+        "mission_open1",
+        "mission_open2",
+        "mission_open3",
+        "mission_open4",
+        "mission_open5",
+        "mission_open6",
+        "mission_open7",
+    ];
     let tex = lane_texture(ui, m, i);
     let Some(r) = &m.runner else { return false };
     let Some(lane) = r.lanes.get(i) else { return false };
