@@ -1,7 +1,8 @@
 //! One whole mission from files, shared by `fitslam explore` and `fitslam compare`: the options
 //! they share ([`MissionArgs`]), the world and parameters read and built once ([`Setup`]), and a
 //! run that writes every output file ([`run_and_write`]): `metrics.csv` (byte-identical for a
-//! seed), `timing.csv` (wall time of the decisions), `trajectory_est.tum` / `trajectory_gt.tum`,
+//! seed), `timing.csv` (wall time of the decisions), `tracking_losses.csv` (each loss of visual
+//! tracking and its ground), `trajectory_est.tum` / `trajectory_gt.tum`,
 //! `summary.json`, the final maps (map_server YAML + PGM: the robot's map and the ground truth),
 //! and plots of % unexplored and cov_trace over time (SVG and PNG, [`crate::plot`]).
 
@@ -14,7 +15,8 @@ use fitslam_core::io;
 use fitslam_core::params::{Params, Strategy, Valid};
 use fitslam_core::sim::recorder::MissionRecorder;
 use fitslam_core::sim::{
-    Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary, World, WorldSpec, metrics_csv, timing_csv, tum,
+    Localisation, MetricsRow, Mission, MissionParams, StepOutcome, Summary, World, WorldSpec, metrics_csv, timing_csv, tracking_losses_csv,
+    tum,
 };
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -220,6 +222,7 @@ pub fn run_and_write(
     }
     load::write(&out.join("metrics.csv"), metrics_csv(mission.rows()).as_bytes())?;
     load::write(&out.join("timing.csv"), timing_csv(mission.rows()).as_bytes())?;
+    load::write(&out.join("tracking_losses.csv"), tracking_losses_csv(mission.tracking_losses()).as_bytes())?;
     load::write(&out.join("trajectory_gt.tum"), tum(mission.trajectory_gt()).as_bytes())?;
     load::write(&out.join("trajectory_est.tum"), tum(mission.trajectory_est()).as_bytes())?;
     let mut json = serde_json::to_value(&summary)?;

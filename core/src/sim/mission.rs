@@ -426,6 +426,11 @@ impl Mission {
         self.planning_grid.as_ref()
     }
 
+    /// The tracking losses so far, with their ground (empty without SLAM).
+    pub fn tracking_losses(&self) -> &[super::TrackingLoss] {
+        self.localiser.tracking_losses()
+    }
+
     /// The last decision that ranked candidates (the whole ranking).
     pub fn last_decision(&self) -> Option<&Decision> {
         self.explorer.last_decision()
@@ -493,11 +498,6 @@ impl Mission {
     /// The goal selector in use.
     pub fn strategy(&self) -> Strategy {
         self.strategy
-    }
-
-    /// The localisation in use.
-    pub fn localisation(&self) -> Localisation {
-        self.localiser.kind()
     }
 
     /// The mission's seed (sensors and selector).

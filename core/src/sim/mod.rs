@@ -36,6 +36,7 @@ pub use heightfield::{DemScaling, Heightfield};
 pub use landmarks::{LandmarkDensity, scatter_landmarks};
 pub use localisation::Localisation;
 pub use localisation::PoseCovariance;
+pub use localisation::{TrackingLoss, tracking_losses_csv};
 pub use metrics::{MetricsCsvError, MetricsRow, StampedPose, Summary, metrics_csv, read_metrics_csv, timing_csv, tum};
 pub use mission::MissionError;
 pub use mission::{Mission, StepOutcome};

@@ -1084,3 +1084,39 @@ fn u2_truth_plans_on_the_worlds_landmarks_and_the_others_on_the_map() {
         }
     }
 }
+
+#[test]
+fn every_tracking_loss_is_logged_with_its_ground() {
+    // The patchy world: textured ground with bare patches, where the front end loses track.
+    let text = String::from_utf8(files("patchy_unstructured_20m.toml").unwrap()).unwrap();
+    let spec = WorldSpec::from_toml(&text, "patchy").unwrap();
+    let params = Params::default();
+    let world = World::build(&spec, &params.traversability, params.traversability.tau, files).unwrap();
+    let mp = MissionParams { time_limit_s: Some(300.0), ..MissionParams::default() };
+    let mut m = Mission::new(world, valid(params), valid(mp), Strategy::Greedy, 1, Localisation::Slam).unwrap();
+    let s = m.run();
+    let losses = m.tracking_losses();
+    assert!(s.tracking_losses > 0, "the patchy world's bare patches lose track");
+    assert_eq!(losses.len() as u64, s.tracking_losses);
+    let min_tracked = m.mission_params().vision.min_tracked;
+    for pair in losses.windows(2) {
+        assert!(pair[0].time_s < pair[1].time_s);
+    }
+    for l in losses {
+        assert!(l.mapped < min_tracked && l.mapped <= l.features, "{l:?}");
+        assert!(l.time_s > 0.0 && l.time_s <= s.time_s && l.ground_landmarks_per_m2 >= 0.0 && l.nearest_mapped_m >= 0.0, "{l:?}");
+    }
+    assert!(
+        Mission::new(
+            tiny_world(&Params::default()),
+            valid(Params::default()),
+            valid(MissionParams::default()),
+            Strategy::Greedy,
+            1,
+            Localisation::GroundTruth
+        )
+        .unwrap()
+        .tracking_losses()
+        .is_empty()
+    );
+}

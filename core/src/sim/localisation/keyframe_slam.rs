@@ -5,11 +5,11 @@
 //! the keyframe clouds when a loop closure moves the keyframes, the planner's landmark map with
 //! SLAM covariances.
 
-use super::tracking::VisualTracking;
+use super::tracking::{TrackingLoss, VisualTracking};
 use super::{Localisation, LocalisationStats, Localiser, PoseCovariance};
 use crate::PointCloud;
 use crate::math;
-use crate::pose::Pose2;
+use crate::pose::{Pose2, wrap_pi};
 use crate::sim::camera::CameraObservation;
 use crate::sim::world_sim::{BodyPose, Motion, WorldSim};
 use crate::slam::keyframes::{SlamFrontend, SlamModel, SlamParams};
@@ -29,6 +29,13 @@ pub(crate) struct KeyframeSlamLocaliser {
     xy_yaw: Matrix3<f64>,
     slam_errors: u64,
     tracking: VisualTracking,
+    /// The tracking-loss log.
+    losses: Vec<TrackingLoss>,
+    /// Mission time (the sum of the ticks), seconds; the true yaw at the last tick and the true
+    /// yaw rate over it (the loss log's context).
+    time_s: f64,
+    true_yaw_rad: f64,
+    yaw_rate_radps: f64,
     /// Features matched to the wrong landmark by the front end so far.
     wrong_associations: u64,
     /// A loop closure moved keyframes since the map was last re-registered.
@@ -55,6 +62,10 @@ impl KeyframeSlamLocaliser {
         Ok(Self {
             kind,
             tracking: VisualTracking::new(sim.vision_params()),
+            losses: Vec::new(),
+            time_s: 0.0,
+            true_yaw_rad: sim.pose().yaw_rad,
+            yaw_rate_radps: 0.0,
             wrong_associations: counts.wrong as u64,
             reregister_pending: false,
             features: Vec::new(),
@@ -92,6 +103,10 @@ impl Localiser for KeyframeSlamLocaliser {
     fn propagate(&mut self, sim: &mut WorldSim, _motion: &Motion, dt_s: f64) {
         let step = sim.body_increment(dt_s, &self.params);
         self.tracking.tick(dt_s);
+        self.time_s += dt_s;
+        let yaw = sim.pose().yaw_rad;
+        self.yaw_rate_radps = if dt_s > 0.0 { wrap_pi(yaw - self.true_yaw_rad) / dt_s } else { 0.0 };
+        self.true_yaw_rad = yaw;
         self.frontend.odometry_step(&step);
         self.est = pose2_of(&self.frontend.estimate());
         self.update_covariance();
@@ -109,7 +124,11 @@ impl Localiser for KeyframeSlamLocaliser {
         self.features.clear();
         self.features.extend_from_slice(sim.last_observations());
         let backend = self.frontend.backend();
-        self.tracking.at_keyframe(&mut self.features, |id| backend.has_landmark(id));
+        if let Some(counts) = self.tracking.at_keyframe(&mut self.features, |id| backend.has_landmark(id)) {
+            let p = sim.pose();
+            let context = (self.time_s, p.x_m, p.y_m, self.yaw_rate_radps);
+            self.losses.push(TrackingLoss::at(context, counts, &sim.world().landmarks, |id| backend.has_landmark(id)));
+        }
         let up = sim.gravity_up(self.params.gravity_sigma_rad);
         let outcome = self.frontend.add_keyframe(&self.features, Some(up));
         self.est = pose2_of(&self.frontend.estimate());
@@ -160,6 +179,10 @@ impl Localiser for KeyframeSlamLocaliser {
     /// Forgets the keyframe clouds there too, so that no later re-registration brings it back.
     fn forget_disc(&mut self, map: &mut TraversabilityMap, x_m: f64, y_m: f64, radius_m: f64) {
         self.frontend.forget_disc(map, x_m, y_m, radius_m);
+    }
+
+    fn tracking_losses(&self) -> &[TrackingLoss] {
+        &self.losses
     }
 
     fn stats(&self) -> LocalisationStats {

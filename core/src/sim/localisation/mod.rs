@@ -18,6 +18,7 @@ pub(crate) use dead_reckoning::DeadReckoning;
 pub(crate) use ground_truth::GroundTruth;
 pub(crate) use keyframe_slam::KeyframeSlamLocaliser;
 pub(crate) use tracking::TrackingStats;
+pub use tracking::{LOSS_GROUND_RADIUS_M, TRACKING_LOSSES_HEADER, TrackingLoss, tracking_losses_csv};
 
 use super::world_sim::{BodyPose, Motion, WorldSim};
 use crate::PointCloud;
@@ -174,6 +175,11 @@ pub(crate) trait Localiser {
     }
 
     fn stats(&self) -> LocalisationStats;
+
+    /// The tracking losses so far (empty without a visual front end).
+    fn tracking_losses(&self) -> &[TrackingLoss] {
+        &[]
+    }
 
     /// The SLAM front end and its back end, for inspection.
     fn slam(&self) -> Option<&SlamFrontend> {

@@ -8,6 +8,75 @@
 
 use crate::sim::camera::CameraObservation;
 use crate::sim::vision::VisionParams;
+use nalgebra::Point3;
+use serde::Serialize;
+
+/// Radius around the robot over which a loss's ground texture is counted, metres (the front
+/// end's full-detection range).
+pub const LOSS_GROUND_RADIUS_M: f64 = 1.5;
+
+/// One loss of visual tracking and the ground it happened on (the simulator's truth): what the
+/// tracking-loss log (`tracking_losses.csv`) holds per loss.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct TrackingLoss {
+    /// Mission time, seconds.
+    pub time_s: f64,
+    /// True position, world frame, metres.
+    pub x_m: f64,
+    /// True position, world frame, metres.
+    pub y_m: f64,
+    /// True yaw rate over the last control tick, rad/s (a turn in place shows here).
+    pub yaw_rate_radps: f64,
+    /// Features the keyframe kept.
+    pub features: usize,
+    /// Of them, matched to mapped landmarks (below `min_tracked`: the loss).
+    pub mapped: usize,
+    /// The world's landmarks per m² within [`LOSS_GROUND_RADIUS_M`] of the robot: how textured
+    /// the ground is there (0 on bare ground).
+    pub ground_landmarks_per_m2: f64,
+    /// Distance from the robot to the nearest mapped landmark (true positions), metres; infinite
+    /// with none mapped.
+    pub nearest_mapped_m: f64,
+}
+
+impl TrackingLoss {
+    /// The loss at (`x_m`, `y_m`) among the world's `landmarks` (their index is their id), of
+    /// which `is_mapped` tells the mapped ones. O(landmarks).
+    pub(crate) fn at(
+        (time_s, x_m, y_m, yaw_rate_radps): (f64, f64, f64, f64),
+        (features, mapped): (usize, usize),
+        landmarks: &[Point3<f64>],
+        is_mapped: impl Fn(u64) -> bool,
+    ) -> Self {
+        let mut near = 0usize;
+        let mut nearest_mapped_m = f64::INFINITY;
+        for (id, p) in landmarks.iter().enumerate() {
+            let d = crate::math::hypot(p.x - x_m, p.y - y_m);
+            near += usize::from(d <= LOSS_GROUND_RADIUS_M);
+            if d < nearest_mapped_m && is_mapped(id as u64) {
+                nearest_mapped_m = d;
+            }
+        }
+        let area_m2 = std::f64::consts::PI * LOSS_GROUND_RADIUS_M * LOSS_GROUND_RADIUS_M;
+        Self { time_s, x_m, y_m, yaw_rate_radps, features, mapped, ground_landmarks_per_m2: near as f64 / area_m2, nearest_mapped_m }
+    }
+}
+
+/// Header of `tracking_losses.csv`.
+pub const TRACKING_LOSSES_HEADER: &str = "time_s,x_m,y_m,yaw_rate_radps,features,mapped,ground_landmarks_per_m2,nearest_mapped_m";
+
+/// `tracking_losses.csv`: one row per loss, in time order ([`TRACKING_LOSSES_HEADER`]; `inf`
+/// where nothing was mapped).
+pub fn tracking_losses_csv(losses: &[TrackingLoss]) -> String {
+    let mut s = format!("{TRACKING_LOSSES_HEADER}\n");
+    for l in losses {
+        s.push_str(&format!(
+            "{:.1},{:.3},{:.3},{:.4},{},{},{:.3},{:.3}\n",
+            l.time_s, l.x_m, l.y_m, l.yaw_rate_radps, l.features, l.mapped, l.ground_landmarks_per_m2, l.nearest_mapped_m
+        ));
+    }
+    s
+}
 
 /// Tracking counters of a mission.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -55,15 +124,18 @@ impl VisualTracking {
     }
 
     /// A keyframe's features: keeps in `features` those the SLAM may use (`is_mapped` tells the
-    /// landmarks already in the map).
-    pub(crate) fn at_keyframe(&mut self, features: &mut Vec<CameraObservation>, is_mapped: impl Fn(u64) -> bool) {
+    /// landmarks already in the map). Returns (features, mapped matches) when tracking is lost at
+    /// this keyframe.
+    pub(crate) fn at_keyframe(&mut self, features: &mut Vec<CameraObservation>, is_mapped: impl Fn(u64) -> bool) -> Option<(usize, usize)> {
         let mapped = features.iter().filter(|o| is_mapped(o.landmark_id)).count();
+        let mut lost_here = None;
         if !self.stats.lost {
             if mapped >= self.min_tracked {
-                return;
+                return None;
             }
             self.stats.losses += 1;
             self.stats.lost = true;
+            lost_here = Some((features.len(), mapped));
         }
         if mapped >= self.relocalise_min {
             self.stats.relocalisations += 1;
@@ -75,6 +147,7 @@ impl VisualTracking {
         } else {
             features.clear();
         }
+        lost_here
     }
 }
 
@@ -101,13 +174,13 @@ mod tests {
         assert_eq!((f.len(), t.stats().lost), (4, false));
         // 2 mapped, 1 new: lost; nothing is used; time counts.
         let mut f = features([1, 2, 300]);
-        t.at_keyframe(&mut f, mapped);
+        assert_eq!(t.at_keyframe(&mut f, mapped), Some((3, 2)));
         assert!(f.is_empty() && t.stats().lost && t.stats().losses == 1);
         t.tick(0.5);
         t.tick(0.25);
         // 4 mapped (< 5) and 3 new (< 4): still lost, not counted twice.
         let mut f = features([1, 2, 3, 4, 301, 302, 303]);
-        t.at_keyframe(&mut f, mapped);
+        assert_eq!(t.at_keyframe(&mut f, mapped), None);
         assert!(f.is_empty() && t.stats().losses == 1 && t.stats().lost);
         // 5 mapped: relocalised, all used.
         let mut f = features([1, 2, 3, 4, 5, 400]);
@@ -117,9 +190,28 @@ mod tests {
         assert_eq!(t.stats().lost_s, 0.75);
         // Lost again with 4 new features: a new map segment at once, from the new ones only.
         let mut f = features([7, 500, 501, 502, 503]);
-        t.at_keyframe(&mut f, mapped);
+        assert_eq!(t.at_keyframe(&mut f, mapped), Some((5, 1)));
         let s = t.stats();
         assert_eq!((s.losses, s.new_maps, s.lost), (2, 1, false));
         assert_eq!(f.iter().map(|o| o.landmark_id).collect::<Vec<_>>(), vec![500, 501, 502, 503]);
+    }
+
+    #[test]
+    fn a_loss_records_its_grounds_texture_and_the_nearest_mapped_landmark_by_hand() {
+        // Four landmarks: two within 1.5 m of the robot at (0, 0) (at 1 m and 1.5 m), one at
+        // 2 m, one at 5 m; ids 2 and 3 mapped.
+        let world = [Point3::new(1.0, 0.0, 0.0), Point3::new(0.0, -1.5, 0.2), Point3::new(0.0, 2.0, 0.0), Point3::new(3.0, 4.0, 0.0)];
+        let l = TrackingLoss::at((12.0, 0.0, 0.0, 0.5), (8, 2), &world, |id| id >= 2);
+        assert!((l.ground_landmarks_per_m2 - 2.0 / (std::f64::consts::PI * 2.25)).abs() < 1e-12);
+        assert_eq!(l.nearest_mapped_m, 2.0);
+        assert_eq!((l.features, l.mapped, l.time_s, l.yaw_rate_radps), (8, 2, 12.0, 0.5));
+        let none = TrackingLoss::at((0.0, 10.0, 10.0, 0.0), (0, 0), &world, |_| false);
+        assert_eq!((none.ground_landmarks_per_m2, none.nearest_mapped_m), (0.0, f64::INFINITY));
+        let csv = tracking_losses_csv(&[l, none]);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(
+            lines,
+            vec![TRACKING_LOSSES_HEADER, "12.0,0.000,0.000,0.5000,8,2,0.283,2.000", "0.0,10.000,10.000,0.0000,0,0,0.000,inf"]
+        );
     }
 }
