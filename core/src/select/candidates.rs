@@ -203,7 +203,7 @@ pub enum PathScore {
     /// The path length ρ (the control `u2_length`): no waypoints are computed.
     Length,
     /// The share of views along the path that hold enough landmark voxels
-    /// ([`path_tracked_share`]; the positive control `u2_truth`, given the world's landmarks).
+    /// (`path_tracked_share`; the control `u2_truth`, given the world's landmarks).
     TrackedShare,
 }
 
