@@ -192,10 +192,10 @@ impl Validate for Params {
         if let Some(s) = self.u2.waypoint_spacing_m {
             pos("u2.waypoint_spacing_m", s)?;
         }
-        check_waypoint_spacing("u2.waypoint_spacing_m", self.waypoint_spacing_m(), self.grid.resolution_m)?;
+        check_waypoint_spacing(self.waypoint_spacing_m(), self.grid.resolution_m)?;
         pos("u2.sigma_bearing_rad", self.u2.sigma_bearing_rad)?;
         nonneg("u2.sigma_landmark_m", self.u2.sigma_landmark_m)?;
-        check_waypoint_spacing("u2.tracked_spacing_m", self.u2.tracked_spacing_m, self.grid.resolution_m)?;
+        pos("u2.tracked_spacing_m", self.u2.tracked_spacing_m)?;
         if self.u2.tracked_min_voxels == 0 {
             return bad("u2.tracked_min_voxels", "must be ≥ 1".into());
         }
@@ -222,14 +222,14 @@ pub(crate) fn check_radius_cells(name: &str, radius_m: f64, resolution_m: f64) -
     }
 }
 
-/// `Ok` when u2's waypoints (`name`) are at least a cell of `resolution_m` apart (closer ones add
-/// nothing but work: a path of L metres has L / spacing of them).
-pub(crate) fn check_waypoint_spacing(name: &str, spacing_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
+/// `Ok` when u2's waypoints are at least a cell of `resolution_m` apart (closer ones add nothing
+/// but work: a path of L metres has L / spacing of them).
+pub(crate) fn check_waypoint_spacing(spacing_m: f64, resolution_m: f64) -> Result<(), InvalidParam> {
     if spacing_m >= resolution_m {
         Ok(())
     } else {
         let reason = format!("({} m) must be at least a grid cell ({} m)", Num(spacing_m), Num(resolution_m));
-        Err(InvalidParam::new(name, reason))
+        Err(InvalidParam::new("u2.waypoint_spacing_m", reason))
     }
 }
 

@@ -252,8 +252,9 @@ pub struct U2Params {
     pub follow_terrain: bool,
     /// Known ground hides the voxels behind it (not in the paper). Default false.
     pub occlusion: bool,
-    /// The control `u2_truth`: its views are taken every this far along the path, metres, > 0.
-    /// Default 0.5 (the simulated SLAM's keyframe spacing, where the front end tracks or not).
+    /// The control `u2_truth`: its views are taken every this far along the path (at least one
+    /// cell of the decision's map), metres, > 0. Default 0.5 (the simulated SLAM's keyframe
+    /// spacing, where the front end tracks or not).
     pub tracked_spacing_m: f64,
     /// The control `u2_truth`: a view holding at least this many landmark voxels counts as
     /// tracked, ≥ 1. Default 10 (the front end's `relocalise_min`: 10 matched landmarks).

@@ -76,7 +76,7 @@ pub fn prepare(input: &DecisionInput, params: &Valid<Params>, buffers: &mut Plan
     }
     // The map's own resolution may differ from the parameters' grid: the kernels are sized on it.
     check_radius_cells("robot.radius_m", params.robot.radius_m, g.resolution_m)?;
-    check_waypoint_spacing("u2.waypoint_spacing_m", params.waypoint_spacing_m(), g.resolution_m)?;
+    check_waypoint_spacing(params.waypoint_spacing_m(), g.resolution_m)?;
     let requested =
         g.cell_of(input.robot.x_m, input.robot.y_m).ok_or(SelectError::RobotOutsideMap { x_m: input.robot.x_m, y_m: input.robot.y_m })?;
     let mut inflated = OccupancyGrid { geometry: g, data: std::mem::take(&mut buffers.inflated) };
