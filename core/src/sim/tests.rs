@@ -1102,6 +1102,10 @@ fn every_tracking_loss_is_logged_with_its_ground() {
     for pair in losses.windows(2) {
         assert!(pair[0].time_s < pair[1].time_s);
     }
+    // The losses' durations add up to the time lost (the last one, if never regained, lasts to the end).
+    let lost_s: f64 = losses.iter().map(|l| if l.lost_for_s.is_nan() { s.time_s - l.time_s } else { l.lost_for_s }).sum();
+    assert!((lost_s - s.lost_s).abs() < 1e-6 * s.lost_s.max(1.0), "{lost_s} against {}", s.lost_s);
+    assert!(losses.iter().rev().skip(1).all(|l| l.lost_for_s >= 0.0), "only the last loss can be open");
     for l in losses {
         assert!(l.mapped < min_tracked && l.mapped <= l.features, "{l:?}");
         assert!(l.time_s > 0.0 && l.time_s <= s.time_s && l.ground_landmarks_per_m2 >= 0.0 && l.nearest_mapped_m >= 0.0, "{l:?}");

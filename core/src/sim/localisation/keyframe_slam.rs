@@ -124,10 +124,15 @@ impl Localiser for KeyframeSlamLocaliser {
         self.features.clear();
         self.features.extend_from_slice(sim.last_observations());
         let backend = self.frontend.backend();
+        let was_lost = self.tracking.stats().lost;
         if let Some(counts) = self.tracking.at_keyframe(&mut self.features, |id| backend.has_landmark(id)) {
             let p = sim.pose();
             let context = (self.time_s, p.x_m, p.y_m, self.yaw_rate_radps);
             self.losses.push(TrackingLoss::at(context, counts, &sim.world().landmarks, |id| backend.has_landmark(id)));
+        }
+        // Regained here (possibly at the keyframe that lost it): the loss's duration.
+        if let Some(last) = self.losses.last_mut().filter(|l| l.lost_for_s.is_nan() && !self.tracking.stats().lost) {
+            last.lost_for_s = if was_lost { self.time_s - last.time_s } else { 0.0 };
         }
         let up = sim.gravity_up(self.params.gravity_sigma_rad);
         let outcome = self.frontend.add_keyframe(&self.features, Some(up));

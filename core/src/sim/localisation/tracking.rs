@@ -37,6 +37,9 @@ pub struct TrackingLoss {
     /// Distance from the robot to the nearest mapped landmark (true positions), metres; infinite
     /// with none mapped.
     pub nearest_mapped_m: f64,
+    /// How long tracking stayed lost, seconds (0: regained at the same keyframe); NaN when it
+    /// was not regained by the mission's end.
+    pub lost_for_s: f64,
 }
 
 impl TrackingLoss {
@@ -58,21 +61,23 @@ impl TrackingLoss {
             }
         }
         let area_m2 = std::f64::consts::PI * LOSS_GROUND_RADIUS_M * LOSS_GROUND_RADIUS_M;
-        Self { time_s, x_m, y_m, yaw_rate_radps, features, mapped, ground_landmarks_per_m2: near as f64 / area_m2, nearest_mapped_m }
+        let ground_landmarks_per_m2 = near as f64 / area_m2;
+        Self { time_s, x_m, y_m, yaw_rate_radps, features, mapped, ground_landmarks_per_m2, nearest_mapped_m, lost_for_s: f64::NAN }
     }
 }
 
 /// Header of `tracking_losses.csv`.
-pub const TRACKING_LOSSES_HEADER: &str = "time_s,x_m,y_m,yaw_rate_radps,features,mapped,ground_landmarks_per_m2,nearest_mapped_m";
+pub const TRACKING_LOSSES_HEADER: &str =
+    "time_s,x_m,y_m,yaw_rate_radps,features,mapped,ground_landmarks_per_m2,nearest_mapped_m,lost_for_s";
 
 /// `tracking_losses.csv`: one row per loss, in time order ([`TRACKING_LOSSES_HEADER`]; `inf`
-/// where nothing was mapped).
+/// where nothing was mapped, `NaN` for a loss not regained).
 pub fn tracking_losses_csv(losses: &[TrackingLoss]) -> String {
     let mut s = format!("{TRACKING_LOSSES_HEADER}\n");
     for l in losses {
         s.push_str(&format!(
-            "{:.1},{:.3},{:.3},{:.4},{},{},{:.3},{:.3}\n",
-            l.time_s, l.x_m, l.y_m, l.yaw_rate_radps, l.features, l.mapped, l.ground_landmarks_per_m2, l.nearest_mapped_m
+            "{:.1},{:.3},{:.3},{:.4},{},{},{:.3},{:.3},{:.1}\n",
+            l.time_s, l.x_m, l.y_m, l.yaw_rate_radps, l.features, l.mapped, l.ground_landmarks_per_m2, l.nearest_mapped_m, l.lost_for_s
         ));
     }
     s
@@ -207,11 +212,11 @@ mod tests {
         assert_eq!((l.features, l.mapped, l.time_s, l.yaw_rate_radps), (8, 2, 12.0, 0.5));
         let none = TrackingLoss::at((0.0, 10.0, 10.0, 0.0), (0, 0), &world, |_| false);
         assert_eq!((none.ground_landmarks_per_m2, none.nearest_mapped_m), (0.0, f64::INFINITY));
-        let csv = tracking_losses_csv(&[l, none]);
+        assert!(l.lost_for_s.is_nan(), "not regained yet");
+        let regained = TrackingLoss { lost_for_s: 3.5, ..l };
+        let csv = tracking_losses_csv(&[regained, none]);
         let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(
-            lines,
-            vec![TRACKING_LOSSES_HEADER, "12.0,0.000,0.000,0.5000,8,2,0.283,2.000", "0.0,10.000,10.000,0.0000,0,0,0.000,inf"]
-        );
+        let rows = ["12.0,0.000,0.000,0.5000,8,2,0.283,2.000,3.5", "0.0,10.000,10.000,0.0000,0,0,0.000,inf,NaN"];
+        assert_eq!(lines, [&[TRACKING_LOSSES_HEADER][..], &rows[..]].concat());
     }
 }
