@@ -29,11 +29,7 @@ pub(crate) struct KeyframeSlamLocaliser {
     xy_yaw: Matrix3<f64>,
     slam_errors: u64,
     tracking: VisualTracking,
-    /// The tracking-loss log.
-    losses: Vec<TrackingLoss>,
-    /// Mission time (the sum of the ticks), seconds; the true yaw at the last tick and the true
-    /// yaw rate over it (the loss log's context).
-    time_s: f64,
+    /// The true yaw at the last tick and the true yaw rate over it (the loss log's context).
     true_yaw_rad: f64,
     yaw_rate_radps: f64,
     /// Features matched to the wrong landmark by the front end so far.
@@ -62,8 +58,6 @@ impl KeyframeSlamLocaliser {
         Ok(Self {
             kind,
             tracking: VisualTracking::new(sim.vision_params()),
-            losses: Vec::new(),
-            time_s: 0.0,
             true_yaw_rad: sim.pose().yaw_rad,
             yaw_rate_radps: 0.0,
             wrong_associations: counts.wrong as u64,
@@ -103,7 +97,6 @@ impl Localiser for KeyframeSlamLocaliser {
     fn propagate(&mut self, sim: &mut WorldSim, _motion: &Motion, dt_s: f64) {
         let step = sim.body_increment(dt_s, &self.params);
         self.tracking.tick(dt_s);
-        self.time_s += dt_s;
         let yaw = sim.pose().yaw_rad;
         self.yaw_rate_radps = if dt_s > 0.0 { wrap_pi(yaw - self.true_yaw_rad) / dt_s } else { 0.0 };
         self.true_yaw_rad = yaw;
@@ -124,16 +117,15 @@ impl Localiser for KeyframeSlamLocaliser {
         self.features.clear();
         self.features.extend_from_slice(sim.last_observations());
         let backend = self.frontend.backend();
-        let was_lost = self.tracking.stats().lost;
-        if let Some(counts) = self.tracking.at_keyframe(&mut self.features, |id| backend.has_landmark(id)) {
-            let p = sim.pose();
-            let context = (self.time_s, p.x_m, p.y_m, self.yaw_rate_radps);
-            self.losses.push(TrackingLoss::at(context, counts, &sim.world().landmarks, |id| backend.has_landmark(id)));
-        }
-        // Regained here (possibly at the keyframe that lost it): the loss's duration.
-        if let Some(last) = self.losses.last_mut().filter(|l| l.lost_for_s.is_nan() && !self.tracking.stats().lost) {
-            last.lost_for_s = if was_lost { self.time_s - last.time_s } else { 0.0 };
-        }
+        let (p, yaw_rate_radps) = (sim.pose(), self.yaw_rate_radps);
+        self.tracking.at_keyframe(
+            &mut self.features,
+            |id| backend.has_landmark(id),
+            |time_s, features, mapped| {
+                let context = (time_s, p.x_m, p.y_m, yaw_rate_radps);
+                TrackingLoss::at(context, (features, mapped), &sim.world().landmarks, |id| backend.has_landmark(id))
+            },
+        );
         let up = sim.gravity_up(self.params.gravity_sigma_rad);
         let outcome = self.frontend.add_keyframe(&self.features, Some(up));
         self.est = pose2_of(&self.frontend.estimate());
@@ -187,7 +179,7 @@ impl Localiser for KeyframeSlamLocaliser {
     }
 
     fn tracking_losses(&self) -> &[TrackingLoss] {
-        &self.losses
+        self.tracking.losses()
     }
 
     fn stats(&self) -> LocalisationStats {

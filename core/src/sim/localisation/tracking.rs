@@ -105,6 +105,10 @@ pub(crate) struct VisualTracking {
     relocalise_min: usize,
     new_map_min: usize,
     stats: TrackingStats,
+    /// Time since the start (the sum of the ticks), seconds.
+    elapsed_s: f64,
+    /// The tracking-loss log, in time order.
+    losses: Vec<TrackingLoss>,
 }
 
 impl VisualTracking {
@@ -114,7 +118,14 @@ impl VisualTracking {
             relocalise_min: params.relocalise_min,
             new_map_min: params.new_map_min,
             stats: TrackingStats::default(),
+            elapsed_s: 0.0,
+            losses: Vec::new(),
         }
+    }
+
+    /// Every loss so far; the open one, if tracking is lost now, has `lost_for_s` NaN.
+    pub fn losses(&self) -> &[TrackingLoss] {
+        &self.losses
     }
 
     pub fn stats(&self) -> TrackingStats {
@@ -123,24 +134,29 @@ impl VisualTracking {
 
     /// Time passes: counted as lost while tracking is lost.
     pub fn tick(&mut self, dt_s: f64) {
+        self.elapsed_s += dt_s;
         if self.stats.lost {
             self.stats.lost_s += dt_s;
         }
     }
 
     /// A keyframe's features: keeps in `features` those the SLAM may use (`is_mapped` tells the
-    /// landmarks already in the map). Returns (features, mapped matches) when tracking is lost at
-    /// this keyframe.
-    pub(crate) fn at_keyframe(&mut self, features: &mut Vec<CameraObservation>, is_mapped: impl Fn(u64) -> bool) -> Option<(usize, usize)> {
+    /// landmarks already in the map). A loss is logged with `loss_at(time_s, features, mapped
+    /// matches)`, its ground's context; its duration when tracking is regained.
+    pub(crate) fn at_keyframe(
+        &mut self,
+        features: &mut Vec<CameraObservation>,
+        is_mapped: impl Fn(u64) -> bool,
+        loss_at: impl FnOnce(f64, usize, usize) -> TrackingLoss,
+    ) {
         let mapped = features.iter().filter(|o| is_mapped(o.landmark_id)).count();
-        let mut lost_here = None;
         if !self.stats.lost {
             if mapped >= self.min_tracked {
-                return None;
+                return;
             }
             self.stats.losses += 1;
             self.stats.lost = true;
-            lost_here = Some((features.len(), mapped));
+            self.losses.push(loss_at(self.elapsed_s, features.len(), mapped));
         }
         if mapped >= self.relocalise_min {
             self.stats.relocalisations += 1;
@@ -152,7 +168,11 @@ impl VisualTracking {
         } else {
             features.clear();
         }
-        lost_here
+        if !self.stats.lost
+            && let Some(open) = self.losses.last_mut()
+        {
+            open.lost_for_s = self.elapsed_s - open.time_s;
+        }
     }
 }
 
@@ -160,6 +180,11 @@ impl VisualTracking {
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector3};
+
+    /// A loss with no ground context.
+    fn blank(time_s: f64, features: usize, mapped: usize) -> TrackingLoss {
+        TrackingLoss::at((time_s, 0.0, 0.0, 0.0), (features, mapped), &[], |_| false)
+    }
 
     fn features(ids: impl IntoIterator<Item = u64>) -> Vec<CameraObservation> {
         ids.into_iter()
@@ -175,27 +200,33 @@ mod tests {
         let mapped = |id: u64| id < 100;
         // 3 mapped: tracking holds, everything is used.
         let mut f = features([1, 2, 3, 200]);
-        t.at_keyframe(&mut f, mapped);
+        t.at_keyframe(&mut f, mapped, blank);
         assert_eq!((f.len(), t.stats().lost), (4, false));
         // 2 mapped, 1 new: lost; nothing is used; time counts.
         let mut f = features([1, 2, 300]);
-        assert_eq!(t.at_keyframe(&mut f, mapped), Some((3, 2)));
+        t.at_keyframe(&mut f, mapped, blank);
+        assert_eq!((t.losses().len(), t.losses()[0].features, t.losses()[0].mapped), (1, 3, 2));
+        assert!(t.losses()[0].lost_for_s.is_nan(), "open");
         assert!(f.is_empty() && t.stats().lost && t.stats().losses == 1);
         t.tick(0.5);
         t.tick(0.25);
         // 4 mapped (< 5) and 3 new (< 4): still lost, not counted twice.
         let mut f = features([1, 2, 3, 4, 301, 302, 303]);
-        assert_eq!(t.at_keyframe(&mut f, mapped), None);
+        t.at_keyframe(&mut f, mapped, blank);
+        assert_eq!(t.losses().len(), 1, "no new loss");
         assert!(f.is_empty() && t.stats().losses == 1 && t.stats().lost);
         // 5 mapped: relocalised, all used.
         let mut f = features([1, 2, 3, 4, 5, 400]);
-        t.at_keyframe(&mut f, mapped);
+        t.at_keyframe(&mut f, mapped, blank);
         assert_eq!((f.len(), t.stats().relocalisations, t.stats().lost), (6, 1, false));
+        assert_eq!(t.losses()[0].lost_for_s, 0.75, "lost over the two ticks");
         t.tick(1.0);
         assert_eq!(t.stats().lost_s, 0.75);
         // Lost again with 4 new features: a new map segment at once, from the new ones only.
         let mut f = features([7, 500, 501, 502, 503]);
-        assert_eq!(t.at_keyframe(&mut f, mapped), Some((5, 1)));
+        t.at_keyframe(&mut f, mapped, blank);
+        assert_eq!((t.losses().len(), t.losses()[1].features, t.losses()[1].mapped, t.losses()[1].lost_for_s), (2, 5, 1, 0.0));
+        assert_eq!(t.losses()[1].time_s, 1.75);
         let s = t.stats();
         assert_eq!((s.losses, s.new_maps, s.lost), (2, 1, false));
         assert_eq!(f.iter().map(|o| o.landmark_id).collect::<Vec<_>>(), vec![500, 501, 502, 503]);
